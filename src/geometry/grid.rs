@@ -1,0 +1,275 @@
+//! Cell lists.
+//!
+//! Cells are cubes of side `cell` >= the largest interaction distance
+//! (largest diameter + skin), so every pair closer than its cutoff lies in the same or
+//! an adjacent cell (3^D cells to visit). Cells are filled by a counting sort, which is
+//! stable: inside a cell particles keep increasing index order, and the pair list comes
+//! out sorted by (i, j) whatever the thread count.
+
+use crate::math::{Real, Vector};
+use rayon::prelude::*;
+
+/// A static cell grid over a set of positions.
+#[derive(Clone, Debug)]
+pub struct CellGrid<const D: usize> {
+    origin: Vector<D>,
+    cell: Real,
+    dims: [usize; D],
+    /// `start[c]..start[c + 1]` indexes `members` for cell `c`.
+    start: Vec<u32>,
+    members: Vec<u32>,
+    /// Cell of each particle.
+    cell_of: Vec<u32>,
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Builds the grid with cells of side at least `min_cell` (m). When the particles
+    /// are spread so thinly that the grid would exceed about 8 cells per particle, the
+    /// cells grow instead (memory stays O(N); correctness is unaffected).
+    pub fn build(x: &[Vector<D>], min_cell: Real) -> Self {
+        let n = x.len();
+        let mut lo = Vector::<D>::repeat(Real::INFINITY);
+        let mut hi = Vector::<D>::repeat(Real::NEG_INFINITY);
+        for p in x {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        if n == 0 {
+            lo = Vector::<D>::zeros();
+            hi = Vector::<D>::zeros();
+        }
+        let max_cells = (8 * n + 64) as f64;
+        let mut cell = min_cell.max(1e-300);
+        let mut dims = [1usize; D];
+        loop {
+            let mut total = 1.0f64;
+            for k in 0..D {
+                let m = ((hi[k] - lo[k]) / cell).floor() + 1.0;
+                total *= m;
+            }
+            if total <= max_cells {
+                for k in 0..D {
+                    dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
+                }
+                break;
+            }
+            cell *= (total / max_cells).powf(1.0 / D as f64) * 1.01;
+        }
+        let ncell: usize = dims.iter().product();
+        let cell_of: Vec<u32> = x
+            .iter()
+            .map(|p| {
+                let mut c = 0usize;
+                for k in (0..D).rev() {
+                    let ik = (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
+                    c = c * dims[k] + ik;
+                }
+                c as u32
+            })
+            .collect();
+        let mut start = vec![0u32; ncell + 1];
+        for &c in &cell_of {
+            start[c as usize + 1] += 1;
+        }
+        for c in 0..ncell {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut members = vec![0u32; n];
+        for (i, &c) in cell_of.iter().enumerate() {
+            members[fill[c as usize] as usize] = i as u32;
+            fill[c as usize] += 1;
+        }
+        CellGrid {
+            origin: lo,
+            cell,
+            dims,
+            start,
+            members,
+            cell_of,
+        }
+    }
+
+    /// Side of a cell (m).
+    pub fn cell_size(&self) -> Real {
+        self.cell
+    }
+
+    fn coords(&self, c: usize) -> [usize; D] {
+        let mut out = [0usize; D];
+        let mut c = c;
+        for k in 0..D {
+            out[k] = c % self.dims[k];
+            c /= self.dims[k];
+        }
+        out
+    }
+
+    /// Calls `f(j)` for every particle in the cells adjacent to (and including) the
+    /// cell of particle `i`.
+    #[inline]
+    pub fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
+        let ci = self.coords(self.cell_of[i] as usize);
+        let nb = 3usize.pow(D as u32);
+        'outer: for m in 0..nb {
+            let mut c = 0usize;
+            let mut mm = m;
+            let mut idx = [0usize; D];
+            for k in 0..D {
+                let off = (mm % 3) as isize - 1;
+                mm /= 3;
+                let v = ci[k] as isize + off;
+                if v < 0 || v >= self.dims[k] as isize {
+                    continue 'outer;
+                }
+                idx[k] = v as usize;
+            }
+            for k in (0..D).rev() {
+                c = c * self.dims[k] + idx[k];
+            }
+            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
+                f(j as usize);
+            }
+        }
+    }
+
+    /// Calls `f(j)` for every particle in the cells that a ball of radius `reach`
+    /// around `p` touches (p need not be a member; used to test a candidate position).
+    pub fn for_each_near(&self, p: &Vector<D>, reach: Real, mut f: impl FnMut(usize)) {
+        let mut lo = [0usize; D];
+        let mut hi = [0usize; D];
+        for k in 0..D {
+            let a = ((p[k] - reach - self.origin[k]) / self.cell).floor();
+            let b = ((p[k] + reach - self.origin[k]) / self.cell).floor();
+            if b < 0.0 || a > (self.dims[k] - 1) as Real {
+                return;
+            }
+            lo[k] = a.max(0.0) as usize;
+            hi[k] = (b as usize).min(self.dims[k] - 1);
+        }
+        let mut idx = lo;
+        loop {
+            let mut c = 0usize;
+            for k in (0..D).rev() {
+                c = c * self.dims[k] + idx[k];
+            }
+            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
+                f(j as usize);
+            }
+            // odometer increment
+            let mut k = 0;
+            loop {
+                if k == D {
+                    return;
+                }
+                if idx[k] < hi[k] {
+                    idx[k] += 1;
+                    break;
+                }
+                idx[k] = lo[k];
+                k += 1;
+            }
+        }
+    }
+}
+
+/// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
+///
+/// `skin` >= 0 (m) widens the cutoff so that the list stays valid while no particle has
+/// moved more than skin / 2 (a Verlet list). Parallel over particles; the output does
+/// not depend on the thread count.
+pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
+    let n = x.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let r_max = r.iter().cloned().fold(0.0, Real::max);
+    let grid = CellGrid::build(x, 2.0 * r_max + skin);
+    const CHUNK: usize = 1024;
+    let chunks: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            let mut row: Vec<u32> = Vec::with_capacity(32);
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                row.clear();
+                let xi = x[i];
+                let ri = r[i];
+                grid.for_each_candidate(i, |j| {
+                    if j > i {
+                        let cut = ri + r[j] + skin;
+                        if (x[j] - xi).norm_squared() < cut * cut {
+                            row.push(j as u32);
+                        }
+                    }
+                });
+                row.sort_unstable();
+                out.extend(row.iter().map(|&j| [i as u32, j]));
+            }
+            out
+        })
+        .collect();
+    chunks.concat()
+}
+
+/// The O(N^2) reference for [`neighbor_pairs`] (tests and oracles only).
+pub fn brute_force_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
+    let mut out = Vec::new();
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            let cut = r[i] + r[j] + skin;
+            if (x[j] - x[i]).norm_squared() < cut * cut {
+                out.push([i as u32, j as u32]);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn cloud<const D: usize>(seed: u64, n: usize, ratio: f64) -> (Vec<Vector<D>>, Vec<Real>) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let x = (0..n)
+            .map(|_| Vector::<D>::from_fn(|_, _| rng.random::<f64>()))
+            .collect();
+        let r = (0..n)
+            .map(|_| 0.01 * (1.0 + (ratio - 1.0) * rng.random::<f64>()))
+            .collect();
+        (x, r)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        #[test]
+        fn grid_pairs_equal_brute_force_3d(seed in 0u64..10_000, n in 0usize..600,
+                                           ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {
+            let (x, r) = cloud::<3>(seed, n, ratio);
+            prop_assert_eq!(neighbor_pairs(&x, &r, skin), brute_force_pairs(&x, &r, skin));
+        }
+
+        #[test]
+        fn grid_pairs_equal_brute_force_2d(seed in 0u64..10_000, n in 0usize..600,
+                                           ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {
+            let (x, r) = cloud::<2>(seed, n, ratio);
+            prop_assert_eq!(neighbor_pairs(&x, &r, skin), brute_force_pairs(&x, &r, skin));
+        }
+    }
+
+    #[test]
+    fn sparse_far_apart_particles_do_not_blow_up_the_grid() {
+        let x = vec![
+            Vector::<3>::new(0.0, 0.0, 0.0),
+            Vector::<3>::new(1e6, 0.0, 0.0),
+            Vector::<3>::new(1e6 + 0.015, 0.0, 0.0),
+        ];
+        let r = vec![0.01; 3];
+        let g = CellGrid::build(&x, 0.02);
+        assert!(g.start.len() < 200);
+        assert_eq!(neighbor_pairs(&x, &r, 0.0), vec![[1, 2]]);
+    }
+}

@@ -1,0 +1,9 @@
+//! The time step, the world that owns the state, random sequential addition and the
+//! layer loop.
+
+pub mod pack;
+pub mod rsa;
+pub mod world;
+
+pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};
+pub use world::{Contacts, Inertia2D, SimConfig, World};

@@ -1,0 +1,1052 @@
+//! The DEM world: particle state, walls, the Verlet pair list with tangential history,
+//! and one explicit step.
+//!
+//! One step reads like the algorithm (rapier's `collision_pipeline`):
+//! 1. half kick and drift (velocity Verlet),
+//! 2. rebuild the pair list if some particle has moved more than skin / 2,
+//! 3. pair forces (one pass over the pair list, each pair independent),
+//! 4. gather forces per particle (fixed order: no atomics, no order-dependent sums),
+//!    plus walls and body forces,
+//! 5. second half kick, with the blow-up guards.
+//!
+//! Every parallel loop writes disjoint elements or reduces with an exact operation
+//! (max, min index) or per-chunk partial sums added in chunk order, so results are
+//! bit-identical on any number of threads.
+
+use crate::dynamics::{hertz_mindlin, Material, PairParams};
+use crate::error::{check_range, Error, Result};
+use crate::geometry::neighbor_pairs;
+use crate::math::{AngOps, Dim, Real, Spatial, Vector};
+use rayon::prelude::*;
+
+/// Particles per parallel work item. Systems below this run on one thread with no
+/// scheduling cost; the value does not affect results.
+const CHUNK: usize = 2048;
+/// Most walls a box has: the floor and two per horizontal axis.
+pub const MAX_WALLS: usize = 5;
+
+/// Mass and moment of inertia of a 2D particle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Inertia2D {
+    /// A sphere confined to the plane: m = 4/3 pi r^3 rho, I = 2/5 m r^2 (default;
+    /// the reading of the paper's 2D examples).
+    #[default]
+    Sphere,
+    /// A disc of unit thickness: m = pi r^2 rho (kg per m of thickness), I = 1/2 m r^2.
+    Disc,
+}
+
+/// Engine settings. SI units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimConfig<const D: usize> {
+    /// Particle and wall material.
+    pub material: Material,
+    /// Time step (s). Default 1e-4. Must not exceed the Rayleigh estimate.
+    pub dt: Real,
+    /// Body acceleration (m/s^2). Default 2 m/s^2 downwards (the paper's jamming force).
+    pub gravity: Vector<D>,
+    /// Linear drag coefficient c_D (N s/m): f = -c_D v. Default 0.
+    pub drag: Real,
+    /// Integrate spins and torques. Default true. When false, spins stay zero.
+    pub rotations: bool,
+    /// Box corners: floor at `lo[vertical]`, side walls at `lo[k]` and `hi[k]` for the
+    /// horizontal axes; `hi[vertical]` is ignored (open top). None: no walls.
+    pub walls: Option<(Vector<D>, Vector<D>)>,
+    /// Verlet skin as a fraction of the smallest radius (-). Default 0.2.
+    pub skin_ratio: Real,
+    /// Largest overlap tolerated, as a fraction of the smaller radius, before the run
+    /// stops as unstable (-). Default 0.5.
+    pub max_overlap_ratio: Real,
+    /// 2D mass model. Ignored in 3D.
+    pub inertia_2d: Inertia2D,
+}
+
+impl<const D: usize> SimConfig<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// The paper's settings: its material, dt = 1e-4 s, g = 2 m/s^2 down, no drag,
+    /// rotations on, no walls.
+    pub fn paper() -> Self {
+        let mut g = Vector::<D>::zeros();
+        g[<Dim<D> as Spatial<D>>::VERTICAL] = -2.0;
+        SimConfig {
+            material: Material::default(),
+            dt: 1e-4,
+            gravity: g,
+            drag: 0.0,
+            rotations: true,
+            walls: None,
+            skin_ratio: 0.2,
+            max_overlap_ratio: 0.5,
+            inertia_2d: Inertia2D::Sphere,
+        }
+    }
+
+    /// Checks every field; the error names the field and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.material.validate()?;
+        check_range("dt", self.dt, 0.0, false, f64::INFINITY, false)?;
+        for k in 0..D {
+            check_range("gravity", self.gravity[k], -f64::MAX, true, f64::MAX, true)?;
+        }
+        check_range("drag", self.drag, 0.0, true, f64::INFINITY, false)?;
+        check_range("skin_ratio", self.skin_ratio, 0.0, true, 10.0, true)?;
+        check_range("max_overlap_ratio", self.max_overlap_ratio, 0.0, false, 1.0, true)?;
+        if let Some((lo, hi)) = &self.walls {
+            let vert = <Dim<D> as Spatial<D>>::VERTICAL;
+            for k in 0..D {
+                if !lo[k].is_finite() {
+                    return Err(Error::invalid("box", lo[k], "lower corner must be finite"));
+                }
+                if k != vert && !(hi[k].is_finite() && hi[k] > lo[k]) {
+                    return Err(Error::invalid(
+                        "box",
+                        format!("[{}, {}] on axis {k}", lo[k], hi[k]),
+                        "side walls must be finite with hi > lo",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The contacts in force, in the column layout of DESIGN.md.
+#[derive(Clone, Debug, Default)]
+pub struct Contacts<const D: usize> {
+    /// First particle.
+    pub i: Vec<i64>,
+    /// Second particle, or a wall: -1 floor, -2 x = lo, -3 x = hi, -4 y = lo, -5 y = hi.
+    pub j: Vec<i64>,
+    /// Unit normal from i to j (to the wall).
+    pub normal: Vec<Vector<D>>,
+    /// Overlap r_i + r_j - |x_j - x_i| (m), > 0.
+    pub overlap: Vec<Real>,
+    /// Normal force magnitude (N) >= 0, pushing j away from i.
+    pub force_normal: Vec<Real>,
+    /// Tangential force on j (N), perpendicular to the normal.
+    pub force_tangential: Vec<Vector<D>>,
+    /// Branch vector from centre i to centre j, or to the contact point for walls (m).
+    pub branch: Vec<Vector<D>>,
+}
+
+/// Particle state, structure of arrays.
+#[derive(Clone, Debug, Default)]
+struct Particles<const D: usize, A> {
+    x: Vec<Vector<D>>,
+    v: Vec<Vector<D>>,
+    f: Vec<Vector<D>>,
+    w: Vec<A>,
+    t: Vec<A>,
+    r: Vec<Real>,
+    m: Vec<Real>,
+    inv_m: Vec<Real>,
+    inv_i: Vec<Real>,
+    /// Position at the last pair-list rebuild (skin check).
+    x_ref: Vec<Vector<D>>,
+    /// Tangential history and last force on each wall.
+    wall_hist: Vec<[Vector<D>; MAX_WALLS]>,
+    wall_force: Vec<[Vector<D>; MAX_WALLS]>,
+}
+
+/// The pair (Verlet) list and its per-pair state, sorted by (i, j).
+#[derive(Clone, Debug, Default)]
+struct Pairs<const D: usize, A> {
+    ij: Vec<[u32; 2]>,
+    r_eff: Vec<Real>,
+    m_eff: Vec<Real>,
+    hist: Vec<Vector<D>>,
+    /// Total force on j (N).
+    fvec: Vec<Vector<D>>,
+    /// n x f_t, from which both torques follow.
+    nxft: Vec<A>,
+    overlap: Vec<Real>,
+    /// For particle p, `inc[inc_start[p]..inc_start[p+1]]` lists (pair << 1 | p_is_j).
+    inc_start: Vec<u32>,
+    inc: Vec<u32>,
+}
+
+/// A wall plane: axis, position, outward normal sign (normal points from the particle
+/// to the wall).
+#[derive(Clone, Copy, Debug)]
+struct Wall {
+    axis: usize,
+    pos: Real,
+    sign: Real,
+}
+
+/// The DEM world in `D` dimensions.
+#[derive(Clone, Debug)]
+pub struct World<const D: usize>
+where
+    Dim<D>: Spatial<D>,
+{
+    cfg: SimConfig<D>,
+    p: Particles<D, <Dim<D> as Spatial<D>>::Ang>,
+    pairs: Pairs<D, <Dim<D> as Spatial<D>>::Ang>,
+    walls: Vec<Wall>,
+    e_star: Real,
+    g_star: Real,
+    skin: Real,
+    time: Real,
+    steps: u64,
+    forces_valid: bool,
+    list_valid: bool,
+    dt_checked: bool,
+    /// Number of pair-list rebuilds so far (diagnostics).
+    rebuilds: u64,
+}
+
+type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
+
+impl<const D: usize> World<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// A world with no particles. Fails if the configuration is invalid.
+    pub fn new(cfg: SimConfig<D>) -> Result<Self> {
+        cfg.validate()?;
+        let vert = <Dim<D> as Spatial<D>>::VERTICAL;
+        let mut walls = Vec::new();
+        if let Some((lo, hi)) = &cfg.walls {
+            walls.push(Wall {
+                axis: vert,
+                pos: lo[vert],
+                sign: -1.0,
+            });
+            for k in (0..D).filter(|&k| k != vert) {
+                walls.push(Wall {
+                    axis: k,
+                    pos: lo[k],
+                    sign: -1.0,
+                });
+                walls.push(Wall {
+                    axis: k,
+                    pos: hi[k],
+                    sign: 1.0,
+                });
+            }
+        }
+        Ok(World {
+            e_star: cfg.material.e_star(),
+            g_star: cfg.material.g_star(),
+            cfg,
+            p: Particles::default(),
+            pairs: Pairs::default(),
+            walls,
+            skin: 0.0,
+            time: 0.0,
+            steps: 0,
+            forces_valid: false,
+            list_valid: false,
+            dt_checked: false,
+            rebuilds: 0,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SimConfig<D> {
+        &self.cfg
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.p.x.len()
+    }
+
+    /// True when there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.p.x.is_empty()
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> Real {
+        self.time
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Pair-list rebuilds so far.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
+    }
+
+    /// Positions (m).
+    pub fn positions(&self) -> &[Vector<D>] {
+        &self.p.x
+    }
+    /// Velocities (m/s).
+    pub fn velocities(&self) -> &[Vector<D>] {
+        &self.p.v
+    }
+    /// Angular velocities (rad/s).
+    pub fn spins(&self) -> &[Ang<D>] {
+        &self.p.w
+    }
+    /// Radii (m).
+    pub fn radii(&self) -> &[Real] {
+        &self.p.r
+    }
+    /// Masses (kg).
+    pub fn masses(&self) -> &[Real] {
+        &self.p.m
+    }
+
+    /// Smallest radius (m), infinity when empty.
+    pub fn r_min(&self) -> Real {
+        self.p.r.iter().cloned().fold(Real::INFINITY, Real::min)
+    }
+
+    /// The Rayleigh critical step for the current particles (s).
+    pub fn critical_time_step(&self) -> Real {
+        self.cfg.material.rayleigh_time_step(self.r_min())
+    }
+
+    /// Adds particles. `v` and `w` default to zero. Validates shapes and values (radius
+    /// > 0 and finite, finite positions and velocities, inside the box's walls).
+    pub fn add_particles(
+        &mut self,
+        x: &[Vector<D>],
+        r: &[Real],
+        v: Option<&[Vector<D>]>,
+        w: Option<&[Ang<D>]>,
+    ) -> Result<()> {
+        let n = x.len();
+        if r.len() != n {
+            return Err(Error::invalid(
+                "radii",
+                format!("length {}", r.len()),
+                &format!("must have one entry per position ({n})"),
+            ));
+        }
+        if let Some(v) = v {
+            if v.len() != n {
+                return Err(Error::invalid(
+                    "velocities",
+                    format!("length {}", v.len()),
+                    &format!("must have one row per position ({n})"),
+                ));
+            }
+        }
+        if let Some(w) = w {
+            if w.len() != n {
+                return Err(Error::invalid(
+                    "spins",
+                    format!("length {}", w.len()),
+                    &format!("must have one row per position ({n})"),
+                ));
+            }
+        }
+        for (k, &rk) in r.iter().enumerate() {
+            if !(rk.is_finite() && rk > 0.0) {
+                return Err(Error::invalid(
+                    &format!("radii[{k}]"),
+                    rk,
+                    "must be finite and > 0 (m)",
+                ));
+            }
+        }
+        for (k, xk) in x.iter().enumerate() {
+            if !xk.iter().all(|c| c.is_finite()) {
+                return Err(Error::invalid(
+                    &format!("positions[{k}]"),
+                    format!("{:?}", xk.as_slice()),
+                    "must be finite (m)",
+                ));
+            }
+            for wall in &self.walls {
+                let s = (wall.pos - xk[wall.axis]) * wall.sign;
+                if s < 0.0 {
+                    return Err(Error::invalid(
+                        &format!("positions[{k}]"),
+                        format!("{:?}", xk.as_slice()),
+                        "centre lies outside the box's walls",
+                    ));
+                }
+            }
+        }
+        if let Some(v) = v {
+            for (k, vk) in v.iter().enumerate() {
+                if !vk.iter().all(|c| c.is_finite()) {
+                    return Err(Error::invalid(
+                        &format!("velocities[{k}]"),
+                        format!("{:?}", vk.as_slice()),
+                        "must be finite (m/s)",
+                    ));
+                }
+            }
+        }
+        if let Some(w) = w {
+            for (k, wk) in w.iter().enumerate() {
+                if !wk.finite() {
+                    return Err(Error::invalid(
+                        &format!("spins[{k}]"),
+                        format!("{wk:?}"),
+                        "must be finite (rad/s)",
+                    ));
+                }
+            }
+        }
+        let rho = self.cfg.material.density;
+        for k in 0..n {
+            let rk = r[k];
+            let (m, inertia) = if D == 2 && self.cfg.inertia_2d == Inertia2D::Disc {
+                let m = std::f64::consts::PI * rk * rk * rho;
+                (m, 0.5 * m * rk * rk)
+            } else {
+                let m = 4.0 / 3.0 * std::f64::consts::PI * rk * rk * rk * rho;
+                (m, 0.4 * m * rk * rk)
+            };
+            self.p.x.push(x[k]);
+            self.p.x_ref.push(x[k]);
+            self.p.v.push(v.map_or(Vector::<D>::zeros(), |v| v[k]));
+            self.p.f.push(Vector::<D>::zeros());
+            let wk = if self.cfg.rotations {
+                w.map_or(Ang::<D>::default(), |w| w[k])
+            } else {
+                Ang::<D>::default()
+            };
+            self.p.w.push(wk);
+            self.p.t.push(Ang::<D>::default());
+            self.p.r.push(rk);
+            self.p.m.push(m);
+            self.p.inv_m.push(1.0 / m);
+            self.p.inv_i.push(1.0 / inertia);
+            self.p.wall_hist.push([Vector::<D>::zeros(); MAX_WALLS]);
+            self.p.wall_force.push([Vector::<D>::zeros(); MAX_WALLS]);
+        }
+        self.forces_valid = false;
+        self.list_valid = false;
+        self.dt_checked = false;
+        Ok(())
+    }
+
+    /// Overwrites velocities (m/s) of all particles.
+    pub fn set_velocities(&mut self, v: &[Vector<D>]) -> Result<()> {
+        if v.len() != self.len() || !v.iter().all(|x| x.iter().all(|c| c.is_finite())) {
+            return Err(Error::invalid(
+                "velocities",
+                format!("{} rows", v.len()),
+                &format!("must be {} finite rows", self.len()),
+            ));
+        }
+        self.p.v.copy_from_slice(v);
+        self.forces_valid = false;
+        Ok(())
+    }
+
+    /// Overwrites spins (rad/s) of all particles (ignored when rotations are off).
+    pub fn set_spins(&mut self, w: &[Ang<D>]) -> Result<()> {
+        if w.len() != self.len() || !w.iter().all(|x| x.finite()) {
+            return Err(Error::invalid(
+                "spins",
+                format!("{} rows", w.len()),
+                &format!("must be {} finite rows", self.len()),
+            ));
+        }
+        if self.cfg.rotations {
+            self.p.w.copy_from_slice(w);
+        }
+        self.forces_valid = false;
+        Ok(())
+    }
+
+    fn check_dt(&mut self) -> Result<()> {
+        if !self.dt_checked {
+            if !self.is_empty() {
+                let crit = self.critical_time_step();
+                if self.cfg.dt > crit {
+                    return Err(Error::UnstableTimeStep {
+                        dt: self.cfg.dt,
+                        critical: crit,
+                        r_min: self.r_min(),
+                    });
+                }
+            }
+            self.dt_checked = true;
+        }
+        Ok(())
+    }
+
+    /// Advances `n` steps. Stops with an error at the first sign of blow-up.
+    pub fn step_n(&mut self, n: u64) -> Result<()> {
+        self.check_dt()?;
+        if self.is_empty() {
+            self.steps += n;
+            self.time += n as Real * self.cfg.dt;
+            return Ok(());
+        }
+        // Run the loop on a pool worker: small parallel loops then execute inline
+        // instead of paying a cross-thread hand-off every step.
+        rayon::scope(|_| {
+            for _ in 0..n {
+                self.step_once()?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Advances by `seconds` of simulated time (rounded to whole steps).
+    pub fn run(&mut self, seconds: Real) -> Result<()> {
+        check_range("seconds", seconds, 0.0, true, f64::INFINITY, false)?;
+        let n = (seconds / self.cfg.dt).round() as u64;
+        self.step_n(n)
+    }
+
+    fn step_once(&mut self) -> Result<()> {
+        if !self.list_valid {
+            self.rebuild_pairs();
+        }
+        if !self.forces_valid {
+            self.compute_forces()?;
+        }
+        let dt = self.cfg.dt;
+        let half = 0.5 * dt;
+        let rot = self.cfg.rotations;
+        // 1. half kick + drift; track the largest displacement since the last rebuild.
+        let p = &mut self.p;
+        let max_disp2 = p
+            .x
+            .par_chunks_mut(CHUNK)
+            .zip(p.v.par_chunks_mut(CHUNK))
+            .zip(p.f.par_chunks(CHUNK))
+            .zip(p.inv_m.par_chunks(CHUNK))
+            .zip(p.x_ref.par_chunks(CHUNK))
+            .map(|((((x, v), f), im), xr)| {
+                let mut m2: Real = 0.0;
+                for k in 0..x.len() {
+                    v[k] += f[k] * (im[k] * half);
+                    x[k] += v[k] * dt;
+                    m2 = m2.max((x[k] - xr[k]).norm_squared());
+                }
+                m2
+            })
+            .reduce(|| 0.0, Real::max);
+        if rot {
+            p.w.par_chunks_mut(CHUNK)
+                .zip(p.t.par_chunks(CHUNK))
+                .zip(p.inv_i.par_chunks(CHUNK))
+                .for_each(|((w, t), ii)| {
+                    for k in 0..w.len() {
+                        w[k] += t[k] * (ii[k] * half);
+                    }
+                });
+        }
+        // 2. pair list
+        let half_skin = 0.5 * self.skin;
+        if max_disp2.is_nan() || max_disp2 > half_skin * half_skin {
+            self.rebuild_pairs();
+        }
+        // 3-4. forces
+        self.compute_forces()?;
+        // 5. second half kick
+        let p = &mut self.p;
+        p.v.par_chunks_mut(CHUNK)
+            .zip(p.f.par_chunks(CHUNK))
+            .zip(p.inv_m.par_chunks(CHUNK))
+            .for_each(|((v, f), im)| {
+                for k in 0..v.len() {
+                    v[k] += f[k] * (im[k] * half);
+                }
+            });
+        if rot {
+            p.w.par_chunks_mut(CHUNK)
+                .zip(p.t.par_chunks(CHUNK))
+                .zip(p.inv_i.par_chunks(CHUNK))
+                .for_each(|((w, t), ii)| {
+                    for k in 0..w.len() {
+                        w[k] += t[k] * (ii[k] * half);
+                    }
+                });
+        }
+        self.steps += 1;
+        self.time += dt;
+        self.check_state()
+    }
+
+    /// Stops on a non-finite value or a particle that has left the box.
+    fn check_state(&self) -> Result<()> {
+        let p = &self.p;
+        let walls = &self.walls;
+        let bad = (0..p.x.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter_map(|k| {
+                let x = &p.x[k];
+                if !(x.iter().all(|c| c.is_finite())
+                    && p.v[k].iter().all(|c| c.is_finite())
+                    && p.w[k].finite())
+                {
+                    return Some((k, "non-finite position, velocity or spin".to_string()));
+                }
+                for (wi, wall) in walls.iter().enumerate() {
+                    let s = (wall.pos - x[wall.axis]) * wall.sign;
+                    if s < 0.0 {
+                        return Some((
+                            k,
+                            format!(
+                                "centre crossed wall {} (coordinate {} = {:e})",
+                                -(wi as i64) - 1,
+                                wall.axis,
+                                x[wall.axis]
+                            ),
+                        ));
+                    }
+                }
+                None
+            })
+            .min_by_key(|(k, _)| *k);
+        if let Some((k, what)) = bad {
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: k,
+                what,
+            });
+        }
+        Ok(())
+    }
+
+    /// Rebuilds the Verlet list and carries the tangential history of surviving pairs
+    /// over (both lists are sorted by (i, j), so a merge suffices).
+    fn rebuild_pairs(&mut self) {
+        let r_min = self.r_min();
+        self.skin = if r_min.is_finite() {
+            self.cfg.skin_ratio * r_min
+        } else {
+            0.0
+        };
+        let ij = neighbor_pairs(&self.p.x, &self.p.r, self.skin);
+        let m = ij.len();
+        let old = std::mem::take(&mut self.pairs);
+        let mut hist = vec![Vector::<D>::zeros(); m];
+        let mut fvec = vec![Vector::<D>::zeros(); m];
+        let mut nxft = vec![Ang::<D>::default(); m];
+        let mut overlap = vec![0.0; m];
+        let mut a = 0usize;
+        for (k, pair) in ij.iter().enumerate() {
+            while a < old.ij.len() && old.ij[a] < *pair {
+                a += 1;
+            }
+            if a < old.ij.len() && old.ij[a] == *pair {
+                hist[k] = old.hist[a];
+                fvec[k] = old.fvec[a];
+                nxft[k] = old.nxft[a];
+                overlap[k] = old.overlap[a];
+            }
+        }
+        let r = &self.p.r;
+        let mass = &self.p.m;
+        let r_eff = ij
+            .iter()
+            .map(|&[i, j]| {
+                let (ri, rj) = (r[i as usize], r[j as usize]);
+                ri * rj / (ri + rj)
+            })
+            .collect();
+        let m_eff = ij
+            .iter()
+            .map(|&[i, j]| {
+                let (mi, mj) = (mass[i as usize], mass[j as usize]);
+                mi * mj / (mi + mj)
+            })
+            .collect();
+        // Incidence lists: for each particle its pairs, in pair order.
+        let n = self.p.x.len();
+        let mut inc_start = vec![0u32; n + 1];
+        for &[i, j] in &ij {
+            inc_start[i as usize + 1] += 1;
+            inc_start[j as usize + 1] += 1;
+        }
+        for p in 0..n {
+            inc_start[p + 1] += inc_start[p];
+        }
+        let mut fill = inc_start.clone();
+        let mut inc = vec![0u32; 2 * m];
+        for (k, &[i, j]) in ij.iter().enumerate() {
+            inc[fill[i as usize] as usize] = (k as u32) << 1;
+            fill[i as usize] += 1;
+            inc[fill[j as usize] as usize] = ((k as u32) << 1) | 1;
+            fill[j as usize] += 1;
+        }
+        self.pairs = Pairs {
+            ij,
+            r_eff,
+            m_eff,
+            hist,
+            fvec,
+            nxft,
+            overlap,
+            inc_start,
+            inc,
+        };
+        self.p.x_ref.copy_from_slice(&self.p.x);
+        self.list_valid = true;
+        self.rebuilds += 1;
+    }
+
+    /// Pair forces, then the per-particle gather with walls and body forces.
+    fn compute_forces(&mut self) -> Result<()> {
+        let dt = self.cfg.dt;
+        let rot = self.cfg.rotations;
+        let mat = self.cfg.material;
+        let friction_on = mat.friction > 0.0;
+        let (e_star, g_star) = (self.e_star, self.g_star);
+        let max_ratio = self.cfg.max_overlap_ratio;
+        let p = &self.p;
+        let pr = &mut self.pairs;
+
+        // 3. pair pass
+        let bad_pair = pr
+            .ij
+            .par_chunks(CHUNK)
+            .zip(pr.r_eff.par_chunks(CHUNK))
+            .zip(pr.m_eff.par_chunks(CHUNK))
+            .zip(pr.hist.par_chunks_mut(CHUNK))
+            .zip(pr.fvec.par_chunks_mut(CHUNK))
+            .zip(pr.nxft.par_chunks_mut(CHUNK))
+            .zip(pr.overlap.par_chunks_mut(CHUNK))
+            .enumerate()
+            .filter_map(
+                |(c, ((((((ij, reff), meff), hist), fvec), nxft), ovl))| {
+                    let mut bad: Option<usize> = None;
+                    for k in 0..ij.len() {
+                        let i = ij[k][0] as usize;
+                        let j = ij[k][1] as usize;
+                        let (ri, rj) = (p.r[i], p.r[j]);
+                        let dx = p.x[j] - p.x[i];
+                        let dist2 = dx.norm_squared();
+                        let cut = ri + rj;
+                        if dist2 >= cut * cut {
+                            hist[k] = Vector::<D>::zeros();
+                            fvec[k] = Vector::<D>::zeros();
+                            nxft[k] = Ang::<D>::default();
+                            ovl[k] = 0.0;
+                            continue;
+                        }
+                        let dist = dist2.sqrt();
+                        let d = cut - dist;
+                        if d > max_ratio * ri.min(rj) && bad.is_none() {
+                            bad = Some(c * CHUNK + k);
+                        }
+                        let n = dx / dist;
+                        let mut vrel = p.v[j] - p.v[i];
+                        if rot {
+                            vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
+                                - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
+                        }
+                        let params = PairParams {
+                            r_eff: reff[k],
+                            m_eff: meff[k],
+                            e_star,
+                            g_star,
+                            damping: mat.damping,
+                            friction: mat.friction,
+                        };
+                        let f = hertz_mindlin(&params, d, &n, &vrel, &mut hist[k], dt);
+                        fvec[k] = n * f.normal + f.tangential;
+                        if rot && friction_on {
+                            nxft[k] = <Dim<D>>::cross_vv(&n, &f.tangential);
+                        }
+                        ovl[k] = d;
+                    }
+                    bad
+                },
+            )
+            .min();
+        if let Some(k) = bad_pair {
+            let [i, j] = pr.ij[k];
+            let d = pr.overlap[k];
+            let rmin = p.r[i as usize].min(p.r[j as usize]);
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: i as usize,
+                what: format!(
+                    "overlap with particle {j} is {d:e} m = {:.3} of the smaller radius \
+                     (limit max_overlap_ratio = {max_ratio}); reduce dt or stiffen nothing \
+                     else: the contact is not resolved",
+                    d / rmin
+                ),
+            });
+        }
+
+        // 4. gather
+        let pr = &self.pairs;
+        let walls = &self.walls;
+        let gravity = self.cfg.gravity;
+        let drag = self.cfg.drag;
+        let p = &mut self.p;
+        let (x, v, w, r, m) = (&p.x, &p.v, &p.w, &p.r, &p.m);
+        let bad_wall = p
+            .f
+            .par_chunks_mut(CHUNK)
+            .zip(p.t.par_chunks_mut(CHUNK))
+            .zip(p.wall_hist.par_chunks_mut(CHUNK))
+            .zip(p.wall_force.par_chunks_mut(CHUNK))
+            .enumerate()
+            .filter_map(|(c, (((f, t), wh), wf))| {
+                let mut bad = None;
+                for k in 0..f.len() {
+                    let q = c * CHUNK + k;
+                    let mut fq = gravity * m[q];
+                    if drag > 0.0 {
+                        fq -= v[q] * drag;
+                    }
+                    let mut tq = Ang::<D>::default();
+                    for &e in &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize] {
+                        let pk = (e >> 1) as usize;
+                        if e & 1 == 1 {
+                            fq += pr.fvec[pk];
+                        } else {
+                            fq -= pr.fvec[pk];
+                        }
+                        if rot && friction_on {
+                            tq += pr.nxft[pk] * -(r[q] - 0.5 * pr.overlap[pk]);
+                        }
+                    }
+                    for (wi, wall) in walls.iter().enumerate() {
+                        let s = (wall.pos - x[q][wall.axis]) * wall.sign;
+                        let d = r[q] - s;
+                        if d <= 0.0 {
+                            wh[k][wi] = Vector::<D>::zeros();
+                            wf[k][wi] = Vector::<D>::zeros();
+                            continue;
+                        }
+                        if d > max_ratio * r[q] && bad.is_none() {
+                            bad = Some((q, wi, d));
+                        }
+                        let mut n = Vector::<D>::zeros();
+                        n[wall.axis] = wall.sign;
+                        let arm = r[q] - 0.5 * d;
+                        // wall at rest: relative velocity of the wall w.r.t. the particle
+                        let mut vrel = -v[q];
+                        if rot {
+                            vrel -= <Dim<D>>::cross_wv(w[q], &(n * arm));
+                        }
+                        let params = PairParams {
+                            r_eff: r[q],
+                            m_eff: m[q],
+                            e_star,
+                            g_star,
+                            damping: mat.damping,
+                            friction: mat.friction,
+                        };
+                        let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
+                        let on_wall = n * fc.normal + fc.tangential;
+                        wf[k][wi] = on_wall;
+                        fq -= on_wall;
+                        if rot && friction_on {
+                            tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
+                        }
+                    }
+                    f[k] = fq;
+                    t[k] = tq;
+                }
+                bad
+            })
+            .min_by_key(|b| b.0);
+        if let Some((q, wi, d)) = bad_wall {
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: q,
+                what: format!(
+                    "overlap with wall {} is {d:e} m = {:.3} of its radius \
+                     (limit max_overlap_ratio = {max_ratio})",
+                    -(wi as i64) - 1,
+                    d / self.p.r[q]
+                ),
+            });
+        }
+        self.forces_valid = true;
+        Ok(())
+    }
+
+    /// Kinetic energy, translational plus rotational (J). Summed in fixed chunks so
+    /// the value does not depend on the thread count.
+    pub fn kinetic_energy(&self) -> Real {
+        let p = &self.p;
+        let parts: Vec<Real> = (0..p.x.len().div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let mut e = 0.0;
+                for k in c * CHUNK..((c + 1) * CHUNK).min(p.x.len()) {
+                    e += 0.5 * p.m[k] * p.v[k].norm_squared();
+                    if self.cfg.rotations {
+                        e += 0.5 * p.w[k].norm2() / p.inv_i[k];
+                    }
+                }
+                e
+            })
+            .collect();
+        parts.iter().sum()
+    }
+
+    /// Largest particle speed (m/s).
+    pub fn max_speed(&self) -> Real {
+        self.p
+            .v
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|v| v.norm_squared())
+            .reduce(|| 0.0, Real::max)
+            .sqrt()
+    }
+
+    /// Gravitational potential energy relative to the origin, -sum m g.x (J).
+    pub fn potential_energy(&self) -> Real {
+        let g = self.cfg.gravity;
+        self.p
+            .x
+            .iter()
+            .zip(&self.p.m)
+            .map(|(x, m)| -m * g.dot(x))
+            .sum()
+    }
+
+    /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
+    /// (i, j) order, then wall contacts by particle and wall.
+    pub fn contacts(&mut self) -> Result<Contacts<D>> {
+        if !self.list_valid {
+            self.rebuild_pairs();
+        }
+        if !self.forces_valid && !self.is_empty() {
+            self.compute_forces()?;
+        }
+        let mut out = Contacts::<D>::default();
+        let pr = &self.pairs;
+        for k in 0..pr.ij.len() {
+            if pr.overlap[k] <= 0.0 {
+                continue;
+            }
+            let [i, j] = pr.ij[k];
+            let dx = self.p.x[j as usize] - self.p.x[i as usize];
+            let n = dx / dx.norm();
+            let fv = pr.fvec[k];
+            let fn_ = fv.dot(&n);
+            out.i.push(i as i64);
+            out.j.push(j as i64);
+            out.normal.push(n);
+            out.overlap.push(pr.overlap[k]);
+            out.force_normal.push(fn_.max(0.0));
+            out.force_tangential.push(fv - n * fn_);
+            out.branch.push(dx);
+        }
+        for q in 0..self.len() {
+            for (wi, wall) in self.walls.iter().enumerate() {
+                let s = (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                let d = self.p.r[q] - s;
+                if d <= 0.0 {
+                    continue;
+                }
+                let mut n = Vector::<D>::zeros();
+                n[wall.axis] = wall.sign;
+                let fv = self.p.wall_force[q][wi];
+                let fn_ = fv.dot(&n);
+                out.i.push(q as i64);
+                out.j.push(-(wi as i64) - 1);
+                out.normal.push(n);
+                out.overlap.push(d);
+                out.force_normal.push(fn_.max(0.0));
+                out.force_tangential.push(fv - n * fn_);
+                out.branch.push(n * (self.p.r[q] - 0.5 * d));
+            }
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_body_cfg<const D: usize>(damping: Real) -> SimConfig<D>
+    where
+        Dim<D>: Spatial<D>,
+    {
+        let mut c = SimConfig::<D>::paper();
+        c.gravity = Vector::<D>::zeros();
+        c.material.damping = damping;
+        c.material.friction = 0.0;
+        c.dt = 1e-6;
+        c
+    }
+
+    /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
+    /// (5 m* v^2 / (4 K))^{2/5} and the duration 2 * 1.47164 d_max / v.
+    #[test]
+    fn hertz_contact_duration_and_max_overlap() {
+        let cfg = two_body_cfg::<3>(0.0);
+        let mut w = World::new(cfg.clone()).unwrap();
+        let r = 0.01;
+        let v0 = 1.0;
+        w.add_particles(
+            &[Vector::<3>::new(0.0, 0.0, 0.0), Vector::<3>::new(2.0 * r + 1e-9, 0.0, 0.0)],
+            &[r, r],
+            Some(&[Vector::<3>::new(0.5 * v0, 0.0, 0.0), Vector::<3>::new(-0.5 * v0, 0.0, 0.0)]),
+            None,
+        )
+        .unwrap();
+        let m = w.masses()[0];
+        let (m_eff, r_eff) = (0.5 * m, 0.5 * r);
+        let k = 4.0 / 3.0 * cfg.material.e_star() * r_eff.sqrt();
+        let d_max = (5.0 * m_eff * v0 * v0 / (4.0 * k)).powf(0.4);
+        let t_c = 2.0 * 1.471_64 * d_max / v0;
+        let e0 = w.kinetic_energy();
+        let mut max_d: Real = 0.0;
+        let mut t_in = None;
+        let mut t_out = None;
+        for _ in 0..200_000 {
+            w.step_n(1).unwrap();
+            let d = 2.0 * r - (w.positions()[1] - w.positions()[0]).norm();
+            if d > 0.0 && t_in.is_none() {
+                t_in = Some(w.time());
+            }
+            if d <= 0.0 && t_in.is_some() {
+                t_out = Some(w.time());
+                break;
+            }
+            max_d = max_d.max(d);
+        }
+        let dur = t_out.unwrap() - t_in.unwrap();
+        assert!((dur - t_c).abs() / t_c < 0.01, "{dur} vs {t_c}");
+        assert!((max_d - d_max).abs() / d_max < 0.01, "{max_d} vs {d_max}");
+        let e1 = w.kinetic_energy();
+        assert!((e1 - e0).abs() / e0 < 1e-3);
+    }
+
+    #[test]
+    fn unstable_dt_is_refused_with_the_estimate() {
+        let mut cfg = SimConfig::<2>::paper();
+        cfg.dt = 1e-3;
+        let mut w = World::new(cfg).unwrap();
+        w.add_particles(&[Vector::<2>::zeros()], &[0.01], None, None)
+            .unwrap();
+        let e = w.step_n(1).unwrap_err().to_string();
+        assert!(e.contains("dt") && e.contains("1.712"), "{e}");
+    }
+
+    #[test]
+    fn rotations_off_keeps_spins_zero() {
+        let mut cfg = SimConfig::<3>::paper();
+        cfg.rotations = false;
+        cfg.walls = Some((Vector::<3>::zeros(), Vector::<3>::new(1.0, 1.0, f64::INFINITY)));
+        let mut w = World::new(cfg).unwrap();
+        w.add_particles(
+            &[Vector::<3>::new(0.5, 0.5, 0.0099)],
+            &[0.01],
+            Some(&[Vector::<3>::new(0.3, 0.0, 0.0)]),
+            None,
+        )
+        .unwrap();
+        w.step_n(2000).unwrap();
+        assert_eq!(w.spins()[0], Vector::<3>::zeros());
+        // Friction still decelerates the sliding sphere.
+        assert!(w.velocities()[0][0] < 0.3);
+    }
+}
