@@ -31,7 +31,9 @@ pub enum Error {
         r_min: f64,
     },
     /// The simulation blew up; the run stopped instead of returning garbage.
-    #[error("simulation became unstable at step {step} (t = {time:e} s): particle {particle}: {what}")]
+    #[error(
+        "simulation became unstable at step {step} (t = {time:e} s): particle {particle}: {what}"
+    )]
     Blowup {
         /// Step counter when it was detected.
         step: u64,

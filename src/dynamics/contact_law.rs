@@ -140,7 +140,14 @@ mod tests {
         let n = Vector::<2>::new(1.0, 0.0);
         let mut h = Vector::<2>::zeros();
         // Fast separation: the dashpot term would make the total negative.
-        let f = hertz_mindlin(&params(), 1e-7, &n, &Vector::<2>::new(100.0, 0.0), &mut h, 1e-4);
+        let f = hertz_mindlin(
+            &params(),
+            1e-7,
+            &n,
+            &Vector::<2>::new(100.0, 0.0),
+            &mut h,
+            1e-4,
+        );
         assert_eq!(f.normal, 0.0);
     }
 

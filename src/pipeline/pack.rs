@@ -4,8 +4,8 @@
 
 use crate::error::{check_range, Error, Result};
 use crate::math::{Dim, Real, Spatial, Vector};
-use crate::pipeline::rsa::{place_layer, LayerSpec};
 pub use crate::pipeline::rsa::RadiusLaw;
+use crate::pipeline::rsa::{place_layer, LayerSpec};
 use crate::pipeline::world::{SimConfig, World};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -64,7 +64,14 @@ where
         check_range("height", self.height, 0.0, false, f64::INFINITY, false)?;
         check_range("h_layer", self.h_layer, 0.0, false, f64::INFINITY, false)?;
         check_range("phi_layer", self.phi_layer, 0.0, false, 1.0, false)?;
-        check_range("settle_time", self.settle_time, 0.0, true, f64::INFINITY, false)?;
+        check_range(
+            "settle_time",
+            self.settle_time,
+            0.0,
+            true,
+            f64::INFINITY,
+            false,
+        )?;
         if self.max_attempts == 0 {
             return Err(Error::invalid("max_attempts", 0, "must be >= 1"));
         }
@@ -206,13 +213,17 @@ where
         };
         let (x, r) = place_layer(&spec, &mut self.rng)?;
         let added = x.len();
-        let vol: Real = r.iter().map(|&r| crate::math::particle_volume::<D>(r)).sum();
+        let vol: Real = r
+            .iter()
+            .map(|&r| crate::math::particle_volume::<D>(r))
+            .sum();
         let mut slab = self.cfg.h_layer;
         for k in (0..D).filter(|&k| k != v) {
             slab *= self.cfg.base[k];
         }
         self.world.add_particles(&x, &r, None, None)?;
-        self.layer_of.extend(std::iter::repeat_n(layer as u32, added));
+        self.layer_of
+            .extend(std::iter::repeat_n(layer as u32, added));
         let steps = (self.cfg.settle_time / self.cfg.sim.dt).round() as u64;
         self.world.step_n(steps)?;
         self.height = self

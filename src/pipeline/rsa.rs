@@ -238,7 +238,10 @@ pub fn place_layer<const D: usize>(
             return Err(Error::invalid(
                 "base",
                 width,
-                &format!("must be at least one particle diameter 2 r_max = {} (m)", 2.0 * r_max),
+                &format!(
+                    "must be at least one particle diameter 2 r_max = {} (m)",
+                    2.0 * r_max
+                ),
             ));
         }
         slab_volume *= width;
@@ -346,7 +349,9 @@ mod tests {
         let phi: f64 = r.iter().map(|&r| particle_volume::<2>(r)).sum::<f64>() / 0.1;
         let one = particle_volume::<2>(0.01) / 0.1;
         assert!(phi >= 0.4 && phi < 0.4 + one, "{phi}");
-        assert!(x.iter().all(|p| p[0] >= 0.01 && p[0] <= 0.99 && p[1] >= 0.01));
+        assert!(x
+            .iter()
+            .all(|p| p[0] >= 0.01 && p[0] <= 0.99 && p[1] >= 0.01));
     }
 
     #[test]

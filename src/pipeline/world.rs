@@ -92,7 +92,14 @@ where
         }
         check_range("drag", self.drag, 0.0, true, f64::INFINITY, false)?;
         check_range("skin_ratio", self.skin_ratio, 0.0, true, 10.0, true)?;
-        check_range("max_overlap_ratio", self.max_overlap_ratio, 0.0, false, 1.0, true)?;
+        check_range(
+            "max_overlap_ratio",
+            self.max_overlap_ratio,
+            0.0,
+            false,
+            1.0,
+            true,
+        )?;
         if let Some((lo, hi)) = &self.walls {
             let vert = <Dim<D> as Spatial<D>>::VERTICAL;
             for k in 0..D {
@@ -509,23 +516,22 @@ where
         let rot = self.cfg.rotations;
         // 1. half kick + drift; track the largest displacement since the last rebuild.
         let p = &mut self.p;
-        let max_disp2 = p
-            .x
-            .par_chunks_mut(CHUNK)
-            .zip(p.v.par_chunks_mut(CHUNK))
-            .zip(p.f.par_chunks(CHUNK))
-            .zip(p.inv_m.par_chunks(CHUNK))
-            .zip(p.x_ref.par_chunks(CHUNK))
-            .map(|((((x, v), f), im), xr)| {
-                let mut m2: Real = 0.0;
-                for k in 0..x.len() {
-                    v[k] += f[k] * (im[k] * half);
-                    x[k] += v[k] * dt;
-                    m2 = m2.max((x[k] - xr[k]).norm_squared());
-                }
-                m2
-            })
-            .reduce(|| 0.0, Real::max);
+        let max_disp2 =
+            p.x.par_chunks_mut(CHUNK)
+                .zip(p.v.par_chunks_mut(CHUNK))
+                .zip(p.f.par_chunks(CHUNK))
+                .zip(p.inv_m.par_chunks(CHUNK))
+                .zip(p.x_ref.par_chunks(CHUNK))
+                .map(|((((x, v), f), im), xr)| {
+                    let mut m2: Real = 0.0;
+                    for k in 0..x.len() {
+                        v[k] += f[k] * (im[k] * half);
+                        x[k] += v[k] * dt;
+                        m2 = m2.max((x[k] - xr[k]).norm_squared());
+                    }
+                    m2
+                })
+                .reduce(|| 0.0, Real::max);
         if rot {
             p.w.par_chunks_mut(CHUNK)
                 .zip(p.t.par_chunks(CHUNK))
@@ -711,52 +717,50 @@ where
             .zip(pr.nxft.par_chunks_mut(CHUNK))
             .zip(pr.overlap.par_chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(
-                |(c, ((((((ij, reff), meff), hist), fvec), nxft), ovl))| {
-                    let mut bad: Option<usize> = None;
-                    for k in 0..ij.len() {
-                        let i = ij[k][0] as usize;
-                        let j = ij[k][1] as usize;
-                        let (ri, rj) = (p.r[i], p.r[j]);
-                        let dx = p.x[j] - p.x[i];
-                        let dist2 = dx.norm_squared();
-                        let cut = ri + rj;
-                        if dist2 >= cut * cut {
-                            hist[k] = Vector::<D>::zeros();
-                            fvec[k] = Vector::<D>::zeros();
-                            nxft[k] = Ang::<D>::default();
-                            ovl[k] = 0.0;
-                            continue;
-                        }
-                        let dist = dist2.sqrt();
-                        let d = cut - dist;
-                        if d > max_ratio * ri.min(rj) && bad.is_none() {
-                            bad = Some(c * CHUNK + k);
-                        }
-                        let n = dx / dist;
-                        let mut vrel = p.v[j] - p.v[i];
-                        if rot {
-                            vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
-                                - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
-                        }
-                        let params = PairParams {
-                            r_eff: reff[k],
-                            m_eff: meff[k],
-                            e_star,
-                            g_star,
-                            damping: mat.damping,
-                            friction: mat.friction,
-                        };
-                        let f = hertz_mindlin(&params, d, &n, &vrel, &mut hist[k], dt);
-                        fvec[k] = n * f.normal + f.tangential;
-                        if rot && friction_on {
-                            nxft[k] = <Dim<D>>::cross_vv(&n, &f.tangential);
-                        }
-                        ovl[k] = d;
+            .filter_map(|(c, ((((((ij, reff), meff), hist), fvec), nxft), ovl))| {
+                let mut bad: Option<usize> = None;
+                for k in 0..ij.len() {
+                    let i = ij[k][0] as usize;
+                    let j = ij[k][1] as usize;
+                    let (ri, rj) = (p.r[i], p.r[j]);
+                    let dx = p.x[j] - p.x[i];
+                    let dist2 = dx.norm_squared();
+                    let cut = ri + rj;
+                    if dist2 >= cut * cut {
+                        hist[k] = Vector::<D>::zeros();
+                        fvec[k] = Vector::<D>::zeros();
+                        nxft[k] = Ang::<D>::default();
+                        ovl[k] = 0.0;
+                        continue;
                     }
-                    bad
-                },
-            )
+                    let dist = dist2.sqrt();
+                    let d = cut - dist;
+                    if d > max_ratio * ri.min(rj) && bad.is_none() {
+                        bad = Some(c * CHUNK + k);
+                    }
+                    let n = dx / dist;
+                    let mut vrel = p.v[j] - p.v[i];
+                    if rot {
+                        vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
+                            - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
+                    }
+                    let params = PairParams {
+                        r_eff: reff[k],
+                        m_eff: meff[k],
+                        e_star,
+                        g_star,
+                        damping: mat.damping,
+                        friction: mat.friction,
+                    };
+                    let f = hertz_mindlin(&params, d, &n, &vrel, &mut hist[k], dt);
+                    fvec[k] = n * f.normal + f.tangential;
+                    if rot && friction_on {
+                        nxft[k] = <Dim<D>>::cross_vv(&n, &f.tangential);
+                    }
+                    ovl[k] = d;
+                }
+                bad
+            })
             .min();
         if let Some(k) = bad_pair {
             let [i, j] = pr.ij[k];
@@ -782,74 +786,73 @@ where
         let drag = self.cfg.drag;
         let p = &mut self.p;
         let (x, v, w, r, m) = (&p.x, &p.v, &p.w, &p.r, &p.m);
-        let bad_wall = p
-            .f
-            .par_chunks_mut(CHUNK)
-            .zip(p.t.par_chunks_mut(CHUNK))
-            .zip(p.wall_hist.par_chunks_mut(CHUNK))
-            .zip(p.wall_force.par_chunks_mut(CHUNK))
-            .enumerate()
-            .filter_map(|(c, (((f, t), wh), wf))| {
-                let mut bad = None;
-                for k in 0..f.len() {
-                    let q = c * CHUNK + k;
-                    let mut fq = gravity * m[q];
-                    if drag > 0.0 {
-                        fq -= v[q] * drag;
+        let bad_wall =
+            p.f.par_chunks_mut(CHUNK)
+                .zip(p.t.par_chunks_mut(CHUNK))
+                .zip(p.wall_hist.par_chunks_mut(CHUNK))
+                .zip(p.wall_force.par_chunks_mut(CHUNK))
+                .enumerate()
+                .filter_map(|(c, (((f, t), wh), wf))| {
+                    let mut bad = None;
+                    for k in 0..f.len() {
+                        let q = c * CHUNK + k;
+                        let mut fq = gravity * m[q];
+                        if drag > 0.0 {
+                            fq -= v[q] * drag;
+                        }
+                        let mut tq = Ang::<D>::default();
+                        for &e in &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize] {
+                            let pk = (e >> 1) as usize;
+                            if e & 1 == 1 {
+                                fq += pr.fvec[pk];
+                            } else {
+                                fq -= pr.fvec[pk];
+                            }
+                            if rot && friction_on {
+                                tq += pr.nxft[pk] * -(r[q] - 0.5 * pr.overlap[pk]);
+                            }
+                        }
+                        for (wi, wall) in walls.iter().enumerate() {
+                            let s = (wall.pos - x[q][wall.axis]) * wall.sign;
+                            let d = r[q] - s;
+                            if d <= 0.0 {
+                                wh[k][wi] = Vector::<D>::zeros();
+                                wf[k][wi] = Vector::<D>::zeros();
+                                continue;
+                            }
+                            if d > max_ratio * r[q] && bad.is_none() {
+                                bad = Some((q, wi, d));
+                            }
+                            let mut n = Vector::<D>::zeros();
+                            n[wall.axis] = wall.sign;
+                            let arm = r[q] - 0.5 * d;
+                            // wall at rest: relative velocity of the wall w.r.t. the particle
+                            let mut vrel = -v[q];
+                            if rot {
+                                vrel -= <Dim<D>>::cross_wv(w[q], &(n * arm));
+                            }
+                            let params = PairParams {
+                                r_eff: r[q],
+                                m_eff: m[q],
+                                e_star,
+                                g_star,
+                                damping: mat.damping,
+                                friction: mat.friction,
+                            };
+                            let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
+                            let on_wall = n * fc.normal + fc.tangential;
+                            wf[k][wi] = on_wall;
+                            fq -= on_wall;
+                            if rot && friction_on {
+                                tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
+                            }
+                        }
+                        f[k] = fq;
+                        t[k] = tq;
                     }
-                    let mut tq = Ang::<D>::default();
-                    for &e in &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize] {
-                        let pk = (e >> 1) as usize;
-                        if e & 1 == 1 {
-                            fq += pr.fvec[pk];
-                        } else {
-                            fq -= pr.fvec[pk];
-                        }
-                        if rot && friction_on {
-                            tq += pr.nxft[pk] * -(r[q] - 0.5 * pr.overlap[pk]);
-                        }
-                    }
-                    for (wi, wall) in walls.iter().enumerate() {
-                        let s = (wall.pos - x[q][wall.axis]) * wall.sign;
-                        let d = r[q] - s;
-                        if d <= 0.0 {
-                            wh[k][wi] = Vector::<D>::zeros();
-                            wf[k][wi] = Vector::<D>::zeros();
-                            continue;
-                        }
-                        if d > max_ratio * r[q] && bad.is_none() {
-                            bad = Some((q, wi, d));
-                        }
-                        let mut n = Vector::<D>::zeros();
-                        n[wall.axis] = wall.sign;
-                        let arm = r[q] - 0.5 * d;
-                        // wall at rest: relative velocity of the wall w.r.t. the particle
-                        let mut vrel = -v[q];
-                        if rot {
-                            vrel -= <Dim<D>>::cross_wv(w[q], &(n * arm));
-                        }
-                        let params = PairParams {
-                            r_eff: r[q],
-                            m_eff: m[q],
-                            e_star,
-                            g_star,
-                            damping: mat.damping,
-                            friction: mat.friction,
-                        };
-                        let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
-                        let on_wall = n * fc.normal + fc.tangential;
-                        wf[k][wi] = on_wall;
-                        fq -= on_wall;
-                        if rot && friction_on {
-                            tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
-                        }
-                    }
-                    f[k] = fq;
-                    t[k] = tq;
-                }
-                bad
-            })
-            .min_by_key(|b| b.0);
+                    bad
+                })
+                .min_by_key(|b| b.0);
         if let Some((q, wi, d)) = bad_wall {
             return Err(Error::Blowup {
                 step: self.steps,
@@ -986,9 +989,15 @@ mod tests {
         let r = 0.01;
         let v0 = 1.0;
         w.add_particles(
-            &[Vector::<3>::new(0.0, 0.0, 0.0), Vector::<3>::new(2.0 * r + 1e-9, 0.0, 0.0)],
+            &[
+                Vector::<3>::new(0.0, 0.0, 0.0),
+                Vector::<3>::new(2.0 * r + 1e-9, 0.0, 0.0),
+            ],
             &[r, r],
-            Some(&[Vector::<3>::new(0.5 * v0, 0.0, 0.0), Vector::<3>::new(-0.5 * v0, 0.0, 0.0)]),
+            Some(&[
+                Vector::<3>::new(0.5 * v0, 0.0, 0.0),
+                Vector::<3>::new(-0.5 * v0, 0.0, 0.0),
+            ]),
             None,
         )
         .unwrap();
@@ -1035,7 +1044,10 @@ mod tests {
     fn rotations_off_keeps_spins_zero() {
         let mut cfg = SimConfig::<3>::paper();
         cfg.rotations = false;
-        cfg.walls = Some((Vector::<3>::zeros(), Vector::<3>::new(1.0, 1.0, f64::INFINITY)));
+        cfg.walls = Some((
+            Vector::<3>::zeros(),
+            Vector::<3>::new(1.0, 1.0, f64::INFINITY),
+        ));
         let mut w = World::new(cfg).unwrap();
         w.add_particles(
             &[Vector::<3>::new(0.5, 0.5, 0.0099)],

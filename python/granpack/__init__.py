@@ -1,0 +1,28 @@
+"""granpack: dense random packs of discs and spheres, layer by layer, and their
+microstructure.
+
+The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
+(`granpack._core`); this package is the thin Python layer over it.
+"""
+
+from ._core import GranpackError
+from ._core import __version__ as __version__
+from .contacts import Contacts
+from .engine import Material, Simulation
+from .microstructure import microstructure
+from .pack import Pack, generate, load_pack
+from .scene import PRESETS, PackScene
+
+__all__ = [
+    "GranpackError",
+    "Contacts",
+    "Material",
+    "Simulation",
+    "Pack",
+    "PackScene",
+    "PRESETS",
+    "generate",
+    "load_pack",
+    "microstructure",
+    "__version__",
+]

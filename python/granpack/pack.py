@@ -1,0 +1,237 @@
+"""Pack generation (the paper's Algorithm 1) and pack files."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+import time
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from ._validate import GranpackError
+from .contacts import Contacts
+from .scene import PackScene
+
+__all__ = ["Pack", "generate", "load_pack", "atomic_write"]
+
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True, eq=False)
+class Pack:
+    """A finished pack and where it came from.
+
+    Attributes
+    ----------
+    scene : PackScene
+        The scene (seed and stream included) that produced it.
+    positions : (N, D) float64
+        Centres (m); vertical axis last.
+    radii : (N,) float64
+        Radii (m).
+    velocities : (N, D) float64
+        Velocities at the end (m/s).
+    spins : (N,) or (N, 3) float64
+        Angular velocities at the end (rad/s).
+    layer : (N,) int64
+        Layer (0-based) in which each particle was placed.
+    contacts : Contacts
+        Contacts in force at the end (particle-particle and wall).
+    height : float
+        Final height H_top = max(z + r) (m).
+    layers : list of dict
+        One report per layer: added, total, phi_rsa, height, steps, kinetic_energy,
+        wall_seconds.
+    wall_time : float
+        Seconds spent generating.
+    """
+
+    scene: PackScene
+    positions: np.ndarray
+    radii: np.ndarray
+    velocities: np.ndarray
+    spins: np.ndarray
+    layer: np.ndarray
+    contacts: Contacts
+    height: float
+    layers: list[dict] = field(default_factory=list)
+    wall_time: float = 0.0
+
+    @property
+    def dim(self) -> int:
+        return self.scene.dim
+
+    @property
+    def n_layers(self) -> int:
+        """Number of layers placed."""
+        return len(self.layers)
+
+    def __len__(self) -> int:
+        return int(self.radii.shape[0])
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Box corners (lo, hi) up to H_top: lo = 0, hi = (base..., height)."""
+        lo = np.zeros(self.dim)
+        hi = np.array([*self.scene.base, self.height])
+        return lo, hi
+
+    @property
+    def phi(self) -> float:
+        """Solid fraction of the box up to H_top (-)."""
+        vol = np.sum(np.pi * self.radii**2) if self.dim == 2 else np.sum(4 / 3 * np.pi * self.radii**3)
+        return float(vol / (self.scene.base_area * self.height))
+
+    # -- files ------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Writes the pack to a `.npz` file atomically (temporary file, then rename)."""
+        arrays = {
+            "positions": self.positions,
+            "radii": self.radii,
+            "velocities": self.velocities,
+            "spins": self.spins,
+            "layer": self.layer,
+        }
+        arrays.update({f"contacts.{k}": v for k, v in self.contacts.to_dict().items()})
+        meta = {
+            "format": "granpack-pack",
+            "version": FORMAT_VERSION,
+            "height": self.height,
+            "layers": self.layers,
+            "wall_time": self.wall_time,
+        }
+        arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+        arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        return atomic_write(path, buf.getvalue())
+
+
+def atomic_write(path: str | Path, data: bytes) -> Path:
+    """Writes bytes to `path` through a temporary file in the same folder and a rename,
+    so a reader never sees a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_pack(path: str | Path) -> Pack:
+    """Reads a pack written by `Pack.save`; a truncated or foreign file is a
+    GranpackError, never a crash."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except FileNotFoundError:
+        raise GranpackError(f"cannot read pack {path}: no such file") from None
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as exc:
+        raise GranpackError(f"cannot read pack {path}: corrupt or truncated ({exc})") from None
+    try:
+        meta = json.loads(bytes(data["meta.json"]).decode())
+        if meta.get("format") != "granpack-pack":
+            raise ValueError("not a granpack pack file")
+        scene = PackScene.from_toml_string(bytes(data["scene.toml"]).decode())
+        contacts = Contacts.from_dict(
+            {k.split(".", 1)[1]: v for k, v in data.items() if k.startswith("contacts.")}
+        )
+        return Pack(
+            scene=scene,
+            positions=data["positions"],
+            radii=data["radii"],
+            velocities=data["velocities"],
+            spins=data["spins"],
+            layer=data["layer"],
+            contacts=contacts,
+            height=float(meta["height"]),
+            layers=list(meta["layers"]),
+            wall_time=float(meta["wall_time"]),
+        )
+    except (KeyError, ValueError, UnicodeDecodeError, TypeError) as exc:
+        raise GranpackError(f"cannot read pack {path}: missing or invalid field ({exc})") from None
+
+
+def _packer(scene: PackScene) -> _core.LayerPacker:
+    s = scene
+    gravity = [0.0] * s.dim
+    gravity[s.vertical] = -s.gravity
+    law = ("constant", s.r_mean, 0.0, s.r_mean, s.r_mean)
+    if s.radius_law == "gaussian":
+        law = ("gaussian", s.r_mean, s.r_std, s.r_min, s.r_max)
+    return _core.LayerPacker(
+        s.dim, s.material.as_tuple(), s.dt, gravity, s.drag, s.rotations, list(s.base),
+        s.height, law, s.h_layer, s.phi_layer, s.settle_time, s.seed,
+        stream=s.stream, max_attempts=s.max_attempts, max_layers=s.max_layers,
+        skin_ratio=s.skin_ratio, max_overlap_ratio=s.max_overlap_ratio,
+        inertia_2d=s.inertia_2d,
+    )
+
+
+def generate(
+    scene: PackScene,
+    progress: bool | Callable[[dict], None] = False,
+) -> Pack:
+    """Builds one pack layer by layer (RSA layer, DEM jamming run, new height) until the
+    height reaches `scene.height`.
+
+    Parameters
+    ----------
+    scene : PackScene
+    progress : bool or callable
+        False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
+        each layer's report dict (layer, added, total, phi_rsa, height, steps,
+        kinetic_energy, wall_seconds).
+    """
+    if not isinstance(scene, PackScene):
+        raise GranpackError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
+    t0 = time.perf_counter()
+    packer = _packer(scene)
+    reports: list[dict] = []
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=round(scene.height, 6), unit="m", desc="layers", leave=False)
+    try:
+        while not packer.done:
+            rep = packer.next_layer()
+            reports.append(rep)
+            if bar is not None:
+                bar.n = round(min(rep["height"], scene.height), 6)
+                bar.set_postfix(layer=rep["layer"], N=rep["total"], s=f"{rep['wall_seconds']:.1f}")
+                bar.refresh()
+            elif callable(progress):
+                progress(rep)
+    finally:
+        if bar is not None:
+            bar.close()
+    state = packer.state()
+    contacts = Contacts.from_dict(packer.contacts())
+    return Pack(
+        scene=scene,
+        positions=state["positions"],
+        radii=state["radii"],
+        velocities=state["velocities"],
+        spins=state["spins"],
+        layer=state["layer"],
+        contacts=contacts,
+        height=float(packer.height),
+        layers=reports,
+        wall_time=time.perf_counter() - t0,
+    )

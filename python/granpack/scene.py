@@ -1,0 +1,297 @@
+"""Packing scenes: every parameter of the layer-by-layer technique, the paper's presets,
+TOML files."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomli_w
+
+from ._validate import GranpackError, as_bool, as_int, as_real, unknown_keys
+from .engine import Material
+
+__all__ = ["PackScene", "PRESETS", "RSA_SATURATION"]
+
+#: Random sequential addition jams near these fractions (Feder 1980 for discs,
+#: Talbot et al. 2000 / Torquato et al. 2006 for spheres); a layer fraction at or above
+#: them cannot be reached.
+RSA_SATURATION = {2: 0.547, 3: 0.384}
+
+_MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
+
+
+@dataclass(frozen=True)
+class PackScene:
+    """A packing scene (SI units). Defaults are the paper's example 4.1.
+
+    Attributes
+    ----------
+    dim : int
+        2 (discs, vertical y) or 3 (spheres, vertical z).
+    base : tuple of float
+        Box lengths along the horizontal axes (m): (L,) in 2D, (B1, B2) in 3D. The box
+        spans [0, L] (x [0, B2]); the floor is at 0; the top is open.
+    height : float
+        Desired pack height H_d (m): layers are added while max(z + r) < H_d.
+    radius_law : {"constant", "gaussian"}
+        Radius distribution.
+    r_mean : float
+        Radius (constant law) or mean of the Gaussian (m).
+    r_std : float
+        Standard deviation of the Gaussian (m), default 0.
+    r_min, r_max : float or None
+        Truncation of the Gaussian (m); default r_mean -/+ 3 r_std.
+    h_layer : float
+        Thickness of the slab in which each layer's centres are placed (m). Default 0.1.
+    phi_layer : float
+        Solid fraction of each RSA layer, in (0, RSA saturation). Default 0.4
+        (paper: 0.4 in 2D, 0.25 in 3D).
+    material : Material
+        Particle and wall material. Default ``Material()``.
+    dt : float
+        DEM time step (s). Default 1e-4.
+    settle_time : float
+        DEM time per layer, the jamming stage (s). Default 1.0.
+    gravity : float
+        Magnitude of the jamming pseudo-force's acceleration, along -vertical (m/s^2).
+        Default 2.
+    drag : float
+        Linear drag constant c_D (N s/m). Default 0.005.
+    rotations : bool
+        Integrate spins during jamming. Default True.
+    seed : int
+        Master random seed (>= 0). Default 0.
+    stream : int
+        Random stream of this pack within an ensemble of the same seed (>= 0). Default 0.
+    inertia_2d : {"sphere", "disc"}
+        2D mass model (default "sphere": m = 4/3 pi r^3 rho, I = 2/5 m r^2).
+    skin_ratio : float
+        Verlet skin over the smallest radius. Default 0.2.
+    max_overlap_ratio : float
+        Blow-up guard: largest overlap over the smaller radius. Default 0.5.
+    max_attempts : int
+        Consecutive failed RSA placements before reporting saturation. Default 1e6.
+    max_layers : int
+        Most layers before giving up. Default 10000.
+    """
+
+    dim: int = 2
+    base: tuple[float, ...] = (1.0,)
+    height: float = 0.5
+    radius_law: str = "constant"
+    r_mean: float = 0.01
+    r_std: float = 0.0
+    r_min: float | None = None
+    r_max: float | None = None
+    h_layer: float = 0.1
+    phi_layer: float = 0.4
+    material: Material = field(default_factory=Material)
+    dt: float = 1e-4
+    settle_time: float = 1.0
+    gravity: float = 2.0
+    drag: float = 0.005
+    rotations: bool = True
+    seed: int = 0
+    stream: int = 0
+    inertia_2d: str = "sphere"
+    skin_ratio: float = 0.2
+    max_overlap_ratio: float = 0.5
+    max_attempts: int = 1_000_000
+    max_layers: int = 10_000
+
+    def __post_init__(self) -> None:
+        s = object.__setattr__
+        if isinstance(self.dim, bool) or self.dim not in (2, 3):
+            raise GranpackError(f"invalid dim = {self.dim!r}: must be 2 or 3")
+        try:
+            base = tuple(self.base)
+        except TypeError:
+            raise GranpackError(
+                f"invalid base = {self.base!r}: expected {self.dim - 1} lengths (m)"
+            ) from None
+        if len(base) != self.dim - 1:
+            raise GranpackError(
+                f"invalid base = {self.base!r}: expected {self.dim - 1} length(s) (m) for dim = {self.dim}"
+            )
+        s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
+        s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
+        if self.radius_law not in ("constant", "gaussian"):
+            raise GranpackError(
+                f"invalid radius_law = {self.radius_law!r}: must be 'constant' or 'gaussian'"
+            )
+        s(self, "r_mean", as_real("r_mean", self.r_mean, 0, lo_open=True, unit="m"))
+        s(self, "r_std", as_real("r_std", self.r_std, 0, unit="m"))
+        if self.radius_law == "constant":
+            s(self, "r_std", 0.0)
+            s(self, "r_min", self.r_mean)
+            s(self, "r_max", self.r_mean)
+        else:
+            rmin = self.r_mean - 3 * self.r_std if self.r_min is None else self.r_min
+            rmax = self.r_mean + 3 * self.r_std if self.r_max is None else self.r_max
+            rmin = as_real("r_min", rmin, 0, lo_open=True, unit="m")
+            rmax = as_real("r_max", rmax, rmin, unit="m; r_max >= r_min")
+            if not rmin <= self.r_mean <= rmax:
+                raise GranpackError(
+                    f"invalid r_mean = {self.r_mean}: must lie in [r_min, r_max] = [{rmin}, {rmax}] (m)"
+                )
+            s(self, "r_min", rmin)
+            s(self, "r_max", rmax)
+        for b in self.base:
+            if b < 2 * self.r_max:
+                raise GranpackError(
+                    f"invalid base = {self.base}: every length must be at least one particle "
+                    f"diameter 2 r_max = {2 * self.r_max} (m)"
+                )
+        s(self, "h_layer", as_real("h_layer", self.h_layer, 0, lo_open=True, unit="m"))
+        sat = RSA_SATURATION[self.dim]
+        s(self, "phi_layer", as_real("phi_layer", self.phi_layer, 0, sat, lo_open=True, hi_open=True,
+                                     unit=f"RSA saturates near {sat} in {self.dim}D"))
+        if not isinstance(self.material, Material):
+            if isinstance(self.material, dict):
+                unknown_keys("material", self.material, _MATERIAL_KEYS)
+                s(self, "material", Material(**self.material))
+            else:
+                raise GranpackError(f"invalid material = {self.material!r}: must be a Material")
+        s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
+        crit = self.material.critical_time_step(self.r_min)
+        if self.dt > crit:
+            raise GranpackError(
+                f"invalid dt = {self.dt:g} s: must not exceed the critical (Rayleigh) time step "
+                f"{crit:.4g} s estimated for r_min = {self.r_min:g} m"
+            )
+        s(self, "settle_time", as_real("settle_time", self.settle_time, 0, unit="s"))
+        s(self, "gravity", as_real("gravity", self.gravity, unit="m/s^2"))
+        s(self, "drag", as_real("drag", self.drag, 0, unit="N s/m"))
+        s(self, "rotations", as_bool("rotations", self.rotations))
+        s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
+        s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
+        if self.inertia_2d not in ("sphere", "disc"):
+            raise GranpackError(f"invalid inertia_2d = {self.inertia_2d!r}: must be 'sphere' or 'disc'")
+        s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
+        s(self, "max_overlap_ratio", as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True))
+        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1))
+        s(self, "max_layers", as_int("max_layers", self.max_layers, 1))
+        # A scene whose layers alone would exceed memory is refused up front.
+        n_est = self.estimated_particles()
+        if n_est > 5e8:
+            raise GranpackError(
+                f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
+                "shrink base/height or grow the radii"
+            )
+
+    # -- construction ---------------------------------------------------------------
+    @classmethod
+    def preset(cls, name: str) -> PackScene:
+        """The paper's examples "4.1", "4.2" (2D) and "4.3", "4.4" (3D)."""
+        if name not in PRESETS:
+            raise GranpackError(
+                f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
+            )
+        return cls(**PRESETS[name])
+
+    def replace(self, **changes) -> PackScene:
+        """A copy with some fields changed (validated again)."""
+        unknown_keys("scene", changes, [f.name for f in dataclasses.fields(self)])
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> PackScene:
+        """From a flat dict (a TOML document); `preset = "4.3"` starts from a preset."""
+        d = dict(d)
+        known = [f.name for f in dataclasses.fields(cls)] + ["preset"]
+        unknown_keys("scene", d, known)
+        base = {}
+        if "preset" in d:
+            name = d.pop("preset")
+            if name not in PRESETS:
+                raise GranpackError(f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}")
+            base = dict(PRESETS[name])
+        if "material" in d:
+            if not isinstance(d["material"], dict):
+                raise GranpackError("invalid material: expected a table of material constants")
+            unknown_keys("material", d["material"], _MATERIAL_KEYS)
+            mat = dict(base.get("material", Material()).to_dict())
+            mat.update(d.pop("material"))
+            d["material"] = Material(**mat)
+        if "base" in d and not isinstance(d["base"], list | tuple):
+            raise GranpackError(f"invalid base = {d['base']!r}: expected a list of lengths (m)")
+        base.update(d)
+        return cls(**base)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> PackScene:
+        """Reads a scene from a TOML file (flat keys, a [material] table)."""
+        try:
+            with open(path, "rb") as f:
+                doc = tomllib.load(f)
+        except tomllib.TOMLDecodeError as exc:
+            raise GranpackError(f"invalid scene file {path}: {exc}") from None
+        except OSError as exc:
+            raise GranpackError(f"cannot read scene file {path}: {exc.strerror}") from None
+        return cls.from_dict(doc)
+
+    @classmethod
+    def from_toml_string(cls, text: str) -> PackScene:
+        """Reads a scene from TOML text."""
+        try:
+            return cls.from_dict(tomllib.loads(text))
+        except tomllib.TOMLDecodeError as exc:
+            raise GranpackError(f"invalid scene TOML: {exc}") from None
+
+    def to_dict(self) -> dict:
+        """A flat dict that `from_dict` reads back to an equal scene."""
+        d = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, Material):
+                v = v.to_dict()
+            elif isinstance(v, tuple):
+                v = list(v)
+            d[f.name] = v
+        return d
+
+    def to_toml(self) -> str:
+        """TOML text of the scene."""
+        d = self.to_dict()
+        # TOML has no None; drop unset truncations (they are derived again).
+        return tomli_w.dumps({k: v for k, v in d.items() if v is not None})
+
+    # -- derived ----------------------------------------------------------------------
+    @property
+    def vertical(self) -> int:
+        """Index of the vertical axis."""
+        return self.dim - 1
+
+    @property
+    def base_area(self) -> float:
+        """Base length (2D) or area (3D) (m or m^2)."""
+        return math.prod(self.base)
+
+    def particle_volume(self, r: float) -> float:
+        return math.pi * r * r if self.dim == 2 else 4.0 / 3.0 * math.pi * r**3
+
+    def estimated_particles(self) -> float:
+        """Rough particle count: layers of phi_layer filling about H_d / h_layer slabs."""
+        n_layers = max(1.0, self.height / self.h_layer) * 1.5
+        per_layer = self.phi_layer * self.base_area * self.h_layer / self.particle_volume(self.r_mean)
+        return n_layers * per_layer
+
+
+_COMMON = {"material": Material(), "dt": 1e-4, "settle_time": 1.0, "gravity": 2.0,
+           "drag": 0.005, "height": 0.5, "h_layer": 0.1}
+
+#: The paper's section 4 examples, numbers as printed (r_min of 4.2 is r_m - 3 sd).
+PRESETS: dict[str, dict] = {
+    "4.1": {**_COMMON, "dim": 2, "base": (1.0,), "radius_law": "constant", "r_mean": 0.01,
+            "phi_layer": 0.4},
+    "4.2": {**_COMMON, "dim": 2, "base": (1.0,), "radius_law": "gaussian", "r_mean": 0.01,
+            "r_std": 0.001, "r_min": 0.007, "r_max": 0.013, "phi_layer": 0.4},
+    "4.3": {**_COMMON, "dim": 3, "base": (1.0, 1.0), "radius_law": "constant", "r_mean": 0.02,
+            "phi_layer": 0.25},
+    "4.4": {**_COMMON, "dim": 3, "base": (1.0, 1.0), "radius_law": "gaussian", "r_mean": 0.02,
+            "r_std": 0.002, "r_min": 0.014, "r_max": 0.026, "phi_layer": 0.25},
+}

@@ -1,0 +1,631 @@
+//! The only PyO3 code: arrays in and out, error mapping, GIL release.
+//!
+//! Each class wraps a 2D or 3D engine object behind an enum; a macro dispatches on it.
+//! Shapes and values are checked here (and again in the engine); every error reaches
+//! Python as `granpack.GranpackError`, a subclass of `ValueError`.
+
+use crate::error::Error;
+use crate::math::{AngOps, Dim, Real, Spatial, Vector};
+use crate::pipeline::world::{Contacts, Inertia2D};
+use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, World};
+use crate::Material;
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+create_exception!(
+    _core,
+    GranpackError,
+    PyValueError,
+    "Any granpack error: invalid input (the message names the parameter and its allowed \
+     range), an unstable time step, a blow-up, RSA saturation."
+);
+
+impl From<Error> for PyErr {
+    fn from(e: Error) -> PyErr {
+        GranpackError::new_err(e.to_string())
+    }
+}
+
+fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
+    GranpackError::new_err(format!("invalid {name}: {msg}"))
+}
+
+/// Reads an (N, D) float64 array into vectors.
+fn vectors<const D: usize>(name: &str, a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vector<D>>> {
+    let v = a.as_array();
+    if v.ncols() != D {
+        return Err(bad(
+            name,
+            format!("shape {:?}, expected (N, {D})", v.shape()),
+        ));
+    }
+    Ok(v.rows()
+        .into_iter()
+        .map(|r| Vector::<D>::from_fn(|k, _| r[k]))
+        .collect())
+}
+
+fn vec_to_py<'py, const D: usize>(py: Python<'py>, v: &[Vector<D>]) -> Bound<'py, PyAny> {
+    let flat: Vec<f64> = v.iter().flat_map(|x| x.iter().copied()).collect();
+    Array2::from_shape_vec((v.len(), D), flat)
+        .expect("shape")
+        .into_pyarray(py)
+        .into_any()
+}
+
+fn ang_to_py<'py, A: AngOps>(py: Python<'py>, w: &[A]) -> Bound<'py, PyAny> {
+    if A::NCOMP == 1 {
+        Array1::from_iter(w.iter().map(|x| x.comp(0)))
+            .into_pyarray(py)
+            .into_any()
+    } else {
+        let flat: Vec<f64> = w
+            .iter()
+            .flat_map(|x| (0..A::NCOMP).map(|k| x.comp(k)))
+            .collect();
+        Array2::from_shape_vec((w.len(), A::NCOMP), flat)
+            .expect("shape")
+            .into_pyarray(py)
+            .into_any()
+    }
+}
+
+fn ang_from_py<A: AngOps>(name: &str, a: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<A>> {
+    if A::NCOMP == 1 {
+        let arr: PyReadonlyArray1<f64> = a
+            .extract()
+            .map_err(|_| bad(name, "expected a float64 array of shape (N,) in 2D"))?;
+        let v = arr.as_array();
+        if v.len() != n {
+            return Err(bad(name, format!("length {}, expected {n}", v.len())));
+        }
+        Ok(v.iter().map(|&x| A::from_comps(&[x])).collect())
+    } else {
+        let arr: PyReadonlyArray2<f64> = a
+            .extract()
+            .map_err(|_| bad(name, "expected a float64 array of shape (N, 3) in 3D"))?;
+        let v = arr.as_array();
+        if v.nrows() != n || v.ncols() != 3 {
+            return Err(bad(
+                name,
+                format!("shape {:?}, expected ({n}, 3)", v.shape()),
+            ));
+        }
+        Ok(v.rows()
+            .into_iter()
+            .map(|r| A::from_comps(&[r[0], r[1], r[2]]))
+            .collect())
+    }
+}
+
+fn contacts_to_py<'py, const D: usize>(
+    py: Python<'py>,
+    c: &Contacts<D>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("i", Array1::from_vec(c.i.clone()).into_pyarray(py))?;
+    d.set_item("j", Array1::from_vec(c.j.clone()).into_pyarray(py))?;
+    d.set_item("normal", vec_to_py(py, &c.normal))?;
+    d.set_item(
+        "overlap",
+        Array1::from_vec(c.overlap.clone()).into_pyarray(py),
+    )?;
+    d.set_item(
+        "force_normal",
+        Array1::from_vec(c.force_normal.clone()).into_pyarray(py),
+    )?;
+    d.set_item("force_tangential", vec_to_py(py, &c.force_tangential))?;
+    d.set_item("branch", vec_to_py(py, &c.branch))?;
+    Ok(d)
+}
+
+fn report_to_py<'py>(py: Python<'py>, r: &LayerReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("layer", r.layer)?;
+    d.set_item("added", r.added)?;
+    d.set_item("total", r.total)?;
+    d.set_item("phi_rsa", r.phi_rsa)?;
+    d.set_item("height", r.height)?;
+    d.set_item("steps", r.steps)?;
+    d.set_item("kinetic_energy", r.kinetic_energy)?;
+    d.set_item("wall_seconds", r.wall_seconds)?;
+    Ok(d)
+}
+
+fn vector_from<const D: usize>(name: &str, v: &[f64]) -> PyResult<Vector<D>> {
+    if v.len() != D {
+        return Err(bad(name, format!("{} components, expected {D}", v.len())));
+    }
+    Ok(Vector::<D>::from_fn(|k, _| v[k]))
+}
+
+/// Engine settings as they cross the boundary (the Python layer builds them).
+#[allow(clippy::too_many_arguments)]
+fn sim_config<const D: usize>(
+    material: (f64, f64, f64, f64, f64),
+    dt: f64,
+    gravity: &[f64],
+    drag: f64,
+    rotations: bool,
+    walls: Option<(Vec<f64>, Vec<f64>)>,
+    skin_ratio: f64,
+    max_overlap_ratio: f64,
+    inertia_2d: &str,
+) -> PyResult<SimConfig<D>>
+where
+    Dim<D>: Spatial<D>,
+{
+    let (density, young, poisson, damping, friction) = material;
+    let walls = match walls {
+        None => None,
+        Some((lo, hi)) => Some((vector_from::<D>("box", &lo)?, vector_from::<D>("box", &hi)?)),
+    };
+    let inertia_2d = match inertia_2d {
+        "sphere" => Inertia2D::Sphere,
+        "disc" => Inertia2D::Disc,
+        other => {
+            return Err(bad(
+                "inertia_2d",
+                format!("{other:?}, expected \"sphere\" or \"disc\""),
+            ))
+        }
+    };
+    Ok(SimConfig {
+        material: Material {
+            density,
+            young,
+            poisson,
+            damping,
+            friction,
+        },
+        dt,
+        gravity: vector_from::<D>("gravity", gravity)?,
+        drag,
+        rotations,
+        walls,
+        skin_ratio,
+        max_overlap_ratio,
+        inertia_2d,
+    })
+}
+
+enum SimInner {
+    D2(World<2>),
+    D3(World<3>),
+}
+
+macro_rules! with_world {
+    ($self:expr, $w:ident, $D:ident, $body:expr) => {
+        match $self {
+            SimInner::D2($w) => {
+                const $D: usize = 2;
+                $body
+            }
+            SimInner::D3($w) => {
+                const $D: usize = 3;
+                $body
+            }
+        }
+    };
+}
+
+/// The DEM engine (see `granpack.Simulation` for the documented Python API).
+#[pyclass(module = "granpack._core")]
+struct Simulation {
+    inner: SimInner,
+}
+
+#[pymethods]
+impl Simulation {
+    #[new]
+    #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, walls, skin_ratio=0.2,
+                        max_overlap_ratio=0.5, inertia_2d="sphere"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dim: i64,
+        material: (f64, f64, f64, f64, f64),
+        dt: f64,
+        gravity: Vec<f64>,
+        drag: f64,
+        rotations: bool,
+        walls: Option<(Vec<f64>, Vec<f64>)>,
+        skin_ratio: f64,
+        max_overlap_ratio: f64,
+        inertia_2d: &str,
+    ) -> PyResult<Self> {
+        let inner = match dim {
+            2 => SimInner::D2(World::new(sim_config::<2>(
+                material,
+                dt,
+                &gravity,
+                drag,
+                rotations,
+                walls,
+                skin_ratio,
+                max_overlap_ratio,
+                inertia_2d,
+            )?)?),
+            3 => SimInner::D3(World::new(sim_config::<3>(
+                material,
+                dt,
+                &gravity,
+                drag,
+                rotations,
+                walls,
+                skin_ratio,
+                max_overlap_ratio,
+                inertia_2d,
+            )?)?),
+            other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
+        };
+        Ok(Simulation { inner })
+    }
+
+    #[getter]
+    fn dim(&self) -> usize {
+        with_world!(&self.inner, _w, D, D)
+    }
+
+    #[pyo3(signature = (positions, radii, velocities=None, spins=None))]
+    fn add_particles(
+        &mut self,
+        positions: PyReadonlyArray2<'_, f64>,
+        radii: PyReadonlyArray1<'_, f64>,
+        velocities: Option<PyReadonlyArray2<'_, f64>>,
+        spins: Option<Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let r: Vec<f64> = radii.as_array().to_vec();
+        with_world!(&mut self.inner, w, D, {
+            let x = vectors::<D>("positions", &positions)?;
+            let v = match &velocities {
+                Some(a) => Some(vectors::<D>("velocities", a)?),
+                None => None,
+            };
+            let s = match &spins {
+                Some(a) => Some(ang_from_py::<<Dim<D> as Spatial<D>>::Ang>(
+                    "spins",
+                    a,
+                    x.len(),
+                )?),
+                None => None,
+            };
+            w.add_particles(&x, &r, v.as_deref(), s.as_deref())?;
+        });
+        Ok(())
+    }
+
+    /// Advances `n` steps with the GIL released.
+    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+        let inner = &mut self.inner;
+        py.detach(|| with_world!(inner, w, _D, w.step_n(n)))?;
+        Ok(())
+    }
+
+    /// Advances `seconds` of simulated time with the GIL released.
+    fn run(&mut self, py: Python<'_>, seconds: f64) -> PyResult<()> {
+        let inner = &mut self.inner;
+        py.detach(|| with_world!(inner, w, _D, w.run(seconds)))?;
+        Ok(())
+    }
+
+    #[getter]
+    fn time(&self) -> f64 {
+        with_world!(&self.inner, w, _D, w.time())
+    }
+    #[getter]
+    fn steps(&self) -> u64 {
+        with_world!(&self.inner, w, _D, w.steps())
+    }
+    #[getter]
+    fn rebuilds(&self) -> u64 {
+        with_world!(&self.inner, w, _D, w.rebuilds())
+    }
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        with_world!(&self.inner, w, _D, vec_to_py(py, w.positions()))
+    }
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        with_world!(&self.inner, w, _D, vec_to_py(py, w.velocities()))
+    }
+    #[setter]
+    fn set_velocities(&mut self, v: PyReadonlyArray2<'_, f64>) -> PyResult<()> {
+        with_world!(&mut self.inner, w, D, {
+            let v = vectors::<D>("velocities", &v)?;
+            w.set_velocities(&v)?;
+        });
+        Ok(())
+    }
+    #[getter]
+    fn spins<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        with_world!(&self.inner, w, _D, ang_to_py(py, w.spins()))
+    }
+    #[setter]
+    fn set_spins(&mut self, s: Bound<'_, PyAny>) -> PyResult<()> {
+        with_world!(&mut self.inner, w, D, {
+            let s = ang_from_py::<<Dim<D> as Spatial<D>>::Ang>("spins", &s, w.len())?;
+            w.set_spins(&s)?;
+        });
+        Ok(())
+    }
+    #[getter]
+    fn radii<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        with_world!(
+            &self.inner,
+            w,
+            _D,
+            Array1::from_vec(w.radii().to_vec())
+                .into_pyarray(py)
+                .into_any()
+        )
+    }
+    #[getter]
+    fn masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        with_world!(
+            &self.inner,
+            w,
+            _D,
+            Array1::from_vec(w.masses().to_vec())
+                .into_pyarray(py)
+                .into_any()
+        )
+    }
+    fn kinetic_energy(&self) -> f64 {
+        with_world!(&self.inner, w, _D, w.kinetic_energy())
+    }
+    fn potential_energy(&self) -> f64 {
+        with_world!(&self.inner, w, _D, w.potential_energy())
+    }
+    fn critical_time_step(&self) -> f64 {
+        with_world!(&self.inner, w, _D, w.critical_time_step())
+    }
+    fn __len__(&self) -> usize {
+        with_world!(&self.inner, w, _D, w.len())
+    }
+    fn contacts<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        with_world!(&mut self.inner, w, _D, {
+            let c = w.contacts()?;
+            contacts_to_py(py, &c)
+        })
+    }
+}
+
+enum PackInner {
+    D2(Packer<2>),
+    D3(Packer<3>),
+}
+
+macro_rules! with_packer {
+    ($self:expr, $p:ident, $D:ident, $body:expr) => {
+        match $self {
+            PackInner::D2($p) => {
+                const $D: usize = 2;
+                $body
+            }
+            PackInner::D3($p) => {
+                const $D: usize = 3;
+                $body
+            }
+        }
+    };
+}
+
+fn radius_law(spec: (&str, f64, f64, f64, f64)) -> PyResult<RadiusLaw> {
+    match spec.0 {
+        "constant" => Ok(RadiusLaw::Constant(spec.1)),
+        "gaussian" => Ok(RadiusLaw::Gaussian {
+            mean: spec.1,
+            std: spec.2,
+            min: spec.3,
+            max: spec.4,
+        }),
+        other => Err(bad(
+            "radius law",
+            format!("{other:?}, expected \"constant\" or \"gaussian\""),
+        )),
+    }
+}
+
+/// The layer loop (see `granpack.generate` for the documented Python API).
+#[pyclass(module = "granpack._core")]
+struct LayerPacker {
+    inner: PackInner,
+}
+
+#[pymethods]
+impl LayerPacker {
+    #[new]
+    #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, base, height, radii,
+                        h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
+                        max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
+                        inertia_2d="sphere"))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dim: i64,
+        material: (f64, f64, f64, f64, f64),
+        dt: f64,
+        gravity: Vec<f64>,
+        drag: f64,
+        rotations: bool,
+        base: Vec<f64>,
+        height: f64,
+        radii: (String, f64, f64, f64, f64),
+        h_layer: f64,
+        phi_layer: f64,
+        settle_time: f64,
+        seed: u64,
+        stream: u64,
+        max_attempts: u64,
+        max_layers: usize,
+        skin_ratio: f64,
+        max_overlap_ratio: f64,
+        inertia_2d: &str,
+    ) -> PyResult<Self> {
+        let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
+        macro_rules! make {
+            ($D:literal, $variant:ident) => {{
+                let sim = sim_config::<$D>(
+                    material,
+                    dt,
+                    &gravity,
+                    drag,
+                    rotations,
+                    None,
+                    skin_ratio,
+                    max_overlap_ratio,
+                    inertia_2d,
+                )?;
+                let v = <Dim<$D> as Spatial<$D>>::VERTICAL;
+                let mut b = Vector::<$D>::zeros();
+                if base.len() != $D - 1 {
+                    return Err(bad(
+                        "base",
+                        format!("{} lengths, expected {}", base.len(), $D - 1),
+                    ));
+                }
+                let mut it = base.iter();
+                for k in (0..$D).filter(|&k| k != v) {
+                    b[k] = *it.next().unwrap();
+                }
+                PackInner::$variant(Packer::new(PackConfig {
+                    sim,
+                    base: b,
+                    height,
+                    radii: law,
+                    h_layer,
+                    phi_layer,
+                    settle_time,
+                    seed,
+                    stream,
+                    max_attempts,
+                    max_layers,
+                })?)
+            }};
+        }
+        let inner = match dim {
+            2 => make!(2, D2),
+            3 => make!(3, D3),
+            other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
+        };
+        Ok(LayerPacker { inner })
+    }
+
+    /// True once the pack has reached the desired height.
+    #[getter]
+    fn done(&self) -> bool {
+        with_packer!(&self.inner, p, _D, p.done())
+    }
+
+    #[getter]
+    fn height(&self) -> f64 {
+        with_packer!(&self.inner, p, _D, p.height())
+    }
+
+    /// Places and settles one layer (GIL released); returns its report as a dict.
+    fn next_layer<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let inner = &mut self.inner;
+        let rep = py.detach(|| with_packer!(inner, p, _D, p.next_layer()))?;
+        report_to_py(py, &rep)
+    }
+
+    /// Particle arrays: positions, radii, velocities, spins, layer.
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        with_packer!(&self.inner, p, _D, {
+            let w = p.world();
+            d.set_item("positions", vec_to_py(py, w.positions()))?;
+            d.set_item("velocities", vec_to_py(py, w.velocities()))?;
+            d.set_item("spins", ang_to_py(py, w.spins()))?;
+            d.set_item(
+                "radii",
+                Array1::from_vec(w.radii().to_vec()).into_pyarray(py),
+            )?;
+            let layers: Vec<i64> = p.layers().iter().map(|&l| l as i64).collect();
+            d.set_item("layer", Array1::from_vec(layers).into_pyarray(py))?;
+            d.set_item("time", w.time())?;
+        });
+        Ok(d)
+    }
+
+    fn contacts<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        with_packer!(&mut self.inner, p, _D, {
+            let c = p.world_mut().contacts()?;
+            contacts_to_py(py, &c)
+        })
+    }
+}
+
+/// Geometric contacts (overlap > 0) of a pack given by positions and radii, with the
+/// box walls if `walls` is given; forces are zero. Uses the cell grid.
+#[pyfunction]
+#[pyo3(signature = (positions, radii, walls=None))]
+fn find_contacts<'py>(
+    py: Python<'py>,
+    positions: PyReadonlyArray2<'py, f64>,
+    radii: PyReadonlyArray1<'py, f64>,
+    walls: Option<(Vec<f64>, Vec<f64>)>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dim = positions.as_array().ncols();
+    let r: Vec<Real> = radii.as_array().to_vec();
+    macro_rules! go {
+        ($D:literal) => {{
+            let x = vectors::<$D>("positions", &positions)?;
+            let mut cfg = SimConfig::<$D>::paper();
+            cfg.gravity = Vector::<$D>::zeros();
+            cfg.material.damping = 0.0;
+            cfg.material.friction = 0.0;
+            cfg.max_overlap_ratio = 1.0;
+            if let Some((lo, hi)) = walls {
+                let mut hi = vector_from::<$D>("box", &hi)?;
+                hi[<Dim<$D> as Spatial<$D>>::VERTICAL] = f64::INFINITY;
+                cfg.walls = Some((vector_from::<$D>("box", &lo)?, hi));
+            }
+            let mut w = World::<$D>::new(cfg)?;
+            w.add_particles(&x, &r, None, None)?;
+            let mut c = w.contacts()?;
+            c.force_normal.iter_mut().for_each(|f| *f = 0.0);
+            c.force_tangential
+                .iter_mut()
+                .for_each(|f| *f = Vector::<$D>::zeros());
+            contacts_to_py(py, &c)
+        }};
+    }
+    match dim {
+        2 => go!(2),
+        3 => go!(3),
+        other => Err(bad(
+            "positions",
+            format!("{other} columns, expected 2 or 3"),
+        )),
+    }
+}
+
+/// Rayleigh critical time step (s) for material and smallest radius r_min (m).
+#[pyfunction]
+fn rayleigh_time_step(density: f64, young: f64, poisson: f64, r_min: f64) -> PyResult<f64> {
+    let m = Material {
+        density,
+        young,
+        poisson,
+        ..Material::default()
+    };
+    m.validate()?;
+    crate::error::check_range("r_min", r_min, 0.0, false, f64::INFINITY, false)?;
+    Ok(m.rayleigh_time_step(r_min))
+}
+
+/// The native module `granpack._core`.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("GranpackError", m.py().get_type::<GranpackError>())?;
+    m.add_class::<Simulation>()?;
+    m.add_class::<LayerPacker>()?;
+    m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
+    m.add_function(wrap_pyfunction!(rayleigh_time_step, m)?)?;
+    Ok(())
+}
