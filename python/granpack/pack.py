@@ -137,10 +137,15 @@ def load_pack(path: str | Path) -> Pack:
     GranpackError, never a crash."""
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise GranpackError(f"cannot read pack {path}: no such file") from None
+    except OSError as exc:
+        raise GranpackError(f"cannot read pack {path}: {exc.strerror}") from None
+    try:
+        # Parse from memory: a corrupt archive then leaves no file handle open.
+        with np.load(io.BytesIO(raw), allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as exc:
         raise GranpackError(f"cannot read pack {path}: corrupt or truncated ({exc})") from None
     try:

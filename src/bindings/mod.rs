@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 create_exception!(
-    _core,
+    granpack,
     GranpackError,
     PyValueError,
     "Any granpack error: invalid input (the message names the parameter and its allowed \

@@ -578,6 +578,7 @@ where
     fn check_state(&self) -> Result<()> {
         let p = &self.p;
         let walls = &self.walls;
+        let dt = self.cfg.dt;
         let bad = (0..p.x.len())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -588,6 +589,21 @@ where
                     && p.w[k].finite())
                 {
                     return Some((k, "non-finite position, velocity or spin".to_string()));
+                }
+                // A particle that moves more than half its radius in one step can tunnel
+                // through a neighbour without the overlap guard ever seeing it.
+                let step_len = p.v[k].norm() * dt;
+                if step_len > 0.5 * p.r[k] {
+                    return Some((
+                        k,
+                        format!(
+                            "speed {:e} m/s moves it {:e} m per step, more than half its \
+                             radius {:e} m; reduce dt",
+                            p.v[k].norm(),
+                            step_len,
+                            p.r[k]
+                        ),
+                    ));
                 }
                 for (wi, wall) in walls.iter().enumerate() {
                     let s = (wall.pos - x[wall.axis]) * wall.sign;
@@ -772,8 +788,7 @@ where
                 particle: i as usize,
                 what: format!(
                     "overlap with particle {j} is {d:e} m = {:.3} of the smaller radius \
-                     (limit max_overlap_ratio = {max_ratio}); reduce dt or stiffen nothing \
-                     else: the contact is not resolved",
+                     (limit max_overlap_ratio = {max_ratio}); reduce dt: the contact is not resolved",
                     d / rmin
                 ),
             });
