@@ -1,0 +1,412 @@
+"""Ensembles of packs: each pack is an independent task, run in local worker processes or
+on a Dask distributed cluster, written to disk as soon as it is finished.
+
+Seeds. Pack k of an ensemble with master seed S is ``scene.replace(seed=S, stream=k)``.
+The engine gives the same pack for the same scene on any machine and thread count, so an
+ensemble does not depend on where (or in what order) its packs ran, and pack k is the
+same whatever the ensemble size (a 2-pack run is the start of the 10-pack run).
+
+Resuming. Every finished pack is written atomically (`Pack.save`) by the calling
+process, so an interrupted run loses only the packs still in progress. A task whose file
+already exists and was made from the same scene is skipped; a file made from another
+scene is an error (choose another output folder), never silently overwritten.
+
+Where packs run
+    * ``workers=1`` (or a single pending pack): in this process.
+    * default: a ``concurrent.futures.ProcessPoolExecutor`` (``spawn`` start method, so
+      no state leaks from the parent) with one process per core, each process's engine
+      limited to ``cores // workers`` threads (``RAYON_NUM_THREADS``) so that the
+      workers do not oversubscribe the cores.
+    * ``scheduler="tcp://host:8786"`` (or a ``distributed.Client``): on that Dask
+      cluster (``pip install "granpack[dask]"``; the workers need granpack installed).
+      Results travel back to this process, which writes them, so the workers need no
+      shared file system.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing as mp
+import os
+import queue as queue_mod
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import GranpackError, as_int
+from .pack import Pack, generate
+from .scene import PackScene
+
+__all__ = ["PackTask", "ensemble_tasks", "run_tasks", "run_ensemble", "pack_path", "Progress"]
+
+
+@dataclass(frozen=True)
+class PackTask:
+    """One pack to make: its full scene (seed and stream set), the file it goes to, and
+    a short label for progress messages."""
+
+    scene: PackScene
+    path: Path
+    label: str
+
+
+def pack_path(out_dir: str | Path, k: int) -> Path:
+    """File of pack k in an ensemble folder: ``out_dir/pack_000.npz``."""
+    return Path(out_dir) / f"pack_{k:03d}.npz"
+
+
+def ensemble_tasks(
+    scene: PackScene, n_packs: int, out_dir: str | Path, seed: int | None = None, label: str = ""
+) -> list[PackTask]:
+    """The tasks of an ensemble: pack k uses ``scene.replace(seed=seed, stream=k)`` and
+    goes to ``pack_path(out_dir, k)``. `seed` defaults to ``scene.seed``."""
+    n_packs = as_int("n_packs", n_packs, 1)
+    seed = scene.seed if seed is None else as_int("seed", seed, 0, 2**64 - 1)
+    prefix = f"{label} " if label else ""
+    return [
+        PackTask(scene.replace(seed=seed, stream=k), pack_path(out_dir, k), f"{prefix}#{k}")
+        for k in range(n_packs)
+    ]
+
+
+def run_ensemble(
+    scene: PackScene,
+    n_packs: int,
+    seed: int | None,
+    out_dir: str | Path,
+    *,
+    scheduler=None,
+    workers: int | None = None,
+    progress: bool | str | Callable[[dict], None] = "auto",
+) -> list[Path]:
+    """Makes packs 0..n_packs-1 of an ensemble into `out_dir` (skipping those already
+    there) and returns their paths in pack order.
+
+    Parameters
+    ----------
+    scene : PackScene
+    n_packs : int
+        Ensemble size (>= 1).
+    seed : int or None
+        Master seed; None keeps ``scene.seed``.
+    out_dir : path
+        Folder of the pack files (``pack_000.npz``, ...); created if needed.
+    scheduler : str or distributed.Client, optional
+        Address of a Dask scheduler (e.g. ``"tcp://10.0.0.1:8786"``); default: local.
+    workers : int, optional
+        Local worker processes; default: one per core (never more than pending packs).
+    progress : bool, "auto", "bar", "lines" or callable
+        "auto"/True: a tqdm bar on a terminal, plain lines otherwise (stderr);
+        False: silent; a callable gets event dicts (see `Progress`).
+    """
+    tasks = ensemble_tasks(scene, n_packs, out_dir, seed)
+    return run_tasks(tasks, scheduler=scheduler, workers=workers, progress=progress)
+
+
+# -- progress --------------------------------------------------------------------------------
+
+
+class Progress:
+    """Reports ensemble progress: a tqdm bar (on a terminal), plain lines, or events.
+
+    Events (dicts) given to a callable: ``{"event": "start", "total", "skipped"}``,
+    ``{"event": "skip", "label", "path"}``, ``{"event": "layer", "label", "layer",
+    "total" (particles), "height", "wall_seconds", ...}``, ``{"event": "pack", "label",
+    "path", "n", "phi", "height", "wall_time", "done", "total"}``, ``{"event": "end"}``.
+    """
+
+    def __init__(self, mode: bool | str | Callable[[dict], None] = "auto", stream=None):
+        self.stream = sys.stderr if stream is None else stream
+        self.callback = mode if callable(mode) else None
+        if mode is True or mode == "auto":
+            isatty = getattr(self.stream, "isatty", lambda: False)
+            mode = "bar" if isatty() else "lines"
+        if mode in (False, None, "none", "quiet"):
+            mode = "none"
+        if self.callback is None and mode not in ("bar", "lines", "none"):
+            raise GranpackError(
+                f"invalid progress = {mode!r}: use True, False, 'auto', 'bar', 'lines' "
+                "or a callable"
+            )
+        self.mode = "callback" if self.callback is not None else mode
+        self.bar = None
+        self.total = 0
+        self.done = 0
+        self.running: dict[str, float] = {}  # label -> fraction of the target height
+        self.finished: set[str] = set()
+        self.last = ""
+
+    def _emit(self, event: dict) -> None:
+        if self.callback is not None:
+            self.callback(event)
+
+    def _line(self, text: str) -> None:
+        print(text, file=self.stream, flush=True)
+
+    def start(self, total: int, skipped: int) -> None:
+        self.total = total
+        self.done = skipped
+        self._emit({"event": "start", "total": total, "skipped": skipped})
+        if self.mode == "bar":
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=total,
+                initial=skipped,
+                unit="pack",
+                desc="packs",
+                file=self.stream,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total} "
+                "[{elapsed}<{remaining}] {postfix}",
+            )
+        elif self.mode == "lines" and total:
+            self._line(f"granpack: {total} packs, {skipped} already on disk")
+
+    def skip(self, task: PackTask) -> None:
+        self._emit({"event": "skip", "label": task.label, "path": str(task.path)})
+
+    def layer(self, task_label: str, target: float, rep: dict) -> None:
+        if task_label in self.finished:  # a late report from a worker's queue
+            return
+        self._emit({"event": "layer", "label": task_label, **rep})
+        self.running[task_label] = min(1.0, rep["height"] / target) if target > 0 else 0.0
+        if self.mode == "bar" and self.bar is not None:
+            self.last = (
+                f"{task_label}: layer {rep['layer']}, N={rep['total']}, "
+                f"H={rep['height']:.3f}/{target:g} m"
+            )
+            self._refresh()
+        elif self.mode == "lines":
+            self._line(
+                f"  {task_label}: layer {rep['layer']} N={rep['total']} "
+                f"H={rep['height']:.4f} m ({rep['wall_seconds']:.1f} s)"
+            )
+
+    def pack(self, task: PackTask, pack: Pack) -> None:
+        self.done += 1
+        self.finished.add(task.label)
+        self.running.pop(task.label, None)
+        info = {
+            "label": task.label,
+            "path": str(task.path),
+            "n": len(pack),
+            "phi": pack.phi,
+            "height": pack.height,
+            "wall_time": pack.wall_time,
+            "done": self.done,
+            "total": self.total,
+        }
+        self._emit({"event": "pack", **info})
+        if self.mode == "bar" and self.bar is not None:
+            self.last = f"{task.label} done: N={len(pack)}, phi={pack.phi:.3f}"
+            self._refresh()
+        elif self.mode == "lines":
+            width = len(str(self.total))
+            self._line(
+                f"[{self.done:>{width}}/{self.total}] {task.label} done: N={len(pack)} "
+                f"phi={pack.phi:.4f} H={pack.height:.4f} m in {pack.wall_time:.1f} s "
+                f"-> {task.path}"
+            )
+
+    def _refresh(self) -> None:
+        self.bar.n = round(self.done + sum(self.running.values()), 3)
+        self.bar.set_postfix_str(self.last, refresh=False)
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.n = self.done
+            self.bar.refresh()
+            self.bar.close()
+            self.bar = None
+        self._emit({"event": "end"})
+
+
+# -- workers ---------------------------------------------------------------------------------
+
+# Set in each local worker process by `_init_worker`: where layer reports go.
+_LAYER_QUEUE = None
+
+
+def _init_worker(layer_queue, threads: int) -> None:
+    """Runs once in each spawned worker, before any pack: the engine's thread pool is
+    created lazily on first use, so the thread count set here takes effect."""
+    global _LAYER_QUEUE
+    _LAYER_QUEUE = layer_queue
+    os.environ["RAYON_NUM_THREADS"] = str(threads)
+
+
+def _build_in_worker(scene: PackScene, label: str) -> Pack:
+    q = _LAYER_QUEUE
+
+    def report(rep: dict) -> None:
+        if q is not None:
+            q.put((label, rep))
+
+    return generate(scene, progress=report)
+
+
+def _build_plain(scene: PackScene) -> Pack:
+    """The Dask task: a pack from its scene (no progress; the pack travels back)."""
+    return generate(scene)
+
+
+def _existing(task: PackTask) -> bool:
+    """True if the task's file holds a pack of the same scene; raises if it holds another
+    scene; False if missing or unreadable (then it is made again)."""
+    if not task.path.exists():
+        return False
+    try:
+        with np.load(task.path, allow_pickle=False) as z:
+            text = bytes(z["scene.toml"]).decode()
+        scene = PackScene.from_toml_string(text)
+    except Exception:
+        # A file that is not a readable pack (written by something else, or damaged on
+        # disk) is replaced: granpack itself never leaves partial files.
+        return False
+    if scene != task.scene:
+        raise GranpackError(
+            f"{task.path} holds a pack of a different scene (seed={scene.seed}, "
+            f"stream={scene.stream}, ...) than this run asks for; use another output "
+            "folder or remove the file"
+        )
+    return True
+
+
+def run_tasks(
+    tasks: Sequence[PackTask],
+    *,
+    scheduler=None,
+    workers: int | None = None,
+    progress: bool | str | Callable[[dict], None] | Progress = "auto",
+) -> list[Path]:
+    """Makes every task's pack that is not on disk yet; returns all tasks' paths (in
+    task order). Parameters as in `run_ensemble`."""
+    tasks = list(tasks)
+    if workers is not None:
+        workers = as_int("workers", workers, 1)
+    prog = progress if isinstance(progress, Progress) else Progress(progress)
+    pending = []
+    for t in tasks:
+        if _existing(t):
+            prog.skip(t)
+        else:
+            pending.append(t)
+    # Largest packs first, so the last packs to finish are short ones (less idle time).
+    pending.sort(key=lambda t: -t.scene.estimated_particles())
+    prog.start(len(tasks), len(tasks) - len(pending))
+    try:
+        if not pending:
+            pass
+        elif scheduler is not None:
+            _run_dask(pending, scheduler, prog)
+        else:
+            cores = os.cpu_count() or 1
+            n_workers = min(workers or cores, len(pending))
+            if n_workers == 1:
+                _run_here(pending, prog)
+            else:
+                _run_pool(pending, n_workers, max(1, cores // n_workers), prog)
+    finally:
+        prog.close()
+    return [t.path for t in tasks]
+
+
+def _finish(task: PackTask, pack: Pack, prog: Progress) -> None:
+    pack.save(task.path)
+    prog.pack(task, pack)
+
+
+def _run_here(pending: list[PackTask], prog: Progress) -> None:
+    for t in pending:
+        pack = generate(t.scene, progress=lambda rep, t=t: prog.layer(t.label, t.scene.height, rep))
+        _finish(t, pack, prog)
+
+
+def _run_pool(pending: list[PackTask], n_workers: int, threads: int, prog: Progress) -> None:
+    ctx = mp.get_context("spawn")
+    layer_queue = ctx.Queue()
+    pool = cf.ProcessPoolExecutor(
+        max_workers=n_workers,
+        mp_context=ctx,
+        initializer=_init_worker,
+        initargs=(layer_queue, threads),
+    )
+    futures = {pool.submit(_build_in_worker, t.scene, t.label): t for t in pending}
+    by_label = {t.label: t for t in pending}
+    ok = False
+    try:
+        remaining = set(futures)
+        while remaining:
+            done, remaining = cf.wait(remaining, timeout=0.25, return_when=cf.FIRST_COMPLETED)
+            _drain(layer_queue, by_label, prog)
+            for f in done:
+                t = futures[f]
+                try:
+                    pack = f.result()
+                except cf.process.BrokenProcessPool:
+                    raise GranpackError(
+                        f"a worker process died while making {t.label} (out of memory?); "
+                        "finished packs are on disk, rerun to continue"
+                    ) from None
+                except GranpackError as exc:
+                    raise GranpackError(f"{t.label}: {exc}") from None
+                _finish(t, pack, prog)
+        ok = True
+    finally:
+        pool.shutdown(wait=ok, cancel_futures=True)
+        layer_queue.close()
+        layer_queue.cancel_join_thread()
+
+
+def _drain(layer_queue, by_label: dict, prog: Progress) -> None:
+    while True:
+        try:
+            label, rep = layer_queue.get_nowait()
+        except queue_mod.Empty:
+            return
+        t = by_label.get(label)
+        if t is not None:
+            prog.layer(label, t.scene.height, rep)
+
+
+def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise GranpackError(
+            "--scheduler needs dask.distributed: pip install 'granpack[dask]'"
+        ) from None
+    own = not isinstance(scheduler, Client)
+    if own:
+        try:
+            client = Client(scheduler, timeout="10s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise GranpackError(
+                f"cannot connect to the Dask scheduler {scheduler!r}: {exc}"
+            ) from None
+    else:
+        client = scheduler
+    futures = []
+    try:
+        by_key = {}
+        for t in pending:
+            f = client.submit(_build_plain, t.scene, pure=False)
+            futures.append(f)
+            by_key[f.key] = t
+        for f in as_completed(futures, loop=client.loop):
+            t = by_key[f.key]
+            try:
+                pack = f.result()
+            except GranpackError as exc:
+                raise GranpackError(f"{t.label}: {exc}") from None
+            _finish(t, pack, prog)
+            f.release()
+    finally:
+        if futures:
+            client.cancel([f for f in futures if not f.done()])
+        if own:
+            client.close()
