@@ -1,0 +1,442 @@
+"""Pictures of packs and of their microstructure (matplotlib, PNG).
+
+Figures are built on `matplotlib.figure.Figure` with the Agg canvas, never through
+pyplot: nothing opens a window, nothing touches global state, and the functions are safe
+in worker processes and tests. `save` writes a PNG atomically.
+
+* `pack_figure`: 2D packs as discs coloured by layer (the paper's figs. 2-5); 3D packs
+  as an orthographic rendered view (spheres drawn back to front, coloured by layer,
+  shaded by depth) beside a vertical mid-plane slice (figs. 6-9).
+* `packs_figure`: several packs of an ensemble in a grid.
+* `normals_figure`: contact-normal rose diagram (2D) with the fabric's second-order
+  approximation E(theta) = (1 + a^r_ij n_i n_j) / (2 pi); orientation density (3D) on an
+  equal-area (Lambert) projection of the upper hemisphere, 1 = isotropic.
+* `force_chain_figure`: contacts as lines whose width grows with the normal force (2D;
+  in 3D the contacts of a vertical slab at mid-depth).
+* `phi_histogram_figure`: histograms of phi over ensembles, with reference values
+  (e.g. the paper's) as markers.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib
+import matplotlib.ticker
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import EllipseCollection, LineCollection
+from matplotlib.figure import Figure
+
+from ._validate import GranpackError
+from .pack import atomic_write
+
+__all__ = [
+    "save",
+    "pack_figure",
+    "packs_figure",
+    "normals_figure",
+    "force_chain_figure",
+    "phi_histogram_figure",
+]
+
+#: Layer colours: a qualitative map, cycled, so that neighbouring layers differ.
+LAYER_CMAP = "tab10"
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def save(fig: Figure, path: str | Path, dpi: int = 150) -> Path:
+    """Writes `fig` as a PNG (atomically) and returns the path."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return atomic_write(path, buf.getvalue())
+
+
+def _layer_colors(layer: np.ndarray | None, n: int) -> np.ndarray:
+    cmap = matplotlib.colormaps[LAYER_CMAP]
+    if layer is None:
+        return np.tile(np.array(cmap(0)), (n, 1))
+    return cmap(np.asarray(layer) % cmap.N)
+
+
+def _parts(pack):
+    """(dim, positions, radii, layer or None, base, height) of a Pack or of an object
+    with the same attributes (layer may be missing)."""
+    x = np.asarray(pack.positions, dtype=np.float64)
+    r = np.asarray(pack.radii, dtype=np.float64)
+    dim = x.shape[1]
+    layer = getattr(pack, "layer", None)
+    scene = getattr(pack, "scene", None)
+    if scene is not None:
+        base = tuple(scene.base)
+    else:
+        base = tuple(float(np.max(x[:, k] + r)) for k in range(dim - 1))
+    height = getattr(pack, "height", None)
+    if height is None:
+        height = float(np.max(x[:, -1] + r)) if len(r) else 0.0
+    return dim, x, r, layer, base, float(height)
+
+
+def _walls(ax, width: float, height: float) -> None:
+    ax.plot([0, 0, width, width], [height, 0, 0, height], color="0.2", lw=1.0)
+
+
+def _discs(ax, centres: np.ndarray, radii: np.ndarray, colors, **kw) -> None:
+    ax.add_collection(
+        EllipseCollection(
+            2 * radii,
+            2 * radii,
+            np.zeros(len(radii)),
+            units="xy",
+            offsets=centres,
+            offset_transform=ax.transData,
+            facecolors=colors,
+            **kw,
+        )
+    )
+
+
+def _draw_2d(ax, x, r, layer, base, height) -> None:
+    _discs(ax, x, r, _layer_colors(layer, len(r)), edgecolors="0.15", linewidths=0.2)
+    _walls(ax, base[0], height)
+    ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
+    ax.set_ylim(-0.02 * height, 1.04 * height)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def _view_basis(azimuth_deg: float, elevation_deg: float):
+    """Orthonormal screen axes (right, up) and the viewing direction (towards the
+    viewer) for a camera at the given azimuth/elevation, z up."""
+    az, el = math.radians(azimuth_deg), math.radians(elevation_deg)
+    toward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    right = np.array([-math.sin(az), math.cos(az), 0.0])
+    up = np.cross(toward, right)
+    return right, up, toward
+
+
+def _draw_3d_view(ax, x, r, layer, base, height, azimuth=-60.0, elevation=22.0) -> None:
+    right, up, toward = _view_basis(azimuth, elevation)
+    u, v, depth = x @ right, x @ up, x @ toward
+    order = np.argsort(depth)  # far spheres first: the painter's algorithm hides them
+    colors = _layer_colors(layer, len(r))[order].copy()
+    # Depth cue: farther spheres darker (orthographic views otherwise look flat).
+    span = np.ptp(depth) if len(depth) else 1.0
+    shade = 0.55 + 0.45 * (depth[order] - depth.min()) / (span or 1.0)
+    colors[:, :3] *= shade[:, None]
+    _discs(ax, np.column_stack([u, v])[order], r[order], colors, edgecolors="0.1", linewidths=0.15)
+    # Box edges, for orientation.
+    b1, b2 = base
+    corners = np.array(
+        [[i * b1, j * b2, k * height] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+    )
+    edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+    cu, cv = corners @ right, corners @ up
+    ax.add_collection(
+        LineCollection(
+            [[(cu[a], cv[a]), (cu[b], cv[b])] for a, b in edges],
+            colors="0.4",
+            linewidths=0.6,
+            zorder=0,
+        )
+    )
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_axis_off()
+    ax.set_title(f"view (azimuth {azimuth:g}°, elevation {elevation:g}°)", fontsize=9)
+
+
+def _draw_3d_slice(ax, x, r, layer, base, height) -> None:
+    y0 = 0.5 * base[1]
+    d = np.abs(x[:, 1] - y0)
+    cut = d < r
+    rc = np.sqrt(r[cut] ** 2 - d[cut] ** 2)
+    colors = _layer_colors(None if layer is None else np.asarray(layer)[cut], int(cut.sum()))
+    _discs(ax, x[cut][:, [0, 2]], rc, colors, edgecolors="0.15", linewidths=0.2)
+    _walls(ax, base[0], height)
+    ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
+    ax.set_ylim(-0.02 * height, 1.04 * height)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+    ax.set_title(f"slice y = {y0:g} m", fontsize=9)
+
+
+def pack_figure(pack, title: str | None = None) -> Figure:
+    """The pack: discs coloured by layer (2D), or a rendered view and a vertical
+    mid-plane slice (3D). `pack` is a `Pack` or any object with ``positions``,
+    ``radii`` and optionally ``layer``, ``scene`` and ``height``."""
+    dim, x, r, layer, base, height = _parts(pack)
+    if dim == 2:
+        aspect = height / base[0] if base[0] > 0 else 1.0
+        fig = _figure(8.0, max(2.5, 8.0 * aspect + 0.8))
+        ax = fig.add_subplot()
+        _draw_2d(ax, x, r, layer, base, height)
+    else:
+        fig = _figure(12.0, 5.0)
+        ax1, ax2 = fig.subplots(1, 2, width_ratios=[1.1, 1.0])
+        _draw_3d_view(ax1, x, r, layer, base, height)
+        _draw_3d_slice(ax2, x, r, layer, base, height)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def packs_figure(packs: Sequence, title: str | None = None, labels: Sequence[str] = ()) -> Figure:
+    """Several packs side by side (2 columns; 3D packs as their mid-plane slices, which
+    show the structure best at this size)."""
+    packs = list(packs)
+    if not packs:
+        raise GranpackError("invalid packs: nothing to draw")
+    ncol = 2 if len(packs) > 1 else 1
+    nrow = math.ceil(len(packs) / ncol)
+    dim, _, _, _, base, height = _parts(packs[0])
+    aspect = height / base[0] if base[0] > 0 else 1.0
+    fig = _figure(5.0 * ncol, max(2.0, 5.0 * aspect + 0.6) * nrow + 0.5)
+    axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False)).ravel()
+    for k, ax in enumerate(axes):
+        if k >= len(packs):
+            ax.set_axis_off()
+            continue
+        d, x, r, layer, b, h = _parts(packs[k])
+        (_draw_2d if d == 2 else _draw_3d_slice)(ax, x, r, layer, b, h)
+        ax.set_title(labels[k] if k < len(labels) else f"pack {k + 1}", fontsize=9)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+# -- contact normals ---------------------------------------------------------------------------
+
+
+def _rose(ax, normals: np.ndarray, bins: int) -> None:
+    theta = np.arctan2(normals[:, 1], normals[:, 0])
+    # Every contact counts once with n and once with -n: the distribution is centrally
+    # symmetric by construction (the paper's 1/(2 N_c) sum over both particles).
+    theta = np.concatenate([theta, theta + np.pi]) % (2 * np.pi)
+    edges = np.linspace(0, 2 * np.pi, bins + 1)
+    counts, _ = np.histogram(theta, edges)
+    width = edges[1] - edges[0]
+    density = counts / (len(theta) * width) if len(theta) else counts * 0.0
+    ax.bar(
+        edges[:-1],
+        density,
+        width=width,
+        align="edge",
+        color="tab:blue",
+        alpha=0.6,
+        edgecolor="white",
+        linewidth=0.5,
+        label="contacts",
+    )
+    if len(normals):
+        fabric = normals.T @ normals / len(normals)
+        a = 4.0 * (fabric - np.eye(2) / 2)  # a^r = 4 R' in 2D
+        t = np.linspace(0, 2 * np.pi, 361)
+        n = np.column_stack([np.cos(t), np.sin(t)])
+        e = (1.0 + np.einsum("ki,ij,kj->k", n, a, n)) / (2 * np.pi)
+        ax.plot(t, e, color="tab:red", lw=1.5, label="1 + a^r:nn (fabric)")
+        ax.plot(
+            t, np.full_like(t, 1 / (2 * np.pi)), color="0.4", lw=0.8, ls="--", label="isotropic"
+        )
+    ax.set_title(f"contact normals (N_c = {len(normals)})", fontsize=9)
+    ax.legend(loc="lower left", bbox_to_anchor=(0.85, -0.1), fontsize=7, frameon=False)
+
+
+def _orientation_density(ax, fig, normals: np.ndarray, bins: int) -> None:
+    n = normals.copy()
+    n[n[:, 2] < 0] *= -1  # n and -n are the same orientation: fold onto z >= 0
+    # Lambert azimuthal equal-area projection about +z: the hemisphere maps onto the disc
+    # of radius sqrt(2) with area preserved, so counts per unit area are a density.
+    s = np.sqrt(2.0 / (1.0 + n[:, 2]))
+    px, py = s * n[:, 0], s * n[:, 1]
+    rmax = math.sqrt(2.0)
+    edges = np.linspace(-rmax, rmax, bins + 1)
+    counts, _, _ = np.histogram2d(px, py, [edges, edges])
+    cell = (edges[1] - edges[0]) ** 2
+    iso = len(n) * cell / (2 * np.pi) if len(n) else 1.0
+    density = counts / iso
+    c = 0.5 * (edges[1:] + edges[:-1])
+    cx, cy = np.meshgrid(c, c, indexing="ij")
+    # Cells cut by the rim hold less area of the disc; drop them rather than bias them.
+    density[
+        np.hypot(np.abs(cx) + 0.5 * (edges[1] - edges[0]), np.abs(cy) + 0.5 * (edges[1] - edges[0]))
+        > rmax
+    ] = np.nan
+    im = ax.imshow(
+        density.T,
+        origin="lower",
+        extent=(-rmax, rmax, -rmax, rmax),
+        cmap="viridis",
+        vmin=0.0,
+        vmax=max(2.0, float(np.nanmax(density)) if np.isfinite(density).any() else 2.0),
+    )
+    t = np.linspace(0, 2 * np.pi, 200)
+    ax.plot(rmax * np.cos(t), rmax * np.sin(t), color="k", lw=0.8)
+    for polar in (30, 60):  # circles of equal polar angle from the vertical
+        rr = 2 * math.sin(math.radians(polar) / 2)
+        ax.plot(rr * np.cos(t), rr * np.sin(t), color="w", lw=0.4, ls=":")
+    ax.text(rmax * 1.03, 0, "+x", va="center", fontsize=8)
+    ax.text(0, rmax * 1.03, "+y", ha="center", va="bottom", fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    ax.set_title(
+        f"contact-normal density, upper hemisphere, z (vertical) at centre\n"
+        f"equal-area projection; 1 = isotropic (N_c = {len(n)})",
+        fontsize=9,
+        pad=16,
+    )
+    fig.colorbar(im, ax=ax, shrink=0.8, label="orientation density / isotropic")
+
+
+def normals_figure(
+    normals: np.ndarray, title: str | None = None, bins: int | None = None
+) -> Figure:
+    """Contact-normal distribution of (M, D) unit normals: a rose diagram in 2D (36
+    bins by default), an equal-area orientation-density map in 3D (6 to 30 cells across, by
+    the number of normals)."""
+    normals = np.asarray(normals, dtype=np.float64)
+    if normals.ndim != 2 or normals.shape[1] not in (2, 3):
+        raise GranpackError(f"invalid normals: shape {normals.shape}, expected (M, 2) or (M, 3)")
+    if normals.shape[1] == 2:
+        fig = _figure(5.5, 5.0)
+        ax = fig.add_subplot(projection="polar")
+        _rose(ax, normals, bins or 36)
+    else:
+        fig = _figure(6.0, 5.2)
+        ax = fig.add_subplot()
+        # About 5 normals per cell on average, between 6 and 30 cells across.
+        auto = int(np.clip(np.sqrt(len(normals) / 5.0), 6, 30))
+        _orientation_density(ax, fig, normals, bins or auto)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+# -- forces -------------------------------------------------------------------------------------
+
+
+def force_chain_figure(pack, title: str | None = None, max_width: float = 3.0) -> Figure:
+    """Force chains: each contact a line from centre to centre (to the contact point for
+    walls), width proportional to its normal force (`max_width` points at the largest).
+    2D: all contacts; 3D: contacts of particles within one mean diameter of the
+    mid-plane y = B2/2, projected on x-z."""
+    dim, x, r, layer, base, height = _parts(pack)
+    c = pack.contacts
+    i = np.asarray(c.i, dtype=np.int64)
+    branch = np.asarray(c.branch, dtype=np.float64).reshape(len(c), dim)
+    fn = np.asarray(c.force_normal, dtype=np.float64)
+    start = x[i]
+    end = start + branch
+    axes2 = [0, 1]
+    keep = np.ones(len(c), dtype=bool)
+    if dim == 3:
+        y0 = 0.5 * base[1]
+        half = 2.0 * float(np.mean(r)) if len(r) else 0.0
+        keep = (np.abs(start[:, 1] - y0) < half) & (np.abs(end[:, 1] - y0) < half)
+        axes2 = [0, 2]
+    aspect = height / base[0] if base[0] > 0 else 1.0
+    fig = _figure(8.0, max(2.5, 8.0 * aspect + 0.8))
+    ax = fig.add_subplot()
+    if dim == 2:
+        _discs(ax, x, r, "none", edgecolors="0.75", linewidths=0.3)
+    else:
+        d = np.abs(x[:, 1] - 0.5 * base[1])
+        cut = d < r
+        _discs(
+            ax,
+            x[cut][:, [0, 2]],
+            np.sqrt(r[cut] ** 2 - d[cut] ** 2),
+            "none",
+            edgecolors="0.75",
+            linewidths=0.3,
+        )
+    fmax = float(fn[keep].max()) if keep.any() else 0.0
+    if fmax > 0:
+        segs = np.stack([start[keep][:, axes2], end[keep][:, axes2]], axis=1)
+        widths = max_width * fn[keep] / fmax
+        order = np.argsort(widths)  # strongest on top
+        ax.add_collection(
+            LineCollection(segs[order], linewidths=widths[order], colors="k", capstyle="round")
+        )
+    _walls(ax, base[0], height)
+    ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
+    ax.set_ylim(-0.02 * height, 1.04 * height)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)" if dim == 2 else "z (m)")
+    where = "" if dim == 2 else f", slab |y - {0.5 * base[1]:g}| < {2 * np.mean(r):.3g} m"
+    ax.set_title(f"normal contact forces (line width ∝ f_n, max {fmax:.3g} N{where})", fontsize=9)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+# -- ensembles ------------------------------------------------------------------------------------
+
+
+def phi_histogram_figure(
+    phis: Mapping[str, Sequence[float]],
+    reference: Mapping[str, Sequence[float]] | None = None,
+    title: str | None = None,
+    xlabel: str = "packing fraction phi",
+) -> Figure:
+    """Histograms of phi over ensembles (one per label, e.g. rotations ON / OFF), with
+    each ensemble's mean as a solid line and the `reference` values (e.g. the paper's
+    packs) as ticks and a dashed mean, in the same colour."""
+    fig = _figure(6.5, 4.0)
+    ax = fig.add_subplot()
+    data = {k: np.asarray(v, dtype=np.float64) for k, v in phis.items()}
+    ref = {k: np.asarray(v, dtype=np.float64) for k, v in (reference or {}).items()}
+    allv = np.concatenate([*data.values(), *ref.values()]) if data or ref else np.zeros(0)
+    allv = allv[np.isfinite(allv)]
+    if allv.size:
+        lo, hi = float(allv.min()), float(allv.max())
+        pad = max(0.002, 0.05 * (hi - lo))
+        edges = np.linspace(lo - pad, hi + pad, 21)
+    else:
+        edges = np.linspace(0, 1, 21)
+    colors = matplotlib.colormaps["tab10"]
+    for k, (label, v) in enumerate(data.items()):
+        col = colors(k)
+        v = v[np.isfinite(v)]
+        sd = f" ± {v.std(ddof=1):.4f}" if v.size > 1 else ""
+        ax.hist(
+            v,
+            bins=edges,
+            color=col,
+            alpha=0.45,
+            label=f"{label}: {v.mean():.4f}{sd} (n = {v.size})" if v.size else label,
+        )
+        if v.size:
+            ax.axvline(v.mean(), color=col, lw=1.5)
+        if label in ref and ref[label].size:
+            rv = ref[label][np.isfinite(ref[label])]
+            ax.plot(rv, np.full(rv.shape, -0.15), "|", color=col, ms=12, mew=1.5)
+            ax.axvline(
+                rv.mean(),
+                color=col,
+                lw=1.2,
+                ls="--",
+                label=f"{label}, paper: {rv.mean():.4f} (n = {rv.size})",
+            )
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("packs")
+    ax.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    if ref:
+        ax.set_ylim(bottom=-0.4)
+    ax.legend(fontsize=7)
+    if title:
+        ax.set_title(title)
+    return fig
