@@ -322,7 +322,12 @@ def _finish(task: PackTask, pack: Pack, prog: Progress) -> None:
 
 def _run_here(pending: list[PackTask], prog: Progress) -> None:
     for t in pending:
-        pack = generate(t.scene, progress=lambda rep, t=t: prog.layer(t.label, t.scene.height, rep))
+        try:
+            pack = generate(
+                t.scene, progress=lambda rep, t=t: prog.layer(t.label, t.scene.height, rep)
+            )
+        except GranpackError as exc:
+            raise GranpackError(f"{t.label}: {exc}") from None
         _finish(t, pack, prog)
 
 
@@ -357,9 +362,21 @@ def _run_pool(pending: list[PackTask], n_workers: int, threads: int, prog: Progr
                 _finish(t, pack, prog)
         ok = True
     finally:
-        pool.shutdown(wait=ok, cancel_futures=True)
+        if not ok:
+            # A failed or interrupted run stops the packs in progress at once instead of
+            # waiting for them (minutes for a 3D pack); the finished ones are on disk.
+            _terminate_workers(pool)
+        pool.shutdown(wait=True, cancel_futures=True)
         layer_queue.close()
         layer_queue.cancel_join_thread()
+
+
+def _terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
+    if hasattr(pool, "terminate_workers"):  # Python >= 3.14
+        pool.terminate_workers()
+        return
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        proc.terminate()
 
 
 def _drain(layer_queue, by_label: dict, prog: Progress) -> None:

@@ -1,0 +1,743 @@
+"""The ``granpack`` command.
+
+::
+
+    granpack paper --quick                 # the paper's section 4, 2 packs per case
+    granpack paper --out DIR [--packs 10]  # the full reproduction
+    granpack generate 4.3 --packs 10 --seed 1 --rotations off --out DIR
+    granpack generate my_scene.toml --out DIR
+    granpack analyze DIR/packs/pack_000.npz          # or an "x y (z) r" text file
+    granpack export DIR/packs/pack_000.npz --format vtk   # vtk | lammps | csv | parquet
+
+Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``, on a
+Dask cluster; the results are the same for the same master seed. Every finished pack is
+on disk at once, and running the same command again skips what is there.
+
+Bad input gives one line on stderr and exit status 2; an interrupted run exits with 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import re
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import GranpackError
+
+__all__ = ["main", "build_parser"]
+
+#: The paper's examples and their figure numbers (rotations ON, OFF).
+PAPER_EXAMPLES = {"4.1": (2, 3), "4.2": (4, 5), "4.3": (6, 7), "4.4": (8, 9)}
+PAPER_PACKS = 10
+QUICK_PACKS = 2
+
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error as one line (no usage dump, no traceback)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+class _Console:
+    """Where the command talks: results to stdout, progress to stderr; --quiet keeps
+    only errors."""
+
+    def __init__(self, quiet: bool) -> None:
+        self.quiet = quiet
+        self._notes: dict[str, list[tuple[str, str]]] = {}
+
+    def say(self, text: str) -> None:
+        if not self.quiet:
+            print(text, flush=True)
+
+    def progress_mode(self) -> str | bool:
+        return False if self.quiet else "auto"
+
+    def note(self, message: str, where: str) -> None:
+        """Collects a note about `where` (e.g. a pack); `flush_notes` prints each kind
+        of note once (the first message in full), with the places it applies to."""
+        kind = re.sub(r"\(.*?\)", "", message)  # details (numbers) differ between packs
+        self._notes.setdefault(kind, []).append((message, where))
+
+    def flush_notes(self) -> None:
+        for items in self._notes.values():
+            if self.quiet:
+                continue
+            message, where = items[0]
+            more = f" and {len(items) - 1} more" if len(items) > 1 else ""
+            print(f"granpack: note: {message} ({where}{more})", file=sys.stderr, flush=True)
+        self._notes.clear()
+
+
+# -- arguments ---------------------------------------------------------------------------------
+
+
+def _on_off(value: str) -> bool:
+    v = value.lower()
+    if v in ("on", "true", "yes", "1"):
+        return True
+    if v in ("off", "false", "no", "0"):
+        return False
+    raise argparse.ArgumentTypeError(f"invalid value {value!r}: use on or off")
+
+
+def _positive_int(value: str) -> int:
+    try:
+        v = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid value {value!r}: expected an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"invalid value {v}: must be >= 1")
+    return v
+
+
+def _seed(value: str) -> int:
+    try:
+        v = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid seed {value!r}: expected an integer") from None
+    if not 0 <= v < 2**64:
+        raise argparse.ArgumentTypeError(f"invalid seed {v}: must lie in [0, 2^64 - 1]")
+    return v
+
+
+def _positive_float(value: str) -> float:
+    try:
+        v = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid value {value!r}: expected a number") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"invalid value {value!r}: must be > 0")
+    return v
+
+
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help="local worker processes (default: one per core)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="run the packs on this Dask distributed scheduler (e.g. tcp://host:8786) "
+        "instead of local processes; needs granpack[dask]",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    # Development and test knobs (not the paper's physics): hidden from --help.
+    p.add_argument("--settle-time", type=_positive_float, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--scale", type=_positive_float, default=None, help=argparse.SUPPRESS)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``granpack`` command."""
+    from . import __version__
+
+    parser = _Parser(
+        prog="granpack",
+        description="Dense random packs of discs and spheres, layer by layer (RSA + DEM "
+        "jamming), and their microstructure.",
+        epilog="Start with: granpack paper --quick",
+    )
+    parser.add_argument("--version", action="version", version=f"granpack {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    g = sub.add_parser(
+        "generate",
+        help="make an ensemble of packs of a scene, with microstructure, tables, pictures",
+        description="Makes N packs of a scene (a preset 4.1-4.4 or a TOML file) and writes "
+        "each pack (packs/), its microstructure (micro/), the ensemble tables (tables/), "
+        "the pictures (figures/) and report.md under --out.",
+    )
+    g.add_argument("scene", metavar="SCENE", help="preset name (4.1, 4.2, 4.3, 4.4) or TOML file")
+    g.add_argument("--packs", type=_positive_int, default=1, help="ensemble size (default 1)")
+    g.add_argument("--seed", type=_seed, default=None, help="master seed (default: the scene's, 0)")
+    g.add_argument(
+        "--rotations",
+        type=_on_off,
+        default=None,
+        metavar="on|off",
+        help="integrate spins during jamming (default: the scene's, on)",
+    )
+    g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
+    g.add_argument("--no-figures", action="store_true", help="skip the pictures")
+    _add_run_options(g)
+
+    pp = sub.add_parser(
+        "paper",
+        help="reproduce the paper's section 4 (examples 4.1-4.4, rotations on and off)",
+        description="Runs the paper's examples 4.1-4.4 with rotations ON and OFF, n packs "
+        "each, and writes tables 2-13 with the paper's numbers beside ours, the extra "
+        "microstructure tables, the figures, and report.md under --out.",
+    )
+    pp.add_argument(
+        "--out",
+        type=Path,
+        default=Path("granpack-paper"),
+        help="output folder (default: granpack-paper)",
+    )
+    pp.add_argument(
+        "--packs",
+        type=_positive_int,
+        default=None,
+        help=f"packs per case (default {PAPER_PACKS}, as in the paper; {QUICK_PACKS} with --quick)",
+    )
+    pp.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"{QUICK_PACKS} packs per case (same physics), to finish in minutes",
+    )
+    pp.add_argument(
+        "--examples",
+        nargs="+",
+        choices=sorted(PAPER_EXAMPLES),
+        default=sorted(PAPER_EXAMPLES),
+        metavar="EX",
+        help="examples to run (default: all of 4.1 4.2 4.3 4.4)",
+    )
+    pp.add_argument("--seed", type=_seed, default=0, help="master seed (default 0)")
+    _add_run_options(pp)
+
+    a = sub.add_parser(
+        "analyze",
+        help="microstructure of a saved pack or of an 'x y (z) r' text file",
+        description="Prints the microstructure of a granpack pack (.npz), a LAMMPS data "
+        "file (atom_style sphere, .data) or a plain text file with columns x y r (2D) or "
+        "x y z r (3D) from another code (lines starting with # are comments).",
+    )
+    a.add_argument("file", type=Path, metavar="FILE")
+    a.add_argument("--dim", type=int, choices=(2, 3), default=None, help="dimension of a text file")
+    a.add_argument(
+        "--box",
+        type=float,
+        nargs="+",
+        metavar="V",
+        default=None,
+        help="box of a text file: XLO XHI YLO YHI (2D) or XLO XHI YLO YHI ZLO ZHI (3D); "
+        "default: the particles' bounding box",
+    )
+    a.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    a.add_argument("--figures", type=Path, default=None, metavar="DIR", help="also draw pictures")
+    a.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+    e = sub.add_parser(
+        "export",
+        help="write a pack for ParaView (vtk), LAMMPS/LIGGGHTS (lammps), csv or parquet",
+        description="Writes a saved pack as a VTK XML unstructured grid (.vtu: particles "
+        "with radius, layer, velocity, spin, contact count; contacts as lines with their "
+        "forces), a LAMMPS data file for atom_style sphere (read_data), or CSV/Parquet "
+        "tables of particles and contacts.",
+    )
+    e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
+    e.add_argument(
+        "--format",
+        choices=("vtk", "lammps", "csv", "parquet"),
+        default=None,
+        help="output format (default: from the suffix of --out)",
+    )
+    e.add_argument("--out", type=Path, default=None, help="output file (default: beside PACK)")
+    e.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    return parser
+
+
+# -- shared pieces -------------------------------------------------------------------------------
+
+
+def _microstructure_module():
+    # `granpack.microstructure` is also the name of the function exported by the
+    # package, so the module is fetched from the import system, not as an attribute.
+    return importlib.import_module("granpack.microstructure")
+
+
+def _scene_from_arg(text: str):
+    from .scene import PRESETS, PackScene
+
+    if text in PRESETS:
+        return PackScene.preset(text), text
+    path = Path(text)
+    if path.suffix.lower() == ".toml" or path.exists():
+        return PackScene.from_toml(path), path.stem
+    raise GranpackError(
+        f"unknown scene {text!r}: give a preset ({', '.join(sorted(PRESETS))}) or a TOML file"
+    )
+
+
+def _dev_changes(scene, args) -> dict:
+    """Scene changes from the hidden development options (--scale, --settle-time)."""
+    changes = {}
+    if args.settle_time is not None:
+        changes["settle_time"] = args.settle_time
+    if args.scale is not None:
+        changes["base"] = tuple(b * args.scale for b in scene.base)
+        changes["height"] = scene.height * args.scale
+    return changes
+
+
+def _fresh(target: Path, source: Path) -> bool:
+    """True if `target` exists and is not older than `source` (work to skip on rerun)."""
+    return target.exists() and target.stat().st_mtime >= source.stat().st_mtime
+
+
+def _micro_record(pack, m, k: int) -> dict:
+    """The per-pack record written to micro/pack_k.json: identity, size, and the
+    microstructure's scalars."""
+    rec = {
+        "pack": k,
+        "seed": pack.scene.seed,
+        "stream": pack.scene.stream,
+        "rotations": pack.scene.rotations,
+        "n_particles": len(pack),
+        "n_layers": pack.n_layers,
+        "height": pack.height,
+        "wall_time": pack.wall_time,
+    }
+    rec.update(_jsonable(m.to_dict()))
+    return rec
+
+
+def _jsonable(d: dict) -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, np.generic):
+            v = v.item()
+        elif isinstance(v, np.ndarray):
+            v = v.tolist()
+        out[k] = v
+    return out
+
+
+def _microstructure(console: _Console, label: str, *args, **kwargs):
+    """granpack.microstructure(...), with its MicrostructureWarnings (an undefined
+    quantity, e.g. an empty core window in a small pack) turned into notes that the
+    console prints once per message, instead of warnings with a source line."""
+    ms = _microstructure_module()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ms.MicrostructureWarning)
+        m = ms.microstructure(*args, **kwargs)
+    for w in caught:
+        if issubclass(w.category, ms.MicrostructureWarning):
+            console.note(str(w.message), label)
+        else:
+            warnings.warn(w.message, w.category, stacklevel=2)
+    return m
+
+
+def _analyze_packs(paths: Sequence[Path], micro_dir: Path, console: _Console) -> list:
+    """Loads each pack, computes its microstructure and writes micro/pack_k.json.
+    Returns [(pack, microstructure, record)] in order."""
+    from .pack import atomic_write, load_pack
+
+    out = []
+    for k, path in enumerate(paths):
+        pack = load_pack(path)
+        m = _microstructure(console, f"{path.parent.name}/{path.stem}", pack)
+        rec = _micro_record(pack, m, k)
+        target = micro_dir / (path.stem + ".json")
+        atomic_write(target, (json.dumps(rec, indent=1) + "\n").encode())
+        out.append((pack, m, rec))
+    console.flush_notes()
+    return out
+
+
+def _pack_figures(pack, path: Path, fig_dir: Path, label: str) -> list[Path]:
+    """pack_k.png, normals_k.png, forces_k.png for one pack (skipped when newer than
+    the pack file)."""
+    from . import plot
+
+    stem = path.stem
+    made = []
+    jobs = [
+        (fig_dir / f"{stem}.png", lambda: plot.pack_figure(pack, title=label)),
+        (
+            fig_dir / f"{stem}_normals.png",
+            lambda: plot.normals_figure(pack.contacts.particle_pairs().normal, title=label),
+        ),
+        (fig_dir / f"{stem}_forces.png", lambda: plot.force_chain_figure(pack, title=label)),
+    ]
+    for target, build in jobs:
+        if not _fresh(target, path):
+            plot.save(build(), target)
+        made.append(target)
+    return made
+
+
+# -- generate ------------------------------------------------------------------------------------
+
+
+def cmd_generate(args, console: _Console) -> int:
+    from . import plot, report
+    from .ensemble import ensemble_tasks, run_tasks
+    from .pack import atomic_write
+
+    tables = importlib.import_module("granpack.tables")
+    scene, name = _scene_from_arg(args.scene)
+    if args.rotations is not None:
+        scene = scene.replace(rotations=args.rotations)
+    dev = _dev_changes(scene, args)
+    if dev:
+        scene = scene.replace(**dev)
+    seed = scene.seed if args.seed is None else args.seed
+    scene = scene.replace(seed=seed, stream=0)
+    out = args.out if args.out is not None else Path(f"granpack-{name}")
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write(out / "scene.toml", scene.to_toml().encode())
+
+    t0 = time.perf_counter()
+    tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
+    console.say(f"granpack generate: {args.packs} pack(s) of {name} -> {out}")
+    paths = run_tasks(
+        tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
+    )
+    results = _analyze_packs(paths, out / "micro", console)
+    ms = [m for _, m, _ in results]
+    records = [rec for _, _, rec in results]
+
+    df = tables.ensemble_table(ms)
+    numeric = [c for c, t in zip(df.columns, df.dtypes, strict=True) if t.is_numeric()]
+    summary = tables.summary(df, [c for c in numeric if c != "pack"])
+    table_files = tables.write_tables({"ensemble": df, "summary": summary}, out / "tables")
+
+    figures: list[Path] = []
+    if not args.no_figures:
+        fig_dir = out / "figures"
+        for (pack, _, _), path in zip(results, paths, strict=True):
+            label = f"{name}, rotations {'ON' if scene.rotations else 'OFF'}, {path.stem}"
+            figures += _pack_figures(pack, path, fig_dir, label)
+        phis = [rec["phi"] for rec in records]
+        figures.append(
+            plot.save(
+                plot.phi_histogram_figure(
+                    {f"rotations {'ON' if scene.rotations else 'OFF'}": phis},
+                    title=f"{name}: phi over {len(phis)} pack(s)",
+                ),
+                fig_dir / "phi_histogram.png",
+            )
+        )
+    rep = report.ensemble_report(
+        out,
+        scene_name=name,
+        scene=scene,
+        records=records,
+        table_files=table_files,
+        figures=figures,
+        wall_time=time.perf_counter() - t0,
+        dev_changes=dev,
+    )
+    phi = np.array([rec["phi"] for rec in records])
+    sd = f" ± {phi.std(ddof=1):.4f}" if phi.size > 1 else ""
+    console.say(f"phi = {phi.mean():.4f}{sd} over {phi.size} pack(s)")
+    console.say(f"report: {rep}")
+    return 0
+
+
+# -- paper ---------------------------------------------------------------------------------------
+
+
+def _case_dir(example: str, rotations: bool) -> str:
+    return f"{example}-{'on' if rotations else 'off'}"
+
+
+def cmd_paper(args, console: _Console) -> int:
+    from . import plot, report
+    from .ensemble import ensemble_tasks, run_tasks
+    from .scene import PackScene
+
+    tables = importlib.import_module("granpack.tables")
+    n_packs = args.packs if args.packs is not None else (QUICK_PACKS if args.quick else PAPER_PACKS)
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    examples = sorted(set(args.examples), key=list(PAPER_EXAMPLES).index)
+    cases = [(ex, rot) for ex in examples for rot in (True, False)]
+
+    scenes = {}
+    dev: dict = {}
+    for ex, rot in cases:
+        base = PackScene.preset(ex).replace(rotations=rot, seed=args.seed, stream=0)
+        dev = _dev_changes(base, args)
+        scenes[ex, rot] = base.replace(**dev) if dev else base
+    tasks = []
+    for (ex, rot), scene in scenes.items():
+        label = f"{ex} {'ON' if rot else 'OFF'}"
+        tasks += ensemble_tasks(
+            scene, n_packs, out / "packs" / _case_dir(ex, rot), args.seed, label
+        )
+
+    t0 = time.perf_counter()
+    console.say(
+        f"granpack paper: examples {' '.join(examples)}, rotations ON and OFF, "
+        f"{n_packs} pack(s) each ({len(tasks)} packs) -> {out}"
+        + (" [quick: fewer packs than the paper's 10, same physics]" if args.quick else "")
+    )
+    run_tasks(
+        tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
+    )
+    t_packs = time.perf_counter() - t0
+
+    console.say("microstructure, tables and figures ...")
+    by_case: dict = {}
+    records: dict = {}
+    figures: dict = {}
+    fig_dir = out / "figures"
+    for ex, rot in cases:
+        case_tasks = [t for t in tasks if t.path.parent.name == _case_dir(ex, rot)]
+        paths = [t.path for t in case_tasks]
+        results = _analyze_packs(paths, out / "micro" / _case_dir(ex, rot), console)
+        by_case[ex, rot] = [m for _, m, _ in results]
+        records[ex, rot] = [rec for _, _, rec in results]
+        packs = [p for p, _, _ in results]
+        fig_no = PAPER_EXAMPLES[ex][0 if rot else 1]
+        onoff = "ON" if rot else "OFF"
+        name = f"fig{fig_no}_{ex}_{onoff.lower()}"
+        f = {}
+        f["packs"] = plot.save(
+            plot.packs_figure(
+                packs,
+                title=f"Fig. {fig_no}: example {ex}, rotations {onoff} ({len(packs)} packs)",
+                labels=[f"pack {k + 1}: phi = {p.phi:.3f}" for k, p in enumerate(packs)],
+            ),
+            fig_dir / f"{name}_packs.png",
+        )
+        if packs[0].dim == 3:
+            f["view"] = plot.save(
+                plot.pack_figure(packs[0], title=f"example {ex}, rotations {onoff}, pack 1"),
+                fig_dir / f"{name}_pack1_view.png",
+            )
+        normals = np.concatenate([p.contacts.particle_pairs().normal for p in packs])
+        f["normals"] = plot.save(
+            plot.normals_figure(
+                normals, title=f"example {ex}, rotations {onoff}: all {len(packs)} packs"
+            ),
+            fig_dir / f"{name}_normals.png",
+        )
+        f["forces"] = plot.save(
+            plot.force_chain_figure(packs[0], title=f"example {ex}, rotations {onoff}, pack 1"),
+            fig_dir / f"{name}_forces.png",
+        )
+        figures[ex, rot] = f
+
+    paper = tables.paper_tables(by_case)
+    table_files = tables.write_tables(paper, out / "tables")
+
+    ref_phi = paper_phi()
+    for ex in examples:
+        ours = {
+            f"rotations {'ON' if rot else 'OFF'}": [r["phi"] for r in records[ex, rot]]
+            for rot in (True, False)
+        }
+        ref = {
+            f"rotations {'ON' if rot else 'OFF'}": ref_phi[ex, rot]
+            for rot in (True, False)
+            if (ex, rot) in ref_phi
+        }
+        figures[ex, "phi"] = plot.save(
+            plot.phi_histogram_figure(ours, ref, title=f"example {ex}: phi, ours vs the paper"),
+            fig_dir / f"phi_{ex}.png",
+        )
+
+    rep = report.paper_report(
+        out,
+        examples=examples,
+        n_packs=n_packs,
+        quick=args.quick,
+        records=records,
+        paper_phi=ref_phi,
+        table_files=table_files,
+        figures=figures,
+        wall_time=time.perf_counter() - t0,
+        pack_time=t_packs,
+        dev_changes=dev,
+        seed=args.seed,
+    )
+    console.say(f"report: {rep}")
+    return 0
+
+
+def paper_phi() -> dict[tuple[str, bool], list[float]]:
+    """The paper's per-pack phi {(example, rotations): [10 values]} (its tables 2, 5, 8
+    and 11, from `granpack.tables.paper_values`)."""
+    import polars as pl
+
+    tables = importlib.import_module("granpack.tables")
+    out: dict[tuple[str, bool], list[float]] = {}
+    for ex, (number, _, _) in tables.PRESET_TABLES.items():
+        df = tables.paper_values(number).filter(~pl.col("pack").is_in(list(tables.STAT_LABELS)))
+        for rot in (True, False):
+            out[ex, rot] = [float(v) for v in df[f"rotations {'ON' if rot else 'OFF'}"]]
+    return out
+
+
+# -- analyze -------------------------------------------------------------------------------------
+
+
+def _load_for_analysis(args):
+    """(pack or None, microstructure kwargs) for a pack file, a LAMMPS data file or an
+    x y (z) r text file."""
+    from .export import read_lammps_data
+    from .pack import load_pack
+
+    path: Path = args.file
+    if not path.exists():
+        raise GranpackError(f"cannot read {path}: no such file")
+    if path.suffix == ".npz":
+        return load_pack(path), {}
+    box = None
+    if path.suffix in (".data", ".lmp"):
+        d = read_lammps_data(path)
+        dim = args.dim or (2 if np.all(d["positions"][:, 2] == 0) else 3)
+        positions = d["positions"][:, :dim]
+        radii = d["diameter"] / 2
+        lo, hi = d["box"]
+        box = (lo[:dim], hi[:dim])
+    else:
+        ms = _microstructure_module()
+        positions, radii, dim = ms.read_xyzr(path, dim=args.dim)
+    if args.box is not None:
+        if len(args.box) != 2 * dim:
+            raise GranpackError(
+                f"invalid --box: {len(args.box)} values, expected {2 * dim} "
+                f"(lo hi for each of the {dim} axes)"
+            )
+        v = np.asarray(args.box, dtype=np.float64)
+        box = (v[0::2], v[1::2])
+        if np.any(box[1] <= box[0]):
+            raise GranpackError("invalid --box: every axis needs lo < hi")
+    kwargs = {"positions": positions, "radii": radii}
+    if box is not None:
+        kwargs["box"] = box
+    return None, kwargs
+
+
+def _format_value(v) -> str:
+    if isinstance(v, bool) or v is None:
+        return str(v)
+    if isinstance(v, int | np.integer):
+        return str(int(v))
+    if isinstance(v, float | np.floating):
+        return f"{float(v):.6g}"
+    return str(v)
+
+
+def cmd_analyze(args, console: _Console) -> int:
+    pack, kwargs = _load_for_analysis(args)
+    if pack is not None:
+        m = _microstructure(console, args.file.name, pack)
+    else:
+        m = _microstructure(console, args.file.name, **kwargs)
+    console.flush_notes()
+    d = _jsonable(m.to_dict())
+    n = len(pack) if pack is not None else len(kwargs["radii"])
+    d = {"file": str(args.file), "n_particles": n, **d}
+    if args.json:
+        print(json.dumps(d, indent=1))
+    elif not args.quiet:
+        width = max(len(k) for k in d)
+        for k, v in d.items():
+            print(f"{k:<{width}}  {_format_value(v)}")
+    if args.figures is not None:
+        from types import SimpleNamespace
+
+        from . import plot
+
+        subject = pack
+        if subject is None:
+            subject = SimpleNamespace(positions=kwargs["positions"], radii=kwargs["radii"])
+        made = [
+            plot.save(
+                plot.pack_figure(subject, title=args.file.name),
+                args.figures / f"{args.file.stem}.png",
+            )
+        ]
+        contacts = pack.contacts if pack is not None else getattr(m, "contacts", None)
+        if contacts is not None and len(contacts):
+            made.append(
+                plot.save(
+                    plot.normals_figure(contacts.particle_pairs().normal, title=args.file.name),
+                    args.figures / f"{args.file.stem}_normals.png",
+                )
+            )
+            if pack is not None:
+                made.append(
+                    plot.save(
+                        plot.force_chain_figure(pack, title=args.file.name),
+                        args.figures / f"{args.file.stem}_forces.png",
+                    )
+                )
+        if not args.json:
+            console.say("figures: " + ", ".join(str(p) for p in made))
+    return 0
+
+
+# -- export --------------------------------------------------------------------------------------
+
+
+def cmd_export(args, console: _Console) -> int:
+    from .export import FORMATS, export
+    from .pack import load_pack
+
+    fmt = args.format
+    if fmt is None and args.out is None:
+        raise GranpackError("give --format (vtk, lammps, csv, parquet) or an --out file name")
+    pack = load_pack(args.pack)
+    out = args.out
+    if out is None:
+        out = args.pack.with_suffix(FORMATS[fmt])
+    files = export(pack, out, fmt)
+    for f in files:
+        console.say(str(f))
+    return 0
+
+
+# -- entry point ---------------------------------------------------------------------------------
+
+_COMMANDS = {
+    "generate": cmd_generate,
+    "paper": cmd_paper,
+    "analyze": cmd_analyze,
+    "export": cmd_export,
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs the ``granpack`` command with `argv` (default: ``sys.argv[1:]``); returns the
+    exit status (0 ok, 1 failure, 2 bad input, 130 interrupted)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    console = _Console(getattr(args, "quiet", False))
+    try:
+        return _COMMANDS[args.command](args, console)
+    except GranpackError as exc:
+        print(f"granpack {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        where = getattr(args, "out", None)
+        hint = f" in {where}" if where else ""
+        print(
+            f"granpack {args.command}: interrupted; finished packs are on disk{hint}; "
+            "run the same command again to continue",
+            file=sys.stderr,
+        )
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        target = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"granpack {args.command}: error:{target} {exc.strerror or exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # python -m granpack.cli
+    sys.exit(main())

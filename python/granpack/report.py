@@ -1,0 +1,277 @@
+"""``report.md``: one page that says what was run and links the tables and figures.
+
+`paper_report` is written by ``granpack paper`` (the paper's section 4 beside ours),
+`ensemble_report` by ``granpack generate``. Links are relative to the report, so the
+output folder can be moved or published as it is.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .pack import atomic_write
+
+__all__ = ["paper_report", "ensemble_report"]
+
+_TABLE_TOPICS = {
+    # table number -> (example, what)
+    2: ("4.1", "packing densities phi, rotations ON and OFF"),
+    3: ("4.1", "void ratio e and empirical Z(e), rotations ON"),
+    4: ("4.1", "void ratio e and empirical Z(e), rotations OFF"),
+    5: ("4.2", "packing densities phi, rotations ON and OFF"),
+    6: ("4.2", "void ratio e and empirical Z(e), rotations ON"),
+    7: ("4.2", "void ratio e and empirical Z(e), rotations OFF"),
+    8: ("4.3", "packing densities phi, rotations ON and OFF"),
+    9: ("4.3", "void ratio e and empirical Z(e), rotations ON"),
+    10: ("4.3", "void ratio e and empirical Z(e), rotations OFF"),
+    11: ("4.4", "packing densities phi, rotations ON and OFF"),
+    12: ("4.4", "void ratio e and empirical Z(e), rotations ON"),
+    13: ("4.4", "void ratio e and empirical Z(e), rotations OFF"),
+}
+
+
+def _rel(path: Path, base: Path) -> str:
+    return Path(os.path.relpath(Path(path).resolve(), Path(base).resolve())).as_posix()
+
+
+def _mean_sd(values: Sequence[float], digits: int = 3) -> str:
+    v = np.asarray([x for x in values if x is not None], dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return "n/a"
+    if v.size == 1:
+        return f"{v[0]:.{digits}f}"
+    return f"{v.mean():.{digits}f} ± {v.std(ddof=1):.{digits}f}"
+
+
+def _col(records: Sequence[Mapping], key: str) -> list[float]:
+    return [float(r[key]) if r.get(key) is not None else float("nan") for r in records]
+
+
+def _grouped_links(files: Sequence[Path], base: Path) -> dict[str, list[tuple[str, str]]]:
+    """{stem: [(suffix, relative link)]} for files that share a stem (x.md, x.csv)."""
+    groups: dict[str, list[tuple[str, str]]] = {}
+    for f in files:
+        f = Path(f)
+        groups.setdefault(f.stem, []).append((f.suffix.lstrip("."), _rel(f, base)))
+    for v in groups.values():
+        v.sort(key=lambda s: (s[0] != "md", s[0]))
+    return groups
+
+
+def _table_sort_key(stem: str):
+    m = re.fullmatch(r"table(\d+)", stem)
+    return (0, int(m.group(1)), "") if m else (1, 0, stem)
+
+
+def _environment_line(wall_time: float) -> str:
+    from . import __version__
+
+    when = _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
+    return (
+        f"granpack {__version__}, {when}, {platform.node() or 'this machine'} "
+        f"({os.cpu_count()} cores), wall time {_duration(wall_time)}"
+    )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _dev_banner(dev_changes: Mapping) -> list[str]:
+    if not dev_changes:
+        return []
+    parts = ", ".join(f"{k} = {v}" for k, v in dev_changes.items())
+    return [
+        f"> **Development run, not the paper's scenes:** {parts}. "
+        "Do not compare these numbers with the paper.",
+        "",
+    ]
+
+
+def paper_report(
+    out_dir: str | Path,
+    *,
+    examples: Sequence[str],
+    n_packs: int,
+    quick: bool,
+    records: Mapping[tuple[str, bool], Sequence[Mapping]],
+    paper_phi: Mapping[tuple[str, bool], Sequence[float]],
+    table_files: Sequence[Path],
+    figures: Mapping,
+    wall_time: float,
+    pack_time: float,
+    dev_changes: Mapping | None = None,
+    seed: int = 0,
+) -> Path:
+    """Writes ``out_dir/report.md`` for ``granpack paper`` and returns its path.
+
+    Parameters
+    ----------
+    examples : the examples run ("4.1" ...).
+    n_packs : packs per case.
+    quick : True for ``--quick`` (the report says that fewer packs were run).
+    records : per case (example, rotations), one dict per pack with at least ``phi``,
+        ``n_particles`` and, when known, ``z``, ``z_mech``, ``wall_time``.
+    paper_phi : the paper's per-pack phi per case (may be empty).
+    table_files : files written by ``tables.write_tables`` (CSV and Markdown).
+    figures : {(example, rotations): {"packs"|"normals"|"forces"|"view": path},
+        (example, "phi"): path}.
+    wall_time, pack_time : seconds for everything and for the packs.
+    dev_changes : scene changes from development options (flagged loudly).
+    """
+    out = Path(out_dir)
+    lines = ["# granpack: the paper's section 4, reproduced", ""]
+    cmd = f"granpack paper --out {out}" + (" --quick" if quick else "")
+    if not quick and n_packs != 10:
+        cmd += f" --packs {n_packs}"
+    if quick:
+        lines += [
+            f"> **Quick run:** {n_packs} packs per case instead of the paper's 10. The "
+            "scenes and physics constants are the paper's (dt = 1e-4 s, 1.0 s of jamming "
+            "per layer, E = 1e8 Pa, nu = 0.25, xi = 0.1, mu = 0.2, g = 2 m/s², "
+            "c_D = 0.005 N s/m); means are indicative and standard deviations from "
+            f"{n_packs} packs are rough. `granpack paper --out {out}` runs the full "
+            "reproduction and reuses the packs made here.",
+            "",
+        ]
+    lines += _dev_banner(dev_changes or {})
+    lines += [
+        f"`{cmd}`: examples {', '.join(examples)}, rotations ON and OFF, {n_packs} "
+        f"pack(s) each, master seed {seed} (pack k uses random stream k). "
+        f"{_environment_line(wall_time)}; packs {_duration(pack_time)}.",
+        "",
+        "## Summary: ours beside the paper",
+        "",
+        "| example | rotations | packs | N (mean) | phi, ours | phi, paper | Z = 2N_c/N_p "
+        "| Z_m (no rattlers) | figures |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for ex in examples:
+        for rot in (True, False):
+            recs = records.get((ex, rot), [])
+            figs = figures.get((ex, rot), {})
+            links = " · ".join(f"[{name}]({_rel(p, out)})" for name, p in figs.items())
+            n_mean = np.mean(_col(recs, "n_particles")) if recs else float("nan")
+            paper = paper_phi.get((ex, rot))
+            lines.append(
+                f"| {ex} | {'ON' if rot else 'OFF'} | {len(recs)} | {n_mean:.0f} "
+                f"| {_mean_sd(_col(recs, 'phi'))} | {_mean_sd(paper) if paper else 'n/a'} "
+                f"| {_mean_sd(_col(recs, 'z'), 2)} | {_mean_sd(_col(recs, 'z_mech'), 2)} "
+                f"| {links} |"
+            )
+    lines += [
+        "",
+        "Mean ± sample standard deviation (ddof = 1, as the paper's tables) over the packs. "
+        "phi = solid volume / (base × H_top), H_top = max(z + r). The paper gives no "
+        "contact counts, only the empirical Z(e) of its eqs. 16-19 (in tables 3-13).",
+        "",
+        "## Tables",
+        "",
+    ]
+    groups = _grouped_links(table_files, out)
+    for stem in sorted(groups, key=_table_sort_key):
+        m = re.fullmatch(r"table(\d+)", stem)
+        if m and int(m.group(1)) in _TABLE_TOPICS:
+            ex, what = _TABLE_TOPICS[int(m.group(1))]
+            title = f"Table {m.group(1)} (example {ex}): {what}"
+        else:
+            title = stem.replace("_", " ")
+        links = " · ".join(f"[{suffix}]({link})" for suffix, link in groups[stem])
+        lines.append(f"- {title}: {links}")
+    phi_figs = [(ex, figures[ex, "phi"]) for ex in examples if (ex, "phi") in figures]
+    if phi_figs:
+        lines += [
+            "",
+            "## Packing fraction over the ensembles",
+            "",
+            " · ".join(f"[example {ex}]({_rel(p, out)})" for ex, p in phi_figs),
+        ]
+    lines += [
+        "",
+        "## Files",
+        "",
+        "- `packs/<example>-<on|off>/pack_k.npz`: every pack (`granpack.load_pack`; "
+        "`granpack export PACK --format vtk|lammps|csv|parquet` for ParaView, "
+        "LAMMPS/LIGGGHTS `read_data`, tables).",
+        "- `micro/<example>-<on|off>/pack_k.json`: each pack's microstructure.",
+        "- `tables/`, `figures/`: what is linked above. Figures are named after the "
+        "paper's (fig2 = example 4.1, rotations ON, ... fig9 = 4.4, OFF).",
+        "",
+    ]
+    return atomic_write(out / "report.md", "\n".join(lines).encode())
+
+
+def ensemble_report(
+    out_dir: str | Path,
+    *,
+    scene_name: str,
+    scene,
+    records: Sequence[Mapping],
+    table_files: Sequence[Path],
+    figures: Sequence[Path],
+    wall_time: float,
+    dev_changes: Mapping | None = None,
+) -> Path:
+    """Writes ``out_dir/report.md`` for ``granpack generate`` and returns its path:
+    the scene, per-pack phi, Z and size, and links to tables and figures."""
+    out = Path(out_dir)
+    rot = "ON" if scene.rotations else "OFF"
+    lines = [
+        f"# granpack: {len(records)} pack(s) of {scene_name}, rotations {rot}",
+        "",
+        *_dev_banner(dev_changes or {}),
+        f"Scene: [scene.toml](scene.toml) (dim {scene.dim}, base {list(scene.base)} m, "
+        f"H_d = {scene.height} m, {scene.radius_law} radii r_mean = {scene.r_mean} m), "
+        f"master seed {scene.seed} (pack k uses random stream k). "
+        f"{_environment_line(wall_time)}.",
+        "",
+        f"phi = {_mean_sd(_col(records, 'phi'), 4)}, Z = {_mean_sd(_col(records, 'z'), 3)} "
+        "(mean ± sample standard deviation).",
+        "",
+        "| pack | N | layers | H_top (m) | phi | Z | Z_m | seconds | file |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for rec in records:
+        k = rec["pack"]
+        lines.append(
+            f"| {k} | {rec['n_particles']} | {rec.get('n_layers', '')} "
+            f"| {rec['height']:.4f} | {rec['phi']:.4f} | {_fmt(rec.get('z'))} "
+            f"| {_fmt(rec.get('z_mech'))} | {rec.get('wall_time', float('nan')):.1f} "
+            f"| [pack_{k:03d}.npz](packs/pack_{k:03d}.npz) |"
+        )
+    lines += ["", "## Tables", ""]
+    groups = _grouped_links(table_files, out)
+    for stem in sorted(groups):
+        links = " · ".join(f"[{suffix}]({link})" for suffix, link in groups[stem])
+        lines.append(f"- {stem}: {links}")
+    if figures:
+        lines += ["", "## Figures", ""]
+        lines.append(" · ".join(f"[{Path(f).stem}]({_rel(f, out)})" for f in figures))
+    lines += [
+        "",
+        "Each pack's microstructure is in `micro/pack_k.json`; "
+        "`granpack export PACK --format vtk|lammps|csv|parquet` converts a pack.",
+        "",
+    ]
+    return atomic_write(out / "report.md", "\n".join(lines).encode())
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "n/a"
+    try:
+        return f"{float(v):.3f}"
+    except (TypeError, ValueError):
+        return str(v)
