@@ -289,6 +289,16 @@ def _dev_changes(scene, args) -> dict:
     return changes
 
 
+def _dev_note(args) -> dict:
+    """The hidden development options in force, for the report's warning."""
+    note = {}
+    if args.settle_time is not None:
+        note["settle_time"] = f"{args.settle_time:g} s per layer"
+    if args.scale is not None:
+        note["base and height scaled by"] = f"{args.scale:g}"
+    return note
+
+
 def _fresh(target: Path, source: Path) -> bool:
     """True if `target` exists and is not older than `source` (work to skip on rerun)."""
     return target.exists() and target.stat().st_mtime >= source.stat().st_mtime
@@ -396,7 +406,6 @@ def cmd_generate(args, console: _Console) -> int:
     scene = scene.replace(seed=seed, stream=0)
     out = args.out if args.out is not None else Path(f"granpack-{name}")
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write(out / "scene.toml", scene.to_toml().encode())
 
     t0 = time.perf_counter()
     tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
@@ -404,6 +413,9 @@ def cmd_generate(args, console: _Console) -> int:
     paths = run_tasks(
         tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
     )
+    # Written once the packs are there: a refused run (another scene's packs in the
+    # folder) leaves the folder's scene.toml as it was.
+    atomic_write(out / "scene.toml", scene.to_toml().encode())
     results = _analyze_packs(paths, out / "micro", console)
     ms = [m for _, m, _ in results]
     records = [rec for _, _, rec in results]
@@ -437,7 +449,7 @@ def cmd_generate(args, console: _Console) -> int:
         table_files=table_files,
         figures=figures,
         wall_time=time.perf_counter() - t0,
-        dev_changes=dev,
+        dev_changes=_dev_note(args),
     )
     phi = np.array([rec["phi"] for rec in records])
     sd = f" ± {phi.std(ddof=1):.4f}" if phi.size > 1 else ""
@@ -466,7 +478,6 @@ def cmd_paper(args, console: _Console) -> int:
     cases = [(ex, rot) for ex in examples for rot in (True, False)]
 
     scenes = {}
-    dev: dict = {}
     for ex, rot in cases:
         base = PackScene.preset(ex).replace(rotations=rot, seed=args.seed, stream=0)
         dev = _dev_changes(base, args)
@@ -561,7 +572,7 @@ def cmd_paper(args, console: _Console) -> int:
         figures=figures,
         wall_time=time.perf_counter() - t0,
         pack_time=t_packs,
-        dev_changes=dev,
+        dev_changes=_dev_note(args),
         seed=args.seed,
     )
     console.say(f"report: {rep}")

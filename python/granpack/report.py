@@ -92,7 +92,7 @@ def _duration(seconds: float) -> str:
 def _dev_banner(dev_changes: Mapping) -> list[str]:
     if not dev_changes:
         return []
-    parts = ", ".join(f"{k} = {v}" for k, v in dev_changes.items())
+    parts = ", ".join(f"{k} {v}" for k, v in dev_changes.items())
     return [
         f"> **Development run, not the paper's scenes:** {parts}. "
         "Do not compare these numbers with the paper.",
@@ -129,7 +129,7 @@ def paper_report(
     figures : {(example, rotations): {"packs"|"normals"|"forces"|"view": path},
         (example, "phi"): path}.
     wall_time, pack_time : seconds for everything and for the packs.
-    dev_changes : scene changes from development options (flagged loudly).
+    dev_changes : development options in force, {what: value text} (flagged loudly).
     """
     out = Path(out_dir)
     lines = ["# granpack: the paper's section 4, reproduced", ""]
