@@ -105,15 +105,12 @@ def test_paper_standard_deviations_are_ddof_1():
 # --------------------------------------------------------------------------------------
 # ensembles
 # --------------------------------------------------------------------------------------
-def lattice_result(k: int, dim: int = 2) -> gp.microstructure.Microstructure:
-    """Square (cubic) lattices of slightly different spacing: distinct but known rows."""
+def lattice_result(n: int) -> gp.microstructure.Microstructure:
+    """An n x n square lattice of touching discs: Z = 4 (n - 1)/n."""
     r = 0.01
-    s = 2 * r * (1 - 1e-9) * (1 + 0.001 * k)
-    n = 6 if dim == 2 else 4
-    g = np.meshgrid(*[r + np.arange(n) * s] * dim, indexing="ij")
+    s = 2 * r * (1 - 1e-9)
+    g = np.meshgrid(*[r + np.arange(n) * s] * 2, indexing="ij")
     x = np.column_stack([a.ravel() for a in g])
-    if k:  # the wider lattices have no contacts; keep them touching
-        x = x / (1 + 0.001 * k)
     return gp.microstructure(positions=x, radii=np.full(len(x), r), core_margin=2 * r)
 
 
@@ -134,12 +131,13 @@ def fake_row(phi: float, **extra) -> dict:
 
 
 def test_ensemble_table_one_row_per_pack():
-    results = [lattice_result(0), lattice_result(1).to_dict(), lattice_result(2)]
+    results = [lattice_result(5), lattice_result(6).to_dict(), lattice_result(7)]
     df = ensemble_table(results)
     assert df.height == 3
     assert df["pack"].to_list() == [1, 2, 3]
     assert df.columns[0] == "pack"
-    assert df["z"].to_list() == pytest.approx([4 * 5 / 6] * 3)
+    assert df["z"].to_list() == pytest.approx([4 * 4 / 5, 4 * 5 / 6, 4 * 6 / 7])
+    assert df["n_particles"].to_list() == [25, 36, 49]
     assert set(results[1]) <= set(df.columns)
     assert ensemble_table([]).height == 0
     with pytest.raises(gp.GranpackError, match="result"):
