@@ -440,6 +440,7 @@ def test_granpack_microstructure_exposes_helpers():
         ),
         ({"positions": [[1.5, 0.5]], "radii": [0.1], "box": ([0, 0], [1, 1])}, "outside"),
         ({"radii": [0.1]}, "positions"),
+        ({"positions": [[0.1, 0.1], [0.1, 0.1]], "radii": [0.01, 0.01]}, "not a valid pack"),
     ],
 )
 def test_bad_input_is_a_granpack_error_naming_the_parameter(kwargs, match):

@@ -1055,8 +1055,13 @@ def _find_contacts(x, r, walls) -> Contacts:
     try:
         found = _core.find_contacts(x, r, walls=walls)
     except GranpackError as exc:
+        hint = ""
+        if "max_overlap_ratio" in str(exc):
+            # find_contacts reuses the engine's blow-up guard; for analysis it only means
+            # that two particles interpenetrate by a radius or more
+            hint = " (two particles overlap by the smaller radius or more: not a valid pack)"
         raise GranpackError(
-            f"cannot find the contacts of the given positions/radii: {exc}"
+            f"cannot find the contacts of the given positions/radii: {exc}{hint}"
         ) from None
     return Contacts.from_dict(found)
 
