@@ -20,7 +20,7 @@ Where packs run
     * ``scheduler="tcp://host:8786"`` (or a ``distributed.Client``): on that Dask
       cluster (``pip install "granpack[dask]"``; the workers need granpack installed).
       Results travel back to this process, which writes them, so the workers need no
-      shared file system.
+      shared file system. Progress is then reported per pack (no layer reports).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import concurrent.futures as cf
 import multiprocessing as mp
 import os
 import queue as queue_mod
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -160,7 +161,7 @@ class Progress:
                 desc="packs",
                 file=self.stream,
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total} "
-                "[{elapsed}<{remaining}] {postfix}",
+                "[{elapsed}<{remaining}{postfix}]",
             )
         elif self.mode == "lines" and total:
             self._line(f"granpack: {total} packs, {skipped} already on disk")
@@ -172,7 +173,9 @@ class Progress:
         if task_label in self.finished:  # a late report from a worker's queue
             return
         self._emit({"event": "layer", "label": task_label, **rep})
-        self.running[task_label] = min(1.0, rep["height"] / target) if target > 0 else 0.0
+        # A running pack counts as the fraction of its target height reached (never
+        # a whole pack until it is saved).
+        self.running[task_label] = min(0.99, rep["height"] / target) if target > 0 else 0.0
         if self.mode == "bar" and self.bar is not None:
             self.last = (
                 f"{task_label}: layer {rep['layer']}, N={rep['total']}, "
@@ -237,6 +240,9 @@ def _init_worker(layer_queue, threads: int) -> None:
     global _LAYER_QUEUE
     _LAYER_QUEUE = layer_queue
     os.environ["RAYON_NUM_THREADS"] = str(threads)
+    # Ctrl-C reaches the whole process group; the parent handles it (it stops the
+    # workers), so the workers ignore it instead of each printing a traceback.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _build_in_worker(scene: PackScene, label: str) -> Pack:
