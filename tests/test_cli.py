@@ -234,6 +234,7 @@ def test_export_command_writes_files_that_read_back(tmp_path, capsys):
         (["export", "BAD_PACK", "--format", "vtk"], "corrupt or truncated"),
         (["analyze", "missing.txt"], "no such file"),
         (["analyze", "BAD_TEXT"], "expected 4 numbers"),
+        (["analyze", "BAD_PACK", "--dim", "2"], "--box and --dim apply to text"),
         (["frobnicate"], "invalid choice: 'frobnicate'"),
     ],
 )

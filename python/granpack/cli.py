@@ -606,6 +606,8 @@ def _load_for_analysis(args):
     if not path.exists():
         raise GranpackError(f"cannot read {path}: no such file")
     if path.suffix == ".npz":
+        if args.box is not None or args.dim is not None:
+            raise GranpackError("--box and --dim apply to text and LAMMPS files, not to packs")
         return load_pack(path), {}
     box = None
     if path.suffix in (".data", ".lmp"):
@@ -674,8 +676,19 @@ def cmd_analyze(args, console: _Console) -> int:
                 args.figures / f"{args.file.stem}.png",
             )
         ]
-        contacts = pack.contacts if pack is not None else getattr(m, "contacts", None)
-        if contacts is not None and len(contacts):
+        if pack is not None:
+            contacts = pack.contacts
+        else:  # the particle-particle contacts the analysis found, for the normals
+            from . import _core
+            from .contacts import Contacts
+
+            found = _core.find_contacts(
+                np.ascontiguousarray(kwargs["positions"], dtype=np.float64),
+                np.ascontiguousarray(kwargs["radii"], dtype=np.float64),
+                walls=None,
+            )
+            contacts = Contacts.from_dict(found)
+        if len(contacts):
             made.append(
                 plot.save(
                     plot.normals_figure(contacts.particle_pairs().normal, title=args.file.name),
