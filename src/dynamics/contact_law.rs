@@ -34,6 +34,38 @@ pub struct ContactForce<const D: usize> {
     pub tangential: Vector<D>,
 }
 
+/// Per-contact constants of the law, precomputed once per pair so that a step costs
+/// two square roots of the overlap (sqrt(d) and d^{1/4}) and nothing else per pair:
+/// k_n = kn s, c_n = cn q, k_t = kt s, c_t = ct q with s = sqrt(d), q = sqrt(s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LawCoefs {
+    /// 2 E* sqrt(R*) (Pa m^{1/2}).
+    pub kn: Real,
+    /// 2 xi sqrt(2 E* m* sqrt(R*)) (N s m^{-5/4}).
+    pub cn: Real,
+    /// 8 G* sqrt(R*) (Pa m^{1/2}).
+    pub kt: Real,
+    /// 2 xi sqrt(8 G* m* sqrt(R*)) (N s m^{-5/4}).
+    pub ct: Real,
+    /// Friction coefficient mu.
+    pub mu: Real,
+}
+
+impl LawCoefs {
+    /// The coefficients of a pair.
+    #[inline]
+    pub fn new(p: &PairParams) -> Self {
+        let sr = p.r_eff.sqrt();
+        LawCoefs {
+            kn: 2.0 * p.e_star * sr,
+            cn: 2.0 * p.damping * (2.0 * p.e_star * sr * p.m_eff).sqrt(),
+            kt: 8.0 * p.g_star * sr,
+            ct: 2.0 * p.damping * (8.0 * p.g_star * sr * p.m_eff).sqrt(),
+            mu: p.friction,
+        }
+    }
+}
+
 /// Evaluates the Hertz-Mindlin law for one step and advances the tangential history.
 ///
 /// * `overlap` d > 0 (m), `n` the unit normal from i to j;
@@ -56,16 +88,28 @@ pub fn hertz_mindlin<const D: usize>(
     history: &mut Vector<D>,
     dt: Real,
 ) -> ContactForce<D> {
-    let sqrt_rd = (p.r_eff * overlap).sqrt();
-    let k_n = 2.0 * p.e_star * sqrt_rd;
+    hertz_mindlin_coefs(&LawCoefs::new(p), overlap, n, v_rel, history, dt)
+}
+
+/// [`hertz_mindlin`] with precomputed [`LawCoefs`] (the engine's hot path).
+#[inline(always)]
+pub fn hertz_mindlin_coefs<const D: usize>(
+    c: &LawCoefs,
+    overlap: Real,
+    n: &Vector<D>,
+    v_rel: &Vector<D>,
+    history: &mut Vector<D>,
+    dt: Real,
+) -> ContactForce<D> {
+    let s = overlap.sqrt();
+    let q = s.sqrt();
     let vn = v_rel.dot(n);
     // 4/3 E* sqrt(R*) d^{3/2} = 2/3 k_n d
-    let f_elastic = (2.0 / 3.0) * k_n * overlap;
-    let c_n = 2.0 * p.damping * (p.m_eff * k_n).sqrt();
+    let f_elastic = (2.0 / 3.0) * c.kn * s * overlap;
     // vn < 0 while approaching: the dashpot then adds to the repulsion.
-    let f_n = (f_elastic - c_n * vn).max(0.0);
+    let f_n = (f_elastic - c.cn * q * vn).max(0.0);
 
-    if p.friction <= 0.0 {
+    if c.mu <= 0.0 {
         return ContactForce {
             normal: f_n,
             tangential: Vector::<D>::zeros(),
@@ -78,15 +122,15 @@ pub fn hertz_mindlin<const D: usize>(
     let h_old2 = history.norm_squared();
     let mut h = *history - n * history.dot(n);
     let h_new2 = h.norm_squared();
-    if h_new2 > 0.0 {
+    if h_new2 > 0.0 && h_new2 != h_old2 {
         h *= (h_old2 / h_new2).sqrt();
     }
     h += v_t * dt;
 
-    let k_t = 8.0 * p.g_star * sqrt_rd;
-    let c_t = 2.0 * p.damping * (p.m_eff * k_t).sqrt();
+    let k_t = c.kt * s;
+    let c_t = c.ct * q;
     let mut f_t = -(h * k_t) - v_t * c_t;
-    let f_max = p.friction * f_n;
+    let f_max = c.mu * f_n;
     let ft2 = f_t.norm_squared();
     if ft2 > f_max * f_max {
         // Sliding: cap |f_t| at mu f_n and store the spring stretch consistent with it.

@@ -3,5 +3,5 @@
 pub mod contact_law;
 pub mod material;
 
-pub use contact_law::{hertz_mindlin, ContactForce, PairParams};
+pub use contact_law::{hertz_mindlin, hertz_mindlin_coefs, ContactForce, LawCoefs, PairParams};
 pub use material::Material;

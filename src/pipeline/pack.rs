@@ -3,6 +3,7 @@
 //! desired height.
 
 use crate::error::{check_range, Error, Result};
+use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
 use crate::pipeline::rsa::{place_layer, LayerSpec};
@@ -212,6 +213,11 @@ where
             layer,
         };
         let (x, r) = place_layer(&spec, &mut self.rng)?;
+        // Store the layer in Morton order: neighbours in space become neighbours in
+        // memory, which keeps the pair loop in cache. Particle ids follow this order.
+        let order = morton_order(&x, 2.0 * self.cfg.radii.r_max());
+        let x: Vec<Vector<D>> = order.iter().map(|&k| x[k]).collect();
+        let r: Vec<Real> = order.iter().map(|&k| r[k]).collect();
         let added = x.len();
         let vol: Real = r
             .iter()

@@ -136,7 +136,7 @@ impl<const D: usize> InsertGrid<D> {
     fn new(lo: Vector<D>, hi: Vector<D>, cell: Real) -> Self {
         let mut dims = [1usize; D];
         for k in 0..D {
-            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize).max(0) + 1;
+            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
         }
         let n: usize = dims.iter().product();
         InsertGrid {

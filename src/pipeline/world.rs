@@ -13,7 +13,7 @@
 //! (max, min index) or per-chunk partial sums added in chunk order, so results are
 //! bit-identical on any number of threads.
 
-use crate::dynamics::{hertz_mindlin, Material, PairParams};
+use crate::dynamics::{hertz_mindlin, hertz_mindlin_coefs, LawCoefs, Material, PairParams};
 use crate::error::{check_range, Error, Result};
 use crate::geometry::neighbor_pairs;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
@@ -161,8 +161,8 @@ struct Particles<const D: usize, A> {
 #[derive(Clone, Debug, Default)]
 struct Pairs<const D: usize, A> {
     ij: Vec<[u32; 2]>,
-    r_eff: Vec<Real>,
-    m_eff: Vec<Real>,
+    /// Law coefficients of each pair (from R*, m* and the material).
+    coefs: Vec<LawCoefs>,
     hist: Vec<Vector<D>>,
     /// Total force on j (N).
     fvec: Vec<Vector<D>>,
@@ -549,16 +549,26 @@ where
         }
         // 3-4. forces
         self.compute_forces()?;
-        // 5. second half kick
+        // 5. second half kick; flag any velocity that is non-finite or moves a particle
+        // more than half its radius per step (it could tunnel through a neighbour).
         let p = &mut self.p;
-        p.v.par_chunks_mut(CHUNK)
-            .zip(p.f.par_chunks(CHUNK))
-            .zip(p.inv_m.par_chunks(CHUNK))
-            .for_each(|((v, f), im)| {
-                for k in 0..v.len() {
-                    v[k] += f[k] * (im[k] * half);
-                }
-            });
+        let suspicious =
+            p.v.par_chunks_mut(CHUNK)
+                .zip(p.f.par_chunks(CHUNK))
+                .zip(p.inv_m.par_chunks(CHUNK))
+                .zip(p.r.par_chunks(CHUNK))
+                .map(|(((v, f), im), r)| {
+                    let mut flag = false;
+                    for k in 0..v.len() {
+                        v[k] += f[k] * (im[k] * half);
+                        let lim = 0.5 * r[k] / dt;
+                        // written so that NaN also trips it
+                        let v2 = v[k].norm_squared();
+                        flag |= v2.is_nan() || v2 > lim * lim;
+                    }
+                    flag
+                })
+                .reduce(|| false, |a, b| a | b);
         if rot {
             p.w.par_chunks_mut(CHUNK)
                 .zip(p.t.par_chunks(CHUNK))
@@ -571,7 +581,13 @@ where
         }
         self.steps += 1;
         self.time += dt;
-        self.check_state()
+        // Positions leave the box or turn non-finite only after a large or non-finite
+        // velocity, which the cheap flag catches; the full check runs then, and at
+        // intervals.
+        if suspicious || self.steps % 1024 == 0 {
+            self.check_state()?;
+        }
+        Ok(())
     }
 
     /// Stops on a non-finite value or a particle that has left the box.
@@ -663,18 +679,21 @@ where
         }
         let r = &self.p.r;
         let mass = &self.p.m;
-        let r_eff = ij
+        let mat = self.cfg.material;
+        let (e_star, g_star) = (self.e_star, self.g_star);
+        let coefs = ij
             .iter()
             .map(|&[i, j]| {
                 let (ri, rj) = (r[i as usize], r[j as usize]);
-                ri * rj / (ri + rj)
-            })
-            .collect();
-        let m_eff = ij
-            .iter()
-            .map(|&[i, j]| {
                 let (mi, mj) = (mass[i as usize], mass[j as usize]);
-                mi * mj / (mi + mj)
+                LawCoefs::new(&PairParams {
+                    r_eff: ri * rj / (ri + rj),
+                    m_eff: mi * mj / (mi + mj),
+                    e_star,
+                    g_star,
+                    damping: mat.damping,
+                    friction: mat.friction,
+                })
             })
             .collect();
         // Incidence lists: for each particle its pairs, in pair order.
@@ -697,8 +716,7 @@ where
         }
         self.pairs = Pairs {
             ij,
-            r_eff,
-            m_eff,
+            coefs,
             hist,
             fvec,
             nxft,
@@ -726,14 +744,13 @@ where
         let bad_pair = pr
             .ij
             .par_chunks(CHUNK)
-            .zip(pr.r_eff.par_chunks(CHUNK))
-            .zip(pr.m_eff.par_chunks(CHUNK))
+            .zip(pr.coefs.par_chunks(CHUNK))
             .zip(pr.hist.par_chunks_mut(CHUNK))
             .zip(pr.fvec.par_chunks_mut(CHUNK))
             .zip(pr.nxft.par_chunks_mut(CHUNK))
             .zip(pr.overlap.par_chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(|(c, ((((((ij, reff), meff), hist), fvec), nxft), ovl))| {
+            .filter_map(|(c, (((((ij, coefs), hist), fvec), nxft), ovl))| {
                 let mut bad: Option<usize> = None;
                 for k in 0..ij.len() {
                     let i = ij[k][0] as usize;
@@ -743,10 +760,14 @@ where
                     let dist2 = dx.norm_squared();
                     let cut = ri + rj;
                     if dist2 >= cut * cut {
-                        hist[k] = Vector::<D>::zeros();
-                        fvec[k] = Vector::<D>::zeros();
-                        nxft[k] = Ang::<D>::default();
-                        ovl[k] = 0.0;
+                        // Zero the pair only when it just separated: most pairs inside the
+                        // skin stay apart for many steps, and rewriting them is pure traffic.
+                        if ovl[k] != 0.0 {
+                            hist[k] = Vector::<D>::zeros();
+                            fvec[k] = Vector::<D>::zeros();
+                            nxft[k] = Ang::<D>::default();
+                            ovl[k] = 0.0;
+                        }
                         continue;
                     }
                     let dist = dist2.sqrt();
@@ -760,15 +781,7 @@ where
                         vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
                             - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
                     }
-                    let params = PairParams {
-                        r_eff: reff[k],
-                        m_eff: meff[k],
-                        e_star,
-                        g_star,
-                        damping: mat.damping,
-                        friction: mat.friction,
-                    };
-                    let f = hertz_mindlin(&params, d, &n, &vrel, &mut hist[k], dt);
+                    let f = hertz_mindlin_coefs(&coefs[k], d, &n, &vrel, &mut hist[k], dt);
                     fvec[k] = n * f.normal + f.tangential;
                     if rot && friction_on {
                         nxft[k] = <Dim<D>>::cross_vv(&n, &f.tangential);
@@ -831,8 +844,14 @@ where
                             let s = (wall.pos - x[q][wall.axis]) * wall.sign;
                             let d = r[q] - s;
                             if d <= 0.0 {
-                                wh[k][wi] = Vector::<D>::zeros();
-                                wf[k][wi] = Vector::<D>::zeros();
+                                // As for pairs: clear the wall's state only when the contact
+                                // just opened (the force is exactly zero otherwise).
+                                if wf[k][wi] != Vector::<D>::zeros()
+                                    || wh[k][wi] != Vector::<D>::zeros()
+                                {
+                                    wh[k][wi] = Vector::<D>::zeros();
+                                    wf[k][wi] = Vector::<D>::zeros();
+                                }
                                 continue;
                             }
                             if d > max_ratio * r[q] && bad.is_none() {

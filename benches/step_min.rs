@@ -1,0 +1,57 @@
+//! Quick, interference-robust timing of one DEM step: the minimum (and median) over
+//! repeated batches of steps, in ns per particle-step. Used for before/after
+//! comparisons on a shared machine, where criterion's means drift with background load.
+//! `cargo bench --bench step_min [-- THREADS]`.
+
+mod common;
+
+use std::time::Instant;
+
+/// CPU seconds used by this process so far (user + system, from /proc; 10 ms ticks).
+/// On a shared machine CPU time is far steadier than wall time.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11).and_then(|u| u.parse().ok()).unwrap_or(0.0)
+        + f.get(12).and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    ticks / 100.0
+}
+
+fn measure<const D: usize>(label: &str, tiles: usize, threads: usize)
+where
+    _core::Dim<D>: _core::Spatial<D>,
+{
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut w = common::settled_world::<D>(tiles, 2000, threads);
+    let n = w.len();
+    // batches of about 4e6 particle-steps (~1 s), so 10 ms CPU ticks resolve 1 %
+    let steps = (4_000_000 / n).max(5) as u64;
+    let per = 1e9 / (steps as f64 * n as f64);
+    let mut wall = Vec::new();
+    let mut cpu = Vec::new();
+    for _ in 0..7 {
+        let (t0, c0) = (Instant::now(), cpu_seconds());
+        pool.install(|| w.step_n(steps).unwrap());
+        wall.push(t0.elapsed().as_secs_f64() * per);
+        cpu.push((cpu_seconds() - c0) * per / threads as f64);
+    }
+    wall.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    cpu.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    println!(
+        "{label:<22} N = {n:>7}  threads = {threads}  ns/particle-step: wall min {:6.1} median {:6.1} | cpu/thread min {:6.1} median {:6.1}",
+        wall[0], wall[wall.len() / 2], cpu[0], cpu[cpu.len() / 2]
+    );
+}
+
+fn main() {
+    let threads: usize = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(1);
+    measure::<3>("3d peer pack (4.3)", 1, threads);
+    measure::<2>("2d peer pack (4.1)", 1, threads);
+}
