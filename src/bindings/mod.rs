@@ -560,7 +560,8 @@ impl LayerPacker {
 }
 
 /// Geometric contacts (overlap > 0) of a pack given by positions and radii, with the
-/// box walls if `walls` is given; forces are zero. Uses the cell grid.
+/// box walls if `walls` is given (floor and side walls; the top is open); forces are
+/// zero. Uses the cell grid; no dynamics, so any overlap is accepted.
 #[pyfunction]
 #[pyo3(signature = (positions, radii, walls=None))]
 fn find_contacts<'py>(
@@ -574,23 +575,23 @@ fn find_contacts<'py>(
     macro_rules! go {
         ($D:literal) => {{
             let x = vectors::<$D>("positions", &positions)?;
-            let mut cfg = SimConfig::<$D>::paper();
-            cfg.gravity = Vector::<$D>::zeros();
-            cfg.material.damping = 0.0;
-            cfg.material.friction = 0.0;
-            cfg.max_overlap_ratio = 1.0;
-            if let Some((lo, hi)) = walls {
-                let mut hi = vector_from::<$D>("box", &hi)?;
-                hi[<Dim<$D> as Spatial<$D>>::VERTICAL] = f64::INFINITY;
-                cfg.walls = Some((vector_from::<$D>("box", &lo)?, hi));
+            if r.len() != x.len() || !r.iter().all(|&v| v.is_finite() && v > 0.0) {
+                return Err(bad(
+                    "radii",
+                    format!("expected {} finite values > 0 (m)", x.len()),
+                ));
             }
-            let mut w = World::<$D>::new(cfg)?;
-            w.add_particles(&x, &r, None, None)?;
-            let mut c = w.contacts()?;
-            c.force_normal.iter_mut().for_each(|f| *f = 0.0);
-            c.force_tangential
-                .iter_mut()
-                .for_each(|f| *f = Vector::<$D>::zeros());
+            if !x.iter().all(|p| p.iter().all(|c| c.is_finite())) {
+                return Err(bad("positions", "must be finite (m)"));
+            }
+            let box_ = match walls {
+                Some((lo, hi)) => Some((
+                    vector_from::<$D>("box", &lo)?,
+                    vector_from::<$D>("box", &hi)?,
+                )),
+                None => None,
+            };
+            let c = py.detach(|| geometric_contacts::<$D>(&x, &r, box_));
             contacts_to_py(py, &c)
         }};
     }
@@ -602,6 +603,57 @@ fn find_contacts<'py>(
             format!("{other} columns, expected 2 or 3"),
         )),
     }
+}
+
+/// Contact geometry of a static pack: pairs from the grid, then floor and side walls.
+fn geometric_contacts<const D: usize>(
+    x: &[Vector<D>],
+    r: &[Real],
+    walls: Option<(Vector<D>, Vector<D>)>,
+) -> Contacts<D> {
+    let mut c = Contacts::<D>::default();
+    for [i, j] in crate::geometry::neighbor_pairs(x, r, 0.0) {
+        let (i, j) = (i as usize, j as usize);
+        let dx = x[j] - x[i];
+        let dist = dx.norm();
+        // coincident centres have no normal: skip rather than emit NaN
+        if dist == 0.0 {
+            continue;
+        }
+        c.i.push(i as i64);
+        c.j.push(j as i64);
+        c.normal.push(dx / dist);
+        c.overlap.push(r[i] + r[j] - dist);
+        c.force_normal.push(0.0);
+        c.force_tangential.push(Vector::<D>::zeros());
+        c.branch.push(dx);
+    }
+    if let Some((lo, hi)) = walls {
+        let vert = D - 1;
+        // (axis, position, sign of the outward normal), in wall-id order -1, -2, ...
+        let mut planes = vec![(vert, lo[vert], -1.0)];
+        for k in 0..vert {
+            planes.push((k, lo[k], -1.0));
+            planes.push((k, hi[k], 1.0));
+        }
+        for q in 0..x.len() {
+            for (w, &(axis, pos, sign)) in planes.iter().enumerate() {
+                let d = r[q] - (pos - x[q][axis]) * sign;
+                if d > 0.0 {
+                    let mut n = Vector::<D>::zeros();
+                    n[axis] = sign;
+                    c.i.push(q as i64);
+                    c.j.push(-(w as i64) - 1);
+                    c.normal.push(n);
+                    c.overlap.push(d);
+                    c.force_normal.push(0.0);
+                    c.force_tangential.push(Vector::<D>::zeros());
+                    c.branch.push(n * (r[q] - 0.5 * d));
+                }
+            }
+        }
+    }
+    c
 }
 
 /// Rayleigh critical time step (s) for material and smallest radius r_min (m).
