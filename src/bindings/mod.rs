@@ -591,7 +591,19 @@ fn find_contacts<'py>(
                 )),
                 None => None,
             };
-            let c = py.detach(|| geometric_contacts::<$D>(&x, &r, box_));
+            if let Some((lo, hi)) = &box_ {
+                for (k, p) in x.iter().enumerate() {
+                    // the top is open: only the floor and the side walls bound the pack
+                    let out = (0..$D).any(|a| p[a] < lo[a] || (a + 1 < $D && p[a] > hi[a]));
+                    if out {
+                        return Err(bad(
+                            &format!("positions[{k}]"),
+                            format!("{:?}: centre lies outside the box's walls", p.as_slice()),
+                        ));
+                    }
+                }
+            }
+            let c = py.detach(|| geometric_contacts::<$D>(&x, &r, box_))?;
             contacts_to_py(py, &c)
         }};
     }
@@ -610,15 +622,19 @@ fn geometric_contacts<const D: usize>(
     x: &[Vector<D>],
     r: &[Real],
     walls: Option<(Vector<D>, Vector<D>)>,
-) -> Contacts<D> {
+) -> Result<Contacts<D>, Error> {
     let mut c = Contacts::<D>::default();
     for [i, j] in crate::geometry::neighbor_pairs(x, r, 0.0) {
         let (i, j) = (i as usize, j as usize);
         let dx = x[j] - x[i];
         let dist = dx.norm();
-        // coincident centres have no normal: skip rather than emit NaN
+        // coincident centres have no normal
         if dist == 0.0 {
-            continue;
+            return Err(Error::invalid(
+                "positions",
+                format!("particles {i} and {j} at {:?}", x[i].as_slice()),
+                "centres coincide: not a valid pack",
+            ));
         }
         c.i.push(i as i64);
         c.j.push(j as i64);
@@ -653,7 +669,7 @@ fn geometric_contacts<const D: usize>(
             }
         }
     }
-    c
+    Ok(c)
 }
 
 /// Rayleigh critical time step (s) for material and smallest radius r_min (m).
