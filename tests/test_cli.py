@@ -9,10 +9,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-import granpack as gp
 import numpy as np
 import polars as pl
 import pytest
+
+import granpack as gp
 from granpack import export
 from granpack.cli import main
 

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import io
 
-import granpack as gp
 import numpy as np
 import pytest
+
+import granpack as gp
 from granpack.ensemble import Progress, ensemble_tasks, pack_path, run_ensemble, run_tasks
 
 SEED = 7

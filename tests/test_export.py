@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import math
 
-import granpack as gp
 import numpy as np
 import polars as pl
 import pytest
+
+import granpack as gp
 from granpack import export
 
 meshio = pytest.importorskip("meshio")

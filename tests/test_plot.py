@@ -6,11 +6,12 @@ from __future__ import annotations
 import subprocess
 import sys
 
-import granpack as gp
 import numpy as np
 import pytest
-from granpack import plot
 from matplotlib.collections import EllipseCollection, LineCollection
+
+import granpack as gp
+from granpack import plot
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
