@@ -66,8 +66,11 @@ def test_generate_writes_packs_microstructure_tables_figures_and_report(
     for k, pack in enumerate(packs):
         assert pack.scene == scene.replace(stream=k)
         assert np.all(pack.spins == 0.0)  # rotations off
-        rec = json.loads((out / "micro" / f"pack_00{k}.json").read_text())
+        text = (out / "micro" / f"pack_00{k}.json").read_text()
+        rec = json.loads(text)
         assert rec["pack"] == k and rec["seed"] == 3 and rec["stream"] == k
+        # Strict JSON: the undefined core fraction of so small a pack is null, not NaN.
+        assert "NaN" not in text and rec["phi_core"] is None
         assert rec["n_particles"] == len(pack)
         assert rec["phi"] == pytest.approx(pack.phi, rel=1e-12)
         assert rec["n_contacts"] == int((pack.contacts.j >= 0).sum())
@@ -191,6 +194,7 @@ def test_analyze_pack_text_file_and_lammps_data(dim, tmp_path, capsys):
     # From positions only: the same contacts are found (forces unknown).
     n_pp = int((pack.contacts.j >= 0).sum())
     assert results["p.txt"]["n_contacts"] == n_pp and results["p.txt"]["has_forces"] is False
+    assert results["p.txt"]["f0"] is None  # no forces in a text file: null in JSON
     assert results["p.data"]["n_contacts"] == n_pp
     # The data file's box is the pack's, so phi is the pack's.
     assert results["p.data"]["phi"] == pytest.approx(pack.phi, rel=1e-12)

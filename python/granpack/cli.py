@@ -333,6 +333,13 @@ def _jsonable(d: dict) -> dict:
     return out
 
 
+def _json_text(d: dict) -> str:
+    """Strict JSON of a flat dict: an undefined (NaN) quantity is null, so that any JSON
+    reader (jq, JavaScript, polars) takes the file."""
+    clean = {k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in d.items()}
+    return json.dumps(clean, indent=1, allow_nan=False) + "\n"
+
+
 def _microstructure(console: _Console, label: str, *args, **kwargs):
     """granpack.microstructure(...), with its MicrostructureWarnings (an undefined
     quantity, e.g. an empty core window in a small pack) turned into notes that the
@@ -360,7 +367,7 @@ def _analyze_packs(paths: Sequence[Path], micro_dir: Path, console: _Console) ->
         m = _microstructure(console, f"{path.parent.name}/{path.stem}", pack)
         rec = _micro_record(pack, m, k)
         target = micro_dir / (path.stem + ".json")
-        atomic_write(target, (json.dumps(rec, indent=1) + "\n").encode())
+        atomic_write(target, _json_text(rec).encode())
         out.append((pack, m, rec))
     console.flush_notes()
     return out
@@ -658,7 +665,7 @@ def cmd_analyze(args, console: _Console) -> int:
     n = len(pack) if pack is not None else len(kwargs["radii"])
     d = {"file": str(args.file), "n_particles": n, **d}
     if args.json:
-        print(json.dumps(d, indent=1))
+        print(_json_text(d), end="")
     elif not args.quiet:
         width = max(len(k) for k in d)
         for k, v in d.items():
