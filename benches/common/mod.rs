@@ -50,6 +50,10 @@ where
         stream: 0,
         max_attempts: 1_000_000,
         max_layers: 1000,
+        adaptive_settle: None,
+        freeze_depth: None,
+        freeze_speed: 1e-3,
+        freeze_force: 0.1,
     })
     .unwrap();
     p.run(|_| {}).unwrap();

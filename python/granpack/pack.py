@@ -184,7 +184,8 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
         s.height, law, s.h_layer, s.phi_layer, s.settle_time, s.seed,
         stream=s.stream, max_attempts=s.max_attempts, max_layers=s.max_layers,
         skin_ratio=s.skin_ratio, max_overlap_ratio=s.max_overlap_ratio,
-        inertia_2d=s.inertia_2d,
+        inertia_2d=s.inertia_2d, adaptive_settle=s.settle_tol, freeze_depth=s.freeze_depth,
+        freeze_speed=s.freeze_speed, freeze_force=s.freeze_force,
     )
 
 

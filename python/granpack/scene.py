@@ -23,6 +23,12 @@ RSA_SATURATION = {2: 0.547, 3: 0.384}
 
 _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 
+#: Adaptive settling tolerance of `PackScene.fast()` (kinetic energy per moving particle
+#: over m g r).
+FAST_SETTLE_TOL = 1e-4
+#: Freezing depth of `PackScene.fast()`, in layer thicknesses h_layer.
+FAST_FREEZE_LAYERS = 2.0
+
 
 @dataclass(frozen=True)
 class PackScene:
@@ -77,6 +83,20 @@ class PackScene:
         Consecutive failed RSA placements before reporting saturation. Default 1e6.
     max_layers : int
         Most layers before giving up. Default 10000.
+    settle_tol : float or None
+        Adaptive settling: end a layer's jamming run once its kinetic energy per moving
+        particle is below settle_tol * m g r (mean particle), after the new layer has had
+        time to fall through its slab; settle_time is then the upper bound. None
+        (default): the paper's fixed settle_time.
+    freeze_depth : float or None
+        Freeze settled particles whose top lies more than this depth (m) below the pack
+        height: they are no longer integrated and their mutual contacts keep their last
+        force; they thaw when pushed. None (default): never freeze.
+    freeze_speed : float
+        Speed (m/s) under which a buried particle may freeze. Default 1e-3.
+    freeze_force : float
+        Net force over weight under which a particle may freeze and above which a frozen
+        one thaws (-). Default 0.1.
     """
 
     dim: int = 2
@@ -102,6 +122,10 @@ class PackScene:
     max_overlap_ratio: float = 0.5
     max_attempts: int = 1_000_000
     max_layers: int = 10_000
+    settle_tol: float | None = None
+    freeze_depth: float | None = None
+    freeze_speed: float = 1e-3
+    freeze_force: float = 0.1
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -175,6 +199,12 @@ class PackScene:
         s(self, "max_overlap_ratio", as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True))
         s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1))
         s(self, "max_layers", as_int("max_layers", self.max_layers, 1))
+        if self.settle_tol is not None:
+            s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
+        if self.freeze_depth is not None:
+            s(self, "freeze_depth", as_real("freeze_depth", self.freeze_depth, 0, unit="m"))
+        s(self, "freeze_speed", as_real("freeze_speed", self.freeze_speed, 0, unit="m/s"))
+        s(self, "freeze_force", as_real("freeze_force", self.freeze_force, 0))
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
         if n_est > 5e8:
@@ -192,6 +222,15 @@ class PackScene:
                 f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
             )
         return cls(**PRESETS[name])
+
+    def fast(self) -> PackScene:
+        """The same scene with the fast settings: adaptive settling (settle_tol =
+        FAST_SETTLE_TOL) and freezing below FAST_FREEZE_LAYERS layer thicknesses. The
+        physics constants are untouched; `benchmarks/fast_vs_full.py` measures how far
+        the ensemble statistics move (see the README)."""
+        return self.replace(
+            settle_tol=FAST_SETTLE_TOL, freeze_depth=FAST_FREEZE_LAYERS * self.h_layer
+        )
 
     def replace(self, **changes) -> PackScene:
         """A copy with some fields changed (validated again)."""

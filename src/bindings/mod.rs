@@ -133,6 +133,7 @@ fn report_to_py<'py>(py: Python<'py>, r: &LayerReport) -> PyResult<Bound<'py, Py
     d.set_item("steps", r.steps)?;
     d.set_item("kinetic_energy", r.kinetic_energy)?;
     d.set_item("wall_seconds", r.wall_seconds)?;
+    d.set_item("frozen", r.frozen)?;
     Ok(d)
 }
 
@@ -442,7 +443,8 @@ impl LayerPacker {
     #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, base, height, radii,
                         h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
                         max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
-                        inertia_2d="sphere"))]
+                        inertia_2d="sphere", adaptive_settle=None, freeze_depth=None,
+                        freeze_speed=1e-3, freeze_force=0.1))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -464,6 +466,10 @@ impl LayerPacker {
         skin_ratio: f64,
         max_overlap_ratio: f64,
         inertia_2d: &str,
+        adaptive_settle: Option<f64>,
+        freeze_depth: Option<f64>,
+        freeze_speed: f64,
+        freeze_force: f64,
     ) -> PyResult<Self> {
         let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
         macro_rules! make {
@@ -503,6 +509,10 @@ impl LayerPacker {
                     stream,
                     max_attempts,
                     max_layers,
+                    adaptive_settle,
+                    freeze_depth,
+                    freeze_speed,
+                    freeze_force,
                 })?)
             }};
         }

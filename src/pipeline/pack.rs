@@ -7,7 +7,7 @@ use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
 use crate::pipeline::rsa::{place_layer, LayerSpec};
-use crate::pipeline::world::{SimConfig, World};
+use crate::pipeline::world::{FreezeConfig, SimConfig, World};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
@@ -39,6 +39,18 @@ pub struct PackConfig<const D: usize> {
     pub max_attempts: u64,
     /// Most layers before giving up (guards against a pack that never grows).
     pub max_layers: usize,
+    /// End a layer's jamming run early once its kinetic energy per moving particle has
+    /// fallen below `tol` times m g r (mean mass and radius); `settle_time` is then the
+    /// upper bound. None (default): the paper's fixed `settle_time`.
+    pub adaptive_settle: Option<Real>,
+    /// Freeze settled particles whose top lies more than this depth (m) below the pack
+    /// height before the current layer. None (default): never freeze.
+    pub freeze_depth: Option<Real>,
+    /// Speed (m/s) under which a buried particle may freeze. Default 1e-3.
+    pub freeze_speed: Real,
+    /// Net force over weight under which a particle may freeze, and above which a
+    /// frozen one thaws. Default 0.1.
+    pub freeze_force: Real,
 }
 
 impl<const D: usize> PackConfig<D>
@@ -79,6 +91,28 @@ where
         if self.max_layers == 0 {
             return Err(Error::invalid("max_layers", 0, "must be >= 1"));
         }
+        if let Some(tol) = self.adaptive_settle {
+            check_range("settle_tol", tol, 0.0, false, f64::INFINITY, false)?;
+        }
+        if let Some(depth) = self.freeze_depth {
+            check_range("freeze_depth", depth, 0.0, true, f64::INFINITY, false)?;
+        }
+        check_range(
+            "freeze_speed",
+            self.freeze_speed,
+            0.0,
+            true,
+            f64::INFINITY,
+            false,
+        )?;
+        check_range(
+            "freeze_force",
+            self.freeze_force,
+            0.0,
+            true,
+            f64::INFINITY,
+            false,
+        )?;
         let mut sim = self.sim.clone();
         sim.walls = None;
         sim.validate()?;
@@ -113,6 +147,8 @@ pub struct LayerReport {
     pub kinetic_energy: Real,
     /// Wall-clock seconds for the layer.
     pub wall_seconds: Real,
+    /// Particles frozen at the end of the layer.
+    pub frozen: usize,
 }
 
 /// Builds a pack layer by layer.
@@ -230,8 +266,15 @@ where
         self.world.add_particles(&x, &r, None, None)?;
         self.layer_of
             .extend(std::iter::repeat_n(layer as u32, added));
-        let steps = (self.cfg.settle_time / self.cfg.sim.dt).round() as u64;
-        self.world.step_n(steps)?;
+        if let Some(depth) = self.cfg.freeze_depth {
+            self.world.set_freeze(Some(FreezeConfig {
+                below: self.height - depth,
+                speed: self.cfg.freeze_speed,
+                force_ratio: self.cfg.freeze_force,
+                interval: 100,
+            }))?;
+        }
+        let steps = self.settle()?;
         self.height = self
             .world
             .positions()
@@ -248,9 +291,44 @@ where
             steps,
             kinetic_energy: self.world.kinetic_energy(),
             wall_seconds: start.elapsed().as_secs_f64(),
+            frozen: self.world.n_frozen(),
         };
         self.reports.push(rep.clone());
         Ok(rep)
+    }
+
+    /// Runs the jamming stage of one layer; returns the steps taken.
+    fn settle(&mut self) -> Result<u64> {
+        let dt = self.cfg.sim.dt;
+        let max_steps = (self.cfg.settle_time / dt).round() as u64;
+        let Some(tol) = self.cfg.adaptive_settle else {
+            self.world.step_n(max_steps)?;
+            return Ok(max_steps);
+        };
+        // Energy scale m g r of a mean particle, and the time the new layer needs to fall
+        // through its slab: the run never stops before that.
+        let g = self.cfg.sim.gravity.norm();
+        let r_mean = self.cfg.radii.r_mean();
+        let m_mean = self.cfg.sim.material.density * crate::math::particle_volume::<3>(r_mean);
+        let scale = m_mean * g.max(1e-12) * r_mean;
+        let t_fall = if g > 0.0 {
+            (2.0 * self.cfg.h_layer / g).sqrt()
+        } else {
+            0.0
+        };
+        let chunk = ((0.01 / dt).round() as u64).max(1);
+        let mut done = 0u64;
+        while done < max_steps {
+            let n = chunk.min(max_steps - done);
+            self.world.step_n(n)?;
+            done += n;
+            let moving = (self.world.len() - self.world.n_frozen()).max(1);
+            let e = self.world.kinetic_energy() / moving as Real;
+            if done as Real * dt >= t_fall && e < tol * scale {
+                break;
+            }
+        }
+        Ok(done)
     }
 
     /// Runs the whole loop, calling `progress` after every layer.

@@ -78,6 +78,14 @@ impl RadiusLaw {
         }
     }
 
+    /// Mean radius (m): the constant, or the Gaussian's mean parameter.
+    pub fn r_mean(&self) -> Real {
+        match *self {
+            RadiusLaw::Constant(r) => r,
+            RadiusLaw::Gaussian { mean, .. } => mean,
+        }
+    }
+
     /// Smallest radius the law can produce (m).
     pub fn r_min(&self) -> Real {
         match *self {

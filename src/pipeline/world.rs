@@ -119,6 +119,27 @@ where
     }
 }
 
+/// Freezing of settled particles (skip what a settled pack does not need).
+///
+/// Every `interval` steps the world evaluates the net force on every particle. A
+/// particle whose top lies below `below` (m, along the vertical), whose speed is under
+/// `speed` and whose net force is under `force_ratio` times its weight is frozen: it is
+/// no longer integrated (velocity and spin set to zero) and its contacts with other
+/// frozen particles keep their last force instead of being recomputed; they still act
+/// on the active particles above. A frozen particle whose net force grows beyond
+/// `force_ratio` times its weight (something above pushes it) is unfrozen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreezeConfig {
+    /// Vertical coordinate (m) below which (z + r < below) particles may freeze.
+    pub below: Real,
+    /// Speed (m/s) under which a particle counts as at rest.
+    pub speed: Real,
+    /// Net force over weight under which a particle counts as in equilibrium (-).
+    pub force_ratio: Real,
+    /// Steps between freeze/unfreeze decisions.
+    pub interval: u64,
+}
+
 /// The contacts in force, in the column layout of DESIGN.md.
 #[derive(Clone, Debug, Default)]
 pub struct Contacts<const D: usize> {
@@ -155,6 +176,10 @@ struct Particles<const D: usize, A> {
     /// Tangential history and last force on each wall.
     wall_hist: Vec<[Vector<D>; MAX_WALLS]>,
     wall_force: Vec<[Vector<D>; MAX_WALLS]>,
+    /// Frozen particles are not integrated (see [`FreezeConfig`]).
+    frozen: Vec<bool>,
+    /// Bit w set: wall w was in contact at the last evaluation (its state is nonzero).
+    wall_mask: Vec<u8>,
 }
 
 /// The pair (Verlet) list and its per-pair state, sorted by (i, j).
@@ -166,8 +191,10 @@ struct Pairs<const D: usize, A> {
     hist: Vec<Vector<D>>,
     /// Total force on j (N).
     fvec: Vec<Vector<D>>,
-    /// n x f_t, from which both torques follow.
-    nxft: Vec<A>,
+    /// Torques of the tangential force on i and on j: -(r - d/2) n x f_t.
+    torque: Vec<[A; 2]>,
+    /// Overlap beyond which the pair counts as a blow-up (m).
+    dmax: Vec<Real>,
     overlap: Vec<Real>,
     /// For particle p, `inc[inc_start[p]..inc_start[p+1]]` lists (pair << 1 | p_is_j).
     inc_start: Vec<u32>,
@@ -203,6 +230,8 @@ where
     dt_checked: bool,
     /// Number of pair-list rebuilds so far (diagnostics).
     rebuilds: u64,
+    freeze: Option<FreezeConfig>,
+    n_frozen: usize,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -249,6 +278,8 @@ where
             list_valid: false,
             dt_checked: false,
             rebuilds: 0,
+            freeze: None,
+            n_frozen: 0,
         })
     }
 
@@ -301,6 +332,47 @@ where
     /// Masses (kg).
     pub fn masses(&self) -> &[Real] {
         &self.p.m
+    }
+
+    /// Sets (or clears) the freezing of settled particles. Clearing it unfreezes all.
+    pub fn set_freeze(&mut self, freeze: Option<FreezeConfig>) -> Result<()> {
+        if let Some(f) = &freeze {
+            check_range("freeze.speed", f.speed, 0.0, true, f64::INFINITY, false)?;
+            check_range(
+                "freeze.force_ratio",
+                f.force_ratio,
+                0.0,
+                true,
+                f64::INFINITY,
+                false,
+            )?;
+            if f.below.is_nan() {
+                return Err(Error::invalid(
+                    "freeze.below",
+                    f.below,
+                    "must not be NaN (m)",
+                ));
+            }
+            if f.interval == 0 {
+                return Err(Error::invalid("freeze.interval", 0, "must be >= 1 step"));
+            }
+        } else {
+            self.p.frozen.iter_mut().for_each(|z| *z = false);
+            self.n_frozen = 0;
+            self.forces_valid = false;
+        }
+        self.freeze = freeze;
+        Ok(())
+    }
+
+    /// Number of frozen particles.
+    pub fn n_frozen(&self) -> usize {
+        self.n_frozen
+    }
+
+    /// Which particles are frozen.
+    pub fn frozen(&self) -> &[bool] {
+        &self.p.frozen
     }
 
     /// Smallest radius (m), infinity when empty.
@@ -425,6 +497,8 @@ where
             self.p.inv_i.push(1.0 / inertia);
             self.p.wall_hist.push([Vector::<D>::zeros(); MAX_WALLS]);
             self.p.wall_force.push([Vector::<D>::zeros(); MAX_WALLS]);
+            self.p.frozen.push(false);
+            self.p.wall_mask.push(0);
         }
         self.forces_valid = false;
         self.list_valid = false;
@@ -522,9 +596,13 @@ where
                 .zip(p.f.par_chunks(CHUNK))
                 .zip(p.inv_m.par_chunks(CHUNK))
                 .zip(p.x_ref.par_chunks(CHUNK))
-                .map(|((((x, v), f), im), xr)| {
+                .zip(p.frozen.par_chunks(CHUNK))
+                .map(|(((((x, v), f), im), xr), fz)| {
                     let mut m2: Real = 0.0;
                     for k in 0..x.len() {
+                        if fz[k] {
+                            continue;
+                        }
                         v[k] += f[k] * (im[k] * half);
                         x[k] += v[k] * dt;
                         m2 = m2.max((x[k] - xr[k]).norm_squared());
@@ -536,9 +614,12 @@ where
             p.w.par_chunks_mut(CHUNK)
                 .zip(p.t.par_chunks(CHUNK))
                 .zip(p.inv_i.par_chunks(CHUNK))
-                .for_each(|((w, t), ii)| {
+                .zip(p.frozen.par_chunks(CHUNK))
+                .for_each(|(((w, t), ii), fz)| {
                     for k in 0..w.len() {
-                        w[k] += t[k] * (ii[k] * half);
+                        if !fz[k] {
+                            w[k] += t[k] * (ii[k] * half);
+                        }
                     }
                 });
         }
@@ -547,8 +628,11 @@ where
         if max_disp2.is_nan() || max_disp2 > half_skin * half_skin {
             self.rebuild_pairs();
         }
-        // 3-4. forces
-        self.compute_forces()?;
+        // 3-4. forces; on freeze-decision steps every particle's net force is needed
+        let decide = self
+            .freeze
+            .is_some_and(|f| (self.steps + 1) % f.interval == 0);
+        self.compute_forces_inner(decide)?;
         // 5. second half kick; flag any velocity that is non-finite or moves a particle
         // more than half its radius per step (it could tunnel through a neighbour).
         let p = &mut self.p;
@@ -557,9 +641,13 @@ where
                 .zip(p.f.par_chunks(CHUNK))
                 .zip(p.inv_m.par_chunks(CHUNK))
                 .zip(p.r.par_chunks(CHUNK))
-                .map(|(((v, f), im), r)| {
+                .zip(p.frozen.par_chunks(CHUNK))
+                .map(|((((v, f), im), r), fz)| {
                     let mut flag = false;
                     for k in 0..v.len() {
+                        if fz[k] {
+                            continue;
+                        }
                         v[k] += f[k] * (im[k] * half);
                         let lim = 0.5 * r[k] / dt;
                         // written so that NaN also trips it
@@ -573,11 +661,17 @@ where
             p.w.par_chunks_mut(CHUNK)
                 .zip(p.t.par_chunks(CHUNK))
                 .zip(p.inv_i.par_chunks(CHUNK))
-                .for_each(|((w, t), ii)| {
+                .zip(p.frozen.par_chunks(CHUNK))
+                .for_each(|(((w, t), ii), fz)| {
                     for k in 0..w.len() {
-                        w[k] += t[k] * (ii[k] * half);
+                        if !fz[k] {
+                            w[k] += t[k] * (ii[k] * half);
+                        }
                     }
                 });
+        }
+        if decide {
+            self.update_frozen();
         }
         self.steps += 1;
         self.time += dt;
@@ -663,7 +757,7 @@ where
         let old = std::mem::take(&mut self.pairs);
         let mut hist = vec![Vector::<D>::zeros(); m];
         let mut fvec = vec![Vector::<D>::zeros(); m];
-        let mut nxft = vec![Ang::<D>::default(); m];
+        let mut torque = vec![[Ang::<D>::default(); 2]; m];
         let mut overlap = vec![0.0; m];
         let mut a = 0usize;
         for (k, pair) in ij.iter().enumerate() {
@@ -673,7 +767,7 @@ where
             if a < old.ij.len() && old.ij[a] == *pair {
                 hist[k] = old.hist[a];
                 fvec[k] = old.fvec[a];
-                nxft[k] = old.nxft[a];
+                torque[k] = old.torque[a];
                 overlap[k] = old.overlap[a];
             }
         }
@@ -681,6 +775,11 @@ where
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
+        let ratio = self.cfg.max_overlap_ratio;
+        let dmax = ij
+            .iter()
+            .map(|&[i, j]| ratio * r[i as usize].min(r[j as usize]))
+            .collect();
         let coefs = ij
             .iter()
             .map(|&[i, j]| {
@@ -719,7 +818,8 @@ where
             coefs,
             hist,
             fvec,
-            nxft,
+            torque,
+            dmax,
             overlap,
             inc_start,
             inc,
@@ -729,8 +829,50 @@ where
         self.rebuilds += 1;
     }
 
-    /// Pair forces, then the per-particle gather with walls and body forces.
+    /// Pair forces, then the per-particle gather with walls and body forces, for every
+    /// particle (frozen ones included).
     fn compute_forces(&mut self) -> Result<()> {
+        self.compute_forces_inner(true)
+    }
+
+    /// Freezes settled particles below the freeze level and unfreezes pushed ones.
+    /// Runs right after a full force evaluation; each decision is per particle, so the
+    /// result does not depend on the thread count.
+    fn update_frozen(&mut self) {
+        let Some(fc) = self.freeze else { return };
+        let vert = <Dim<D> as Spatial<D>>::VERTICAL;
+        let g = self.cfg.gravity.norm();
+        let p = &mut self.p;
+        let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
+        let speed2 = fc.speed * fc.speed;
+        p.frozen
+            .par_chunks_mut(CHUNK)
+            .zip(p.v.par_chunks_mut(CHUNK))
+            .zip(p.w.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, ((fz, v), w))| {
+                for k in 0..fz.len() {
+                    let q = c * CHUNK + k;
+                    let fmax = fc.force_ratio * m[q] * g;
+                    let quiet = f[q].norm_squared() <= fmax * fmax;
+                    if fz[k] {
+                        fz[k] = quiet;
+                    } else if quiet && x[q][vert] + r[q] < fc.below && v[k].norm_squared() <= speed2
+                    {
+                        fz[k] = true;
+                        v[k] = Vector::<D>::zeros();
+                        w[k] = Ang::<D>::default();
+                    }
+                }
+            });
+        self.n_frozen = self.p.frozen.iter().filter(|&&z| z).count();
+    }
+
+    /// Pair forces and the gather. With `all` false, pairs of two frozen particles
+    /// keep their stored force and frozen particles are not gathered.
+    fn compute_forces_inner(&mut self, all: bool) -> Result<()> {
+        let skip_frozen = !all && self.n_frozen > 0;
+        let frozen = &self.p.frozen;
         let dt = self.cfg.dt;
         let rot = self.cfg.rotations;
         let mat = self.cfg.material;
@@ -747,49 +889,56 @@ where
             .zip(pr.coefs.par_chunks(CHUNK))
             .zip(pr.hist.par_chunks_mut(CHUNK))
             .zip(pr.fvec.par_chunks_mut(CHUNK))
-            .zip(pr.nxft.par_chunks_mut(CHUNK))
+            .zip(pr.torque.par_chunks_mut(CHUNK))
+            .zip(pr.dmax.par_chunks(CHUNK))
             .zip(pr.overlap.par_chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(|(c, (((((ij, coefs), hist), fvec), nxft), ovl))| {
-                let mut bad: Option<usize> = None;
-                for k in 0..ij.len() {
-                    let i = ij[k][0] as usize;
-                    let j = ij[k][1] as usize;
-                    let (ri, rj) = (p.r[i], p.r[j]);
-                    let dx = p.x[j] - p.x[i];
-                    let dist2 = dx.norm_squared();
-                    let cut = ri + rj;
-                    if dist2 >= cut * cut {
-                        // Zero the pair only when it just separated: most pairs inside the
-                        // skin stay apart for many steps, and rewriting them is pure traffic.
-                        if ovl[k] != 0.0 {
-                            hist[k] = Vector::<D>::zeros();
-                            fvec[k] = Vector::<D>::zeros();
-                            nxft[k] = Ang::<D>::default();
-                            ovl[k] = 0.0;
+            .filter_map(
+                |(c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
+                    let mut bad: Option<usize> = None;
+                    for k in 0..ij.len() {
+                        let i = ij[k][0] as usize;
+                        let j = ij[k][1] as usize;
+                        if skip_frozen && frozen[i] && frozen[j] {
+                            continue;
                         }
-                        continue;
+                        let (ri, rj) = (p.r[i], p.r[j]);
+                        let dx = p.x[j] - p.x[i];
+                        let dist2 = dx.norm_squared();
+                        let cut = ri + rj;
+                        if dist2 >= cut * cut {
+                            // Zero the pair only when it just separated: most pairs inside the
+                            // skin stay apart for many steps, and rewriting them is pure traffic.
+                            if ovl[k] != 0.0 {
+                                hist[k] = Vector::<D>::zeros();
+                                fvec[k] = Vector::<D>::zeros();
+                                torque[k] = [Ang::<D>::default(); 2];
+                                ovl[k] = 0.0;
+                            }
+                            continue;
+                        }
+                        let dist = dist2.sqrt();
+                        let d = cut - dist;
+                        if d > dmax[k] && bad.is_none() {
+                            bad = Some(c * CHUNK + k);
+                        }
+                        let n = dx / dist;
+                        let mut vrel = p.v[j] - p.v[i];
+                        if rot {
+                            vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
+                                - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
+                        }
+                        let f = hertz_mindlin_coefs(&coefs[k], d, &n, &vrel, &mut hist[k], dt);
+                        fvec[k] = n * f.normal + f.tangential;
+                        if rot && friction_on {
+                            let c = <Dim<D>>::cross_vv(&n, &f.tangential);
+                            torque[k] = [c * -(ri - 0.5 * d), c * -(rj - 0.5 * d)];
+                        }
+                        ovl[k] = d;
                     }
-                    let dist = dist2.sqrt();
-                    let d = cut - dist;
-                    if d > max_ratio * ri.min(rj) && bad.is_none() {
-                        bad = Some(c * CHUNK + k);
-                    }
-                    let n = dx / dist;
-                    let mut vrel = p.v[j] - p.v[i];
-                    if rot {
-                        vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
-                            - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
-                    }
-                    let f = hertz_mindlin_coefs(&coefs[k], d, &n, &vrel, &mut hist[k], dt);
-                    fvec[k] = n * f.normal + f.tangential;
-                    if rot && friction_on {
-                        nxft[k] = <Dim<D>>::cross_vv(&n, &f.tangential);
-                    }
-                    ovl[k] = d;
-                }
-                bad
-            })
+                    bad
+                },
+            )
             .min();
         if let Some(k) = bad_pair {
             let [i, j] = pr.ij[k];
@@ -813,17 +962,21 @@ where
         let gravity = self.cfg.gravity;
         let drag = self.cfg.drag;
         let p = &mut self.p;
-        let (x, v, w, r, m) = (&p.x, &p.v, &p.w, &p.r, &p.m);
+        let (x, v, w, r, m, fz) = (&p.x, &p.v, &p.w, &p.r, &p.m, &p.frozen);
         let bad_wall =
             p.f.par_chunks_mut(CHUNK)
                 .zip(p.t.par_chunks_mut(CHUNK))
                 .zip(p.wall_hist.par_chunks_mut(CHUNK))
                 .zip(p.wall_force.par_chunks_mut(CHUNK))
+                .zip(p.wall_mask.par_chunks_mut(CHUNK))
                 .enumerate()
-                .filter_map(|(c, (((f, t), wh), wf))| {
+                .filter_map(|(c, ((((f, t), wh), wf), wm))| {
                     let mut bad = None;
                     for k in 0..f.len() {
                         let q = c * CHUNK + k;
+                        if skip_frozen && fz[q] {
+                            continue;
+                        }
                         let mut fq = gravity * m[q];
                         if drag > 0.0 {
                             fq -= v[q] * drag;
@@ -837,7 +990,7 @@ where
                                 fq -= pr.fvec[pk];
                             }
                             if rot && friction_on {
-                                tq += pr.nxft[pk] * -(r[q] - 0.5 * pr.overlap[pk]);
+                                tq += pr.torque[pk][(e & 1) as usize];
                             }
                         }
                         for (wi, wall) in walls.iter().enumerate() {
@@ -846,11 +999,10 @@ where
                             if d <= 0.0 {
                                 // As for pairs: clear the wall's state only when the contact
                                 // just opened (the force is exactly zero otherwise).
-                                if wf[k][wi] != Vector::<D>::zeros()
-                                    || wh[k][wi] != Vector::<D>::zeros()
-                                {
+                                if wm[k] & (1 << wi) != 0 {
                                     wh[k][wi] = Vector::<D>::zeros();
                                     wf[k][wi] = Vector::<D>::zeros();
+                                    wm[k] &= !(1 << wi);
                                 }
                                 continue;
                             }
@@ -876,6 +1028,7 @@ where
                             let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
                             let on_wall = n * fc.normal + fc.tangential;
                             wf[k][wi] = on_wall;
+                            wm[k] |= 1 << wi;
                             fq -= on_wall;
                             if rot && friction_on {
                                 tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
