@@ -229,3 +229,20 @@ def test_contacts_columns_follow_the_boundary_layout():
     assert wall.force_normal[0] == pytest.approx(2 * w, rel=1e-3)
     assert np.all(c.overlap > 0)
     np.testing.assert_allclose(np.linalg.norm(pp.branch[0]), 2 * r - pp.overlap[0], rtol=1e-12)
+
+
+def test_energy_is_conserved_through_an_elastic_collision():
+    """xi = 0, mu = 0: kinetic energy goes into the Hertz spring 8/15 E* sqrt(R*) d^{5/2}
+    and comes back; the sum stays constant at every step of the contact."""
+    mat = gp.Material(damping=0.0, friction=0.0)
+    sim = gp.Simulation(dim=3, material=mat, dt=1e-6, gravity=[0.0, 0.0, 0.0])
+    r = 0.01
+    sim.add_particles([[0, 0, 0], [2 * r + 1e-9, 0, 0]], [r, r], velocities=[[0.5, 0, 0], [-0.5, 0, 0]])
+    e0 = sim.kinetic_energy()
+    seen_elastic = 0.0
+    for _ in range(800):
+        sim.step(1)
+        el = sim.elastic_energy()
+        seen_elastic = max(seen_elastic, el)
+        assert sim.kinetic_energy() + el == pytest.approx(e0, rel=2e-3)
+    assert seen_elastic > 0.9 * e0  # the spring really took (almost) all of it

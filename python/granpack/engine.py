@@ -219,6 +219,11 @@ class Simulation:
         """Gravitational potential energy -sum m g.x (J)."""
         return self._sim.potential_energy()
 
+    def elastic_energy(self) -> float:
+        """Elastic energy stored in the contacts (J): Hertz 8/15 E* sqrt(R*) d^{5/2} plus
+        the tangential springs 1/2 k_t |xi_t|^2, at the last force evaluation."""
+        return self._sim.elastic_energy()
+
     def critical_time_step(self) -> float:
         """Rayleigh critical step for the current smallest particle (s)."""
         return self._sim.critical_time_step()

@@ -381,6 +381,9 @@ impl Simulation {
     fn potential_energy(&self) -> f64 {
         with_world!(&self.inner, w, _D, w.potential_energy())
     }
+    fn elastic_energy(&self) -> f64 {
+        with_world!(&self.inner, w, _D, w.elastic_energy())
+    }
     fn critical_time_step(&self) -> f64 {
         with_world!(&self.inner, w, _D, w.critical_time_step())
     }

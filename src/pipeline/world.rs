@@ -232,6 +232,9 @@ where
     rebuilds: u64,
     freeze: Option<FreezeConfig>,
     n_frozen: usize,
+    /// Kinetic plus potential energy when the state was last set by the user (J): with
+    /// gravity the only source, the total may not rise above it (see `check_energy`).
+    energy_ref: Option<Real>,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -280,6 +283,7 @@ where
             rebuilds: 0,
             freeze: None,
             n_frozen: 0,
+            energy_ref: None,
         })
     }
 
@@ -503,6 +507,7 @@ where
         self.forces_valid = false;
         self.list_valid = false;
         self.dt_checked = false;
+        self.energy_ref = None;
         Ok(())
     }
 
@@ -517,6 +522,7 @@ where
         }
         self.p.v.copy_from_slice(v);
         self.forces_valid = false;
+        self.energy_ref = None;
         Ok(())
     }
 
@@ -533,6 +539,7 @@ where
             self.p.w.copy_from_slice(w);
         }
         self.forces_valid = false;
+        self.energy_ref = None;
         Ok(())
     }
 
@@ -584,6 +591,9 @@ where
         }
         if !self.forces_valid {
             self.compute_forces()?;
+        }
+        if self.energy_ref.is_none() {
+            self.check_energy()?;
         }
         let dt = self.cfg.dt;
         let half = 0.5 * dt;
@@ -680,6 +690,44 @@ where
         // intervals.
         if suspicious || self.steps % 1024 == 0 {
             self.check_state()?;
+            self.check_energy()?;
+        }
+        Ok(())
+    }
+
+    /// Gravity is the only source of energy (contacts, drag and walls dissipate), so
+    /// kinetic plus potential energy may exceed its value at the last user-set state
+    /// only by the elastic energy the contacts can release. That is bounded here,
+    /// generously, by the work of lifting every particle by its radius (sum m |g| r)
+    /// plus 1 % of the reference kinetic energy; a numerical blow-up exceeds it by
+    /// orders of magnitude.
+    fn check_energy(&mut self) -> Result<()> {
+        let e = self.kinetic_energy() + self.potential_energy() + self.elastic_energy();
+        let g = self.cfg.gravity.norm();
+        let Some(e_ref) = self.energy_ref else {
+            self.energy_ref = Some(e);
+            return Ok(());
+        };
+        let lift: Real = self.p.m.iter().zip(&self.p.r).map(|(m, r)| m * g * r).sum();
+        let tol = lift + 0.01 * e_ref.abs() + 1e-300;
+        if e > e_ref + tol {
+            let fastest = (0..self.len())
+                .max_by(|&a, &b| {
+                    self.p.v[a]
+                        .norm_squared()
+                        .partial_cmp(&self.p.v[b].norm_squared())
+                        .unwrap_or(std::cmp::Ordering::Equal)
+                })
+                .unwrap_or(0);
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: fastest,
+                what: format!(
+                    "kinetic + potential + elastic energy grew from {e_ref:e} J to {e:e} J \
+                     with gravity the only source (fastest particle shown); reduce dt"
+                ),
+            });
         }
         Ok(())
     }
@@ -1077,6 +1125,38 @@ where
         parts.iter().sum()
     }
 
+    /// Elastic energy stored in the contacts at the last force evaluation (J): Hertz
+    /// 8/15 E* sqrt(R*) d^{5/2} plus the tangential springs 1/2 k_t |xi_t|^2, over pairs
+    /// and wall contacts.
+    pub fn elastic_energy(&self) -> Real {
+        let pr = &self.pairs;
+        let mut e = 0.0;
+        for k in 0..pr.ij.len() {
+            let d = pr.overlap[k];
+            if d > 0.0 {
+                let c = &pr.coefs[k];
+                e += (4.0 / 15.0) * c.kn * d * d * d.sqrt()
+                    + 0.5 * c.kt * d.sqrt() * pr.hist[k].norm_squared();
+            }
+        }
+        for q in 0..self.len() {
+            for (wi, wall) in self.walls.iter().enumerate() {
+                let d = self.p.r[q] - (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                if d > 0.0 {
+                    let sr = self.p.r[q].sqrt();
+                    e += (4.0 / 15.0) * 2.0 * self.e_star * sr * d * d * d.sqrt()
+                        + 0.5
+                            * 8.0
+                            * self.g_star
+                            * sr
+                            * d.sqrt()
+                            * self.p.wall_hist[q][wi].norm_squared();
+                }
+            }
+        }
+        e
+    }
+
     /// Largest particle speed (m/s).
     pub fn max_speed(&self) -> Real {
         self.p
@@ -1214,6 +1294,27 @@ mod tests {
         assert!((max_d - d_max).abs() / d_max < 0.01, "{max_d} vs {d_max}");
         let e1 = w.kinetic_energy();
         assert!((e1 - e0).abs() / e0 < 1e-3);
+    }
+
+    #[test]
+    fn energy_gained_without_a_source_stops_the_run() {
+        let mut cfg = SimConfig::<3>::paper();
+        cfg.walls = Some((
+            Vector::<3>::zeros(),
+            Vector::<3>::new(1.0, 1.0, f64::INFINITY),
+        ));
+        let mut w = World::new(cfg).unwrap();
+        let x: Vec<Vector<3>> = (0..10)
+            .map(|k| Vector::<3>::new(0.1 + 0.05 * k as f64, 0.5, 0.3))
+            .collect();
+        w.add_particles(&x, &[0.02; 10], None, None).unwrap();
+        w.step_n(2000).unwrap(); // falling converts potential into kinetic energy: fine
+                                 // Inject energy behind the engine's back, as a numerical instability would.
+        for v in w.p.v.iter_mut() {
+            *v += Vector::<3>::new(3.0, 0.0, 0.0);
+        }
+        let e = w.check_energy().unwrap_err().to_string();
+        assert!(e.contains("energy grew") && e.contains("step 2000"), "{e}");
     }
 
     #[test]
