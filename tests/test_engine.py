@@ -164,7 +164,9 @@ def test_incline_rolls_or_slides(dim, mu):
     ts, xs = np.array(ts), np.array(xs)
     a = 2 * np.polyfit(ts, xs, 2)[0]
     rolls = mu >= 2 / 7 * math.tan(theta)
-    expected = 5 / 7 * g * math.sin(theta) if rolls else g * (math.sin(theta) - mu * math.cos(theta))
+    expected = (
+        5 / 7 * g * math.sin(theta) if rolls else g * (math.sin(theta) - mu * math.cos(theta))
+    )
     assert a == pytest.approx(expected, rel=0.01)
     v = sim.velocities[0, 0]
     w = sim.spins[0] if dim == 2 else sim.spins[0][1]
@@ -203,8 +205,9 @@ def test_column_settles_and_stays(dim):
 
 def test_rotations_off_keep_spins_zero_and_skip_torques():
     sim = gp.Simulation(dim=3, rotations=False, box=((0, 0, 0), (1, 1, math.inf)))
-    sim.add_particles([[0.5, 0.5, 0.0099]], [0.01], velocities=[[0.3, 0.0, 0.0]],
-                      spins=[[0.0, 5.0, 0.0]])
+    sim.add_particles(
+        [[0.5, 0.5, 0.0099]], [0.01], velocities=[[0.3, 0.0, 0.0]], spins=[[0.0, 5.0, 0.0]]
+    )
     sim.step(500)
     assert np.all(sim.spins == 0.0)
     assert sim.velocities[0, 0] < 0.3
@@ -237,7 +240,9 @@ def test_energy_is_conserved_through_an_elastic_collision():
     mat = gp.Material(damping=0.0, friction=0.0)
     sim = gp.Simulation(dim=3, material=mat, dt=1e-6, gravity=[0.0, 0.0, 0.0])
     r = 0.01
-    sim.add_particles([[0, 0, 0], [2 * r + 1e-9, 0, 0]], [r, r], velocities=[[0.5, 0, 0], [-0.5, 0, 0]])
+    sim.add_particles(
+        [[0, 0, 0], [2 * r + 1e-9, 0, 0]], [r, r], velocities=[[0.5, 0, 0], [-0.5, 0, 0]]
+    )
     e0 = sim.kinetic_energy()
     seen_elastic = 0.0
     for _ in range(800):

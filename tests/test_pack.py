@@ -94,10 +94,13 @@ def test_same_seed_same_pack_different_seed_or_stream_different(tiny_scene_2d):
 THREAD_SCRIPT = textwrap.dedent(
     """
     import hashlib, sys, granpack as gp
-    scene = gp.PackScene.preset("4.1").replace(r_mean=0.004, height=0.25, settle_time=0.05, dt=5e-5, seed=9)
+    scene = gp.PackScene.preset("4.1").replace(
+        r_mean=0.004, height=0.25, settle_time=0.05, dt=5e-5, seed=9
+    )
     p = gp.generate(scene)
     h = hashlib.sha256()
-    for a in (p.positions, p.velocities, p.spins, p.contacts.force_normal, p.contacts.force_tangential):
+    c = p.contacts
+    for a in (p.positions, p.velocities, p.spins, c.force_normal, c.force_tangential):
         h.update(a.tobytes())
     print(len(p), h.hexdigest())
     """
@@ -109,8 +112,13 @@ def test_bit_identical_on_one_and_two_threads():
     out = {}
     for threads in ("1", "2"):
         env = {**os.environ, "RAYON_NUM_THREADS": threads}
-        res = subprocess.run([sys.executable, "-c", THREAD_SCRIPT], env=env, capture_output=True,
-                             text=True, check=True)
+        res = subprocess.run(
+            [sys.executable, "-c", THREAD_SCRIPT],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         out[threads] = res.stdout.split()
     assert int(out["1"][0]) > 2048
     assert out["1"] == out["2"]
@@ -122,7 +130,13 @@ def test_presets_carry_the_papers_numbers():
         assert s.height == 0.5 and s.h_layer == 0.1 and s.dt == 1e-4 and s.settle_time == 1.0
         assert s.gravity == 2.0 and s.drag == 0.005 and s.rotations
         assert s.material == gp.Material(1000.0, 1e8, 0.25, 0.1, 0.2)
-    assert (p41.dim, p41.base, p41.r_mean, p41.radius_law, p41.phi_layer) == (2, (1.0,), 0.01, "constant", 0.4)
+    assert (p41.dim, p41.base, p41.r_mean, p41.radius_law, p41.phi_layer) == (
+        2,
+        (1.0,),
+        0.01,
+        "constant",
+        0.4,
+    )
     assert (p42.r_mean, p42.r_std, p42.r_min, p42.r_max) == (0.01, 0.001, 0.007, 0.013)
     assert (p43.dim, p43.base, p43.r_mean, p43.phi_layer) == (3, (1.0, 1.0), 0.02, 0.25)
     assert (p44.r_mean, p44.r_std, p44.r_min, p44.r_max) == (0.02, 0.002, 0.014, 0.026)
@@ -167,8 +181,9 @@ def test_scene_validation_names_the_field(changes, name):
 
 
 def test_rsa_saturation_is_a_clear_error():
-    scene = gp.PackScene.preset("4.1").replace(base=(0.1,), phi_layer=0.54, max_attempts=2000,
-                                                settle_time=0.0)
+    scene = gp.PackScene.preset("4.1").replace(
+        base=(0.1,), phi_layer=0.54, max_attempts=2000, settle_time=0.0
+    )
     with pytest.raises(ValueError, match=r"saturated: layer 0 reached solid fraction 0\.\d+"):
         gp.generate(scene)
 

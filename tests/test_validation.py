@@ -111,13 +111,19 @@ def test_blowup_is_caught_with_step_and_particle():
     """A violent collision at dt near the limit overlaps beyond the guard: the run
     stops with an error naming the step and particle instead of returning garbage."""
     sim = gp.Simulation(dim=3, dt=1.7e-4, gravity=[0, 0, 0])
-    sim.add_particles([[0, 0, 0], [0.0205, 0, 0]], [0.01, 0.01], velocities=[[200, 0, 0], [-200, 0, 0]])
+    sim.add_particles(
+        [[0, 0, 0], [0.0205, 0, 0]], [0.01, 0.01], velocities=[[200, 0, 0], [-200, 0, 0]]
+    )
     with pytest.raises(gp.GranpackError, match=r"unstable at step 1 .*particle 0: speed"):
         sim.step(100)
 
 
 def test_excessive_overlap_is_caught():
     sim = gp.Simulation(dim=3, dt=1e-5, gravity=[0, 0, 0], max_overlap_ratio=0.05)
-    sim.add_particles([[0, 0, 0], [0.0201, 0, 0]], [0.01, 0.01], velocities=[[10, 0, 0], [-10, 0, 0]])
-    with pytest.raises(gp.GranpackError, match=r"unstable at step \d+.*particle 0.*overlap with particle 1"):
+    sim.add_particles(
+        [[0, 0, 0], [0.0201, 0, 0]], [0.01, 0.01], velocities=[[10, 0, 0], [-10, 0, 0]]
+    )
+    with pytest.raises(
+        gp.GranpackError, match=r"unstable at step \d+.*particle 0.*overlap with particle 1"
+    ):
         sim.step(1000)

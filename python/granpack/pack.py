@@ -8,6 +8,7 @@ import os
 import tempfile
 import time
 import zipfile
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,7 +87,11 @@ class Pack:
     @property
     def phi(self) -> float:
         """Solid fraction of the box up to H_top (-)."""
-        vol = np.sum(np.pi * self.radii**2) if self.dim == 2 else np.sum(4 / 3 * np.pi * self.radii**3)
+        vol = (
+            np.sum(np.pi * self.radii**2)
+            if self.dim == 2
+            else np.sum(4 / 3 * np.pi * self.radii**3)
+        )
         return float(vol / (self.scene.base_area * self.height))
 
     # -- files ------------------------------------------------------------------------
@@ -135,6 +140,8 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
 def load_pack(path: str | Path) -> Pack:
     """Reads a pack written by `Pack.save`; a truncated or foreign file is a
     GranpackError, never a crash."""
+    if not isinstance(path, str | os.PathLike):
+        raise GranpackError(f"invalid path = {path!r}: expected a file name")
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -144,18 +151,35 @@ def load_pack(path: str | Path) -> Pack:
         raise GranpackError(f"cannot read pack {path}: {exc.strerror}") from None
     try:
         # Parse from memory: a corrupt archive then leaves no file handle open.
-        with np.load(io.BytesIO(raw), allow_pickle=False) as z:
+        z = np.load(io.BytesIO(raw), allow_pickle=False)
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise ValueError("a single .npy array, not a pack archive")
+        with z:
             data = {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as exc:
-        raise GranpackError(f"cannot read pack {path}: corrupt or truncated ({exc})") from None
+    except (
+        zipfile.BadZipFile,
+        zlib.error,
+        NotImplementedError,
+        ValueError,
+        OSError,
+        EOFError,
+        KeyError,
+        MemoryError,
+    ) as exc:
+        # NotImplementedError: a corrupt header names an unknown compression or zip
+        # version; MemoryError: a corrupt array header announces an absurd shape.
+        raise GranpackError(
+            f"cannot read pack {path}: corrupt or truncated ({type(exc).__name__}: {exc})"
+        ) from None
     try:
-        meta = json.loads(bytes(data["meta.json"]).decode())
-        if meta.get("format") != "granpack-pack":
+        meta = json.loads(_text(data, "meta.json"))
+        if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
             raise ValueError("not a granpack pack file")
-        scene = PackScene.from_toml_string(bytes(data["scene.toml"]).decode())
+        scene = PackScene.from_toml_string(_text(data, "scene.toml"))
         contacts = Contacts.from_dict(
             {k.split(".", 1)[1]: v for k, v in data.items() if k.startswith("contacts.")}
         )
+        _check_arrays(data, scene.dim, contacts)
         return Pack(
             scene=scene,
             positions=data["positions"],
@@ -168,8 +192,57 @@ def load_pack(path: str | Path) -> Pack:
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
         )
-    except (KeyError, ValueError, UnicodeDecodeError, TypeError) as exc:
+    except (
+        KeyError,
+        ValueError,
+        UnicodeDecodeError,
+        TypeError,
+        OverflowError,
+        RecursionError,
+    ) as exc:
         raise GranpackError(f"cannot read pack {path}: missing or invalid field ({exc})") from None
+
+
+def _text(data: dict, key: str) -> str:
+    """A text member (UTF-8 bytes stored as a 1-D uint8 array)."""
+    a = data[key]
+    if a.dtype != np.uint8 or a.ndim != 1:
+        raise ValueError(f"{key!r} is not a byte string")
+    return a.tobytes().decode()
+
+
+def _check_arrays(data: dict, dim: int, contacts: Contacts) -> None:
+    """Shapes and values of a pack's arrays: a damaged file fails here, not later."""
+    x = data["positions"]
+    n = x.shape[0] if x.ndim == 2 else -1
+    spin = (n,) if dim == 2 else (n, 3)
+    for key, shape in (
+        ("positions", (n, dim)),
+        ("radii", (n,)),
+        ("velocities", (n, dim)),
+        ("spins", spin),
+        ("layer", (n,)),
+    ):
+        a = data[key]
+        if a.shape != shape or a.dtype.kind not in ("f" if key != "layer" else "iu"):
+            raise ValueError(f"{key!r} has shape {a.shape} and dtype {a.dtype}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{key!r} holds non-finite values")
+    if np.any(data["radii"] <= 0):
+        raise ValueError("'radii' holds values <= 0")
+    m = len(contacts.i)
+    for key, shape in (
+        ("i", (m,)),
+        ("j", (m,)),
+        ("normal", (m, dim)),
+        ("overlap", (m,)),
+        ("force_normal", (m,)),
+        ("force_tangential", (m, dim)),
+        ("branch", (m, dim)),
+    ):
+        a = getattr(contacts, key)
+        if a.shape != shape or a.dtype.kind not in ("iu" if key in "ij" else "f"):
+            raise ValueError(f"'contacts.{key}' has shape {a.shape} and dtype {a.dtype}")
 
 
 def _packer(scene: PackScene) -> _core.LayerPacker:
@@ -180,12 +253,29 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
     if s.radius_law == "gaussian":
         law = ("gaussian", s.r_mean, s.r_std, s.r_min, s.r_max)
     return _core.LayerPacker(
-        s.dim, s.material.as_tuple(), s.dt, gravity, s.drag, s.rotations, list(s.base),
-        s.height, law, s.h_layer, s.phi_layer, s.settle_time, s.seed,
-        stream=s.stream, max_attempts=s.max_attempts, max_layers=s.max_layers,
-        skin_ratio=s.skin_ratio, max_overlap_ratio=s.max_overlap_ratio,
-        inertia_2d=s.inertia_2d, adaptive_settle=s.settle_tol, freeze_depth=s.freeze_depth,
-        freeze_speed=s.freeze_speed, freeze_force=s.freeze_force,
+        s.dim,
+        s.material.as_tuple(),
+        s.dt,
+        gravity,
+        s.drag,
+        s.rotations,
+        list(s.base),
+        s.height,
+        law,
+        s.h_layer,
+        s.phi_layer,
+        s.settle_time,
+        s.seed,
+        stream=s.stream,
+        max_attempts=s.max_attempts,
+        max_layers=s.max_layers,
+        skin_ratio=s.skin_ratio,
+        max_overlap_ratio=s.max_overlap_ratio,
+        inertia_2d=s.inertia_2d,
+        adaptive_settle=s.settle_tol,
+        freeze_depth=s.freeze_depth,
+        freeze_speed=s.freeze_speed,
+        freeze_force=s.freeze_force,
     )
 
 

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from numbers import Integral
 from pathlib import Path
 
 import tomli_w
+import tomllib
 
 from ._validate import GranpackError, as_bool, as_int, as_real, unknown_keys
 from .engine import Material
@@ -129,8 +132,10 @@ class PackScene:
 
     def __post_init__(self) -> None:
         s = object.__setattr__
-        if isinstance(self.dim, bool) or self.dim not in (2, 3):
+        dim = self.dim
+        if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
             raise GranpackError(f"invalid dim = {self.dim!r}: must be 2 or 3")
+        s(self, "dim", int(self.dim))
         try:
             base = tuple(self.base)
         except TypeError:
@@ -139,7 +144,8 @@ class PackScene:
             ) from None
         if len(base) != self.dim - 1:
             raise GranpackError(
-                f"invalid base = {self.base!r}: expected {self.dim - 1} length(s) (m) for dim = {self.dim}"
+                f"invalid base = {self.base!r}: expected {self.dim - 1} length(s) (m) "
+                f"for dim = {self.dim}"
             )
         s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
         s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
@@ -160,7 +166,8 @@ class PackScene:
             rmax = as_real("r_max", rmax, rmin, unit="m; r_max >= r_min")
             if not rmin <= self.r_mean <= rmax:
                 raise GranpackError(
-                    f"invalid r_mean = {self.r_mean}: must lie in [r_min, r_max] = [{rmin}, {rmax}] (m)"
+                        f"invalid r_mean = {self.r_mean}: must lie in "
+                    f"[r_min, r_max] = [{rmin}, {rmax}] (m)"
                 )
             s(self, "r_min", rmin)
             s(self, "r_max", rmax)
@@ -172,8 +179,19 @@ class PackScene:
                 )
         s(self, "h_layer", as_real("h_layer", self.h_layer, 0, lo_open=True, unit="m"))
         sat = RSA_SATURATION[self.dim]
-        s(self, "phi_layer", as_real("phi_layer", self.phi_layer, 0, sat, lo_open=True, hi_open=True,
-                                     unit=f"RSA saturates near {sat} in {self.dim}D"))
+        s(
+            self,
+            "phi_layer",
+            as_real(
+                "phi_layer",
+                self.phi_layer,
+                0,
+                sat,
+                lo_open=True,
+                hi_open=True,
+                unit=f"RSA saturates near {sat} in {self.dim}D",
+            ),
+        )
         if not isinstance(self.material, Material):
             if isinstance(self.material, dict):
                 unknown_keys("material", self.material, _MATERIAL_KEYS)
@@ -194,11 +212,17 @@ class PackScene:
         s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
         s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
         if self.inertia_2d not in ("sphere", "disc"):
-            raise GranpackError(f"invalid inertia_2d = {self.inertia_2d!r}: must be 'sphere' or 'disc'")
+            raise GranpackError(
+                f"invalid inertia_2d = {self.inertia_2d!r}: must be 'sphere' or 'disc'"
+            )
         s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
-        s(self, "max_overlap_ratio", as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True))
-        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1))
-        s(self, "max_layers", as_int("max_layers", self.max_layers, 1))
+        s(
+            self,
+            "max_overlap_ratio",
+            as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True),
+        )
+        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, 2**64 - 1))
+        s(self, "max_layers", as_int("max_layers", self.max_layers, 1, 2**64 - 1))
         if self.settle_tol is not None:
             s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
         if self.freeze_depth is not None:
@@ -207,7 +231,7 @@ class PackScene:
         s(self, "freeze_force", as_real("freeze_force", self.freeze_force, 0))
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
-        if n_est > 5e8:
+        if not n_est <= 5e8:  # NaN (inf / inf) is refused too
             raise GranpackError(
                 f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
                 "shrink base/height or grow the radii"
@@ -217,7 +241,7 @@ class PackScene:
     @classmethod
     def preset(cls, name: str) -> PackScene:
         """The paper's examples "4.1", "4.2" (2D) and "4.3", "4.4" (3D)."""
-        if name not in PRESETS:
+        if not isinstance(name, str) or name not in PRESETS:
             raise GranpackError(
                 f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
             )
@@ -240,14 +264,18 @@ class PackScene:
     @classmethod
     def from_dict(cls, d: dict) -> PackScene:
         """From a flat dict (a TOML document); `preset = "4.3"` starts from a preset."""
+        if not isinstance(d, Mapping):
+            raise GranpackError(f"invalid scene = {d!r}: expected a table (dict) of scene keys")
         d = dict(d)
         known = [f.name for f in dataclasses.fields(cls)] + ["preset"]
         unknown_keys("scene", d, known)
         base = {}
         if "preset" in d:
             name = d.pop("preset")
-            if name not in PRESETS:
-                raise GranpackError(f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}")
+            if not isinstance(name, str) or name not in PRESETS:
+                raise GranpackError(
+                    f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
+                )
             base = dict(PRESETS[name])
         if "material" in d:
             if not isinstance(d["material"], dict):
@@ -264,20 +292,30 @@ class PackScene:
     @classmethod
     def from_toml(cls, path: str | Path) -> PackScene:
         """Reads a scene from a TOML file (flat keys, a [material] table)."""
+        if not isinstance(path, str | os.PathLike):
+            raise GranpackError(f"invalid path = {path!r}: expected a file name")
         try:
             with open(path, "rb") as f:
                 doc = tomllib.load(f)
         except tomllib.TOMLDecodeError as exc:
             raise GranpackError(f"invalid scene file {path}: {exc}") from None
+        except UnicodeDecodeError as exc:
+            raise GranpackError(f"invalid scene file {path}: not UTF-8 text ({exc})") from None
         except OSError as exc:
             raise GranpackError(f"cannot read scene file {path}: {exc.strerror}") from None
         return cls.from_dict(doc)
 
     @classmethod
     def from_toml_string(cls, text: str) -> PackScene:
-        """Reads a scene from TOML text."""
+        """Reads a scene from TOML text (str, or UTF-8 bytes)."""
         try:
+            if isinstance(text, bytes | bytearray):
+                text = bytes(text).decode()
+            if not isinstance(text, str):
+                raise GranpackError(f"invalid text = {text!r}: expected TOML text (str)")
             return cls.from_dict(tomllib.loads(text))
+        except UnicodeDecodeError as exc:
+            raise GranpackError(f"invalid scene TOML: not UTF-8 text ({exc})") from None
         except tomllib.TOMLDecodeError as exc:
             raise GranpackError(f"invalid scene TOML: {exc}") from None
 
@@ -311,26 +349,67 @@ class PackScene:
         return math.prod(self.base)
 
     def particle_volume(self, r: float) -> float:
-        return math.pi * r * r if self.dim == 2 else 4.0 / 3.0 * math.pi * r**3
+        # products, not r**3: a huge radius gives inf instead of raising OverflowError
+        return math.pi * r * r if self.dim == 2 else 4.0 / 3.0 * math.pi * r * r * r
 
     def estimated_particles(self) -> float:
         """Rough particle count: layers of phi_layer filling about H_d / h_layer slabs."""
         n_layers = max(1.0, self.height / self.h_layer) * 1.5
-        per_layer = self.phi_layer * self.base_area * self.h_layer / self.particle_volume(self.r_mean)
+        vol = self.particle_volume(self.r_mean)
+        if vol == 0.0:  # the radius underflows: too many particles by any measure
+            return math.inf
+        per_layer = self.phi_layer * self.base_area * self.h_layer / vol
         return n_layers * per_layer
 
 
-_COMMON = {"material": Material(), "dt": 1e-4, "settle_time": 1.0, "gravity": 2.0,
-           "drag": 0.005, "height": 0.5, "h_layer": 0.1}
+_COMMON = {
+    "material": Material(),
+    "dt": 1e-4,
+    "settle_time": 1.0,
+    "gravity": 2.0,
+    "drag": 0.005,
+    "height": 0.5,
+    "h_layer": 0.1,
+}
 
 #: The paper's section 4 examples, numbers as printed (r_min of 4.2 is r_m - 3 sd).
 PRESETS: dict[str, dict] = {
-    "4.1": {**_COMMON, "dim": 2, "base": (1.0,), "radius_law": "constant", "r_mean": 0.01,
-            "phi_layer": 0.4},
-    "4.2": {**_COMMON, "dim": 2, "base": (1.0,), "radius_law": "gaussian", "r_mean": 0.01,
-            "r_std": 0.001, "r_min": 0.007, "r_max": 0.013, "phi_layer": 0.4},
-    "4.3": {**_COMMON, "dim": 3, "base": (1.0, 1.0), "radius_law": "constant", "r_mean": 0.02,
-            "phi_layer": 0.25},
-    "4.4": {**_COMMON, "dim": 3, "base": (1.0, 1.0), "radius_law": "gaussian", "r_mean": 0.02,
-            "r_std": 0.002, "r_min": 0.014, "r_max": 0.026, "phi_layer": 0.25},
+    "4.1": {
+        **_COMMON,
+        "dim": 2,
+        "base": (1.0,),
+        "radius_law": "constant",
+        "r_mean": 0.01,
+        "phi_layer": 0.4,
+    },
+    "4.2": {
+        **_COMMON,
+        "dim": 2,
+        "base": (1.0,),
+        "radius_law": "gaussian",
+        "r_mean": 0.01,
+        "r_std": 0.001,
+        "r_min": 0.007,
+        "r_max": 0.013,
+        "phi_layer": 0.4,
+    },
+    "4.3": {
+        **_COMMON,
+        "dim": 3,
+        "base": (1.0, 1.0),
+        "radius_law": "constant",
+        "r_mean": 0.02,
+        "phi_layer": 0.25,
+    },
+    "4.4": {
+        **_COMMON,
+        "dim": 3,
+        "base": (1.0, 1.0),
+        "radius_law": "gaussian",
+        "r_mean": 0.02,
+        "r_std": 0.002,
+        "r_min": 0.014,
+        "r_max": 0.026,
+        "phi_layer": 0.25,
+    },
 }

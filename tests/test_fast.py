@@ -1,0 +1,61 @@
+"""Skipping what a scene does not need: freezing of buried settled particles and
+adaptive settling keep the pack's invariants and stay deterministic."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import granpack as gp
+
+
+@pytest.fixture
+def deep_scene() -> gp.PackScene:
+    """Enough thin layers that the bottom ones lie deeper than the freezing depth."""
+    return gp.PackScene.preset("4.1").replace(
+        base=(0.3,), height=0.2, h_layer=0.04, settle_time=0.6, seed=11
+    )
+
+
+def test_freezing_freezes_buried_particles_and_keeps_invariants(deep_scene):
+    scene = deep_scene.replace(freeze_depth=0.05)
+    pack = gp.generate(scene)
+    frozen = [rep["frozen"] for rep in pack.layers]
+    assert max(frozen) > 0.2 * len(pack), frozen
+    x, r = pack.positions, pack.radii
+    # nothing escaped: inside the side walls, above the floor
+    assert np.all(x[:, 0] - r >= -1e-3 * r) and np.all(x[:, 0] + r <= 0.3 + 1e-3 * r)
+    assert np.all(x[:, 1] - r >= -1e-3 * r)
+    # no overlap beyond what the jamming load produces without freezing
+    full = gp.generate(deep_scene)
+    assert pack.contacts.overlap.max() < 2 * full.contacts.overlap.max()
+    assert pack.contacts.overlap.max() < 0.01 * 0.01
+    # the frozen part is at rest
+    assert np.all(np.isfinite(pack.velocities))
+
+
+def test_freezing_and_adaptive_settling_are_deterministic(deep_scene):
+    scene = deep_scene.replace(freeze_depth=0.05, settle_tol=1e-2)
+    a, b = gp.generate(scene), gp.generate(scene)
+    assert np.array_equal(a.positions, b.positions)
+    assert [r["steps"] for r in a.layers] == [r["steps"] for r in b.layers]
+
+
+def test_adaptive_settling_stops_early_but_not_before_the_fall(deep_scene):
+    """With a loose tolerance the runs end early, never before the new layer has had
+    time to fall through its slab, sqrt(2 h_layer / g) = 0.2 s here."""
+    scene = deep_scene.replace(settle_tol=1e-2)
+    pack = gp.generate(scene)
+    steps = np.array([r["steps"] for r in pack.layers])
+    full_steps = round(scene.settle_time / scene.dt)
+    assert np.all(steps <= full_steps) and np.any(steps < full_steps)
+    assert np.all(steps * scene.dt >= np.sqrt(2 * scene.h_layer / scene.gravity) - 1e-9)
+    assert pack.height >= scene.height
+
+
+def test_fast_settings_keep_physics_constants():
+    s = gp.PackScene.preset("4.3")
+    f = s.fast()
+    assert f.settle_tol is not None and f.freeze_depth is not None
+    for name in ("material", "dt", "settle_time", "gravity", "drag", "phi_layer", "h_layer"):
+        assert getattr(f, name) == getattr(s, name)
