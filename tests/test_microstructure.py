@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import math
 
-import granpack as gp
 import numpy as np
 import pytest
+
+import granpack as gp
 from granpack.microstructure import (
     Microstructure,
     MicrostructureWarning,

@@ -7,9 +7,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import granpack as gp
 import numpy as np
 import pytest
+
+import granpack as gp
 from granpack.microstructure import read_xyzr
 
 PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"

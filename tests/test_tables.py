@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import math
 
-import granpack as gp
 import numpy as np
 import polars as pl
 import pytest
+
+import granpack as gp
 from granpack.microstructure import empirical_z, phi_from_void_ratio
 from granpack.tables import (
     PRESET_TABLES,

@@ -8,6 +8,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
 from granpack import GranpackError
 from granpack.microstructure import (
     anisotropy_measures,
@@ -21,9 +25,6 @@ from granpack.microstructure import (
     phi_from_void_ratio,
     void_ratio,
 )
-from hypothesis import assume, given, settings
-from hypothesis import strategies as st
-from hypothesis.extra.numpy import arrays
 
 SETTINGS = settings(max_examples=60, deadline=None)
 COEF = {2: 4.0, 3: 7.5}
