@@ -212,3 +212,14 @@ def test_progress_callback_sees_every_layer(tiny_scene_2d):
     pack = gp.generate(tiny_scene_2d, progress=seen.append)
     assert [r["layer"] for r in seen] == list(range(pack.n_layers))
     assert seen[-1]["total"] == len(pack) and seen[-1]["height"] == pack.height
+
+
+def test_a_scene_too_large_for_memory_is_refused_before_any_work():
+    from granpack.pack import check_memory
+
+    big = gp.PackScene.preset("4.3").replace(base=(200.0, 200.0))  # ~3e8 spheres
+    with pytest.raises(ValueError, match=r"would not fit in this machine's memory"):
+        check_memory(big, total_bytes=24 * 2**30)
+    check_memory(gp.PackScene.preset("4.3"), total_bytes=24 * 2**30)  # 1e4 spheres: fine
+    with pytest.raises(ValueError, match="would not fit"):
+        gp.generate(gp.PackScene.preset("4.3").replace(base=(250.0, 250.0)))  # 3.5e8

@@ -245,6 +245,29 @@ def _check_arrays(data: dict, dim: int, contacts: Contacts) -> None:
             raise ValueError(f"'contacts.{key}' has shape {a.shape} and dtype {a.dtype}")
 
 
+#: Bytes per particle to budget: the engine's peak is about 1.2 kB per sphere
+#: (`cargo run --release --example memory`), plus the arrays handed to Python.
+BYTES_PER_PARTICLE = 1500
+
+
+def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
+    """Refuses a scene whose particles would not fit in 80 % of this machine's memory
+    (or of `total_bytes`), before any work is done."""
+    if total_bytes is None:
+        try:
+            total_bytes = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (ValueError, OSError, AttributeError):  # not POSIX: cannot tell
+            return
+    n = scene.estimated_particles()
+    need = n * BYTES_PER_PARTICLE
+    if need > 0.8 * total_bytes:
+        raise GranpackError(
+            f"invalid scene: about {n:.3g} particles (~{need / 2**30:.1f} GiB) would not fit "
+            f"in this machine's memory ({total_bytes / 2**30:.1f} GiB); shrink base or "
+            "height, or grow r_mean"
+        )
+
+
 def _packer(scene: PackScene) -> _core.LayerPacker:
     s = scene
     gravity = [0.0] * s.dim
@@ -296,6 +319,7 @@ def generate(
     """
     if not isinstance(scene, PackScene):
         raise GranpackError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
+    check_memory(scene)
     t0 = time.perf_counter()
     packer = _packer(scene)
     reports: list[dict] = []
