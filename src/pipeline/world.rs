@@ -1032,11 +1032,10 @@ where
                         let mut tq = Ang::<D>::default();
                         for &e in &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize] {
                             let pk = (e >> 1) as usize;
-                            if e & 1 == 1 {
-                                fq += pr.fvec[pk];
-                            } else {
-                                fq -= pr.fvec[pk];
-                            }
+                            // +1 when q is the pair's j, -1 when it is i: a multiply instead
+                            // of a branch that mispredicts half the time.
+                            let sign = 2.0 * (e & 1) as Real - 1.0;
+                            fq += pr.fvec[pk] * sign;
                             if rot && friction_on {
                                 tq += pr.torque[pk][(e & 1) as usize];
                             }
