@@ -87,6 +87,8 @@ def unknown_keys(where: str, given: Iterable[str], known: Iterable[str]) -> None
     """Raises on the first key not in `known`, suggesting the closest one."""
     known = list(known)
     for key in given:
+        if not isinstance(key, str):
+            raise GranpackError(f"unknown {where} key {key!r}: keys are names (strings)")
         if key not in known:
             close = difflib.get_close_matches(key, known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""

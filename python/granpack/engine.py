@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from numbers import Integral
 
 import numpy as np
 
@@ -43,7 +44,9 @@ class Material:
         check = object.__setattr__
         check(self, "density", as_real("density", self.density, 0, lo_open=True, unit="kg/m^3"))
         check(self, "young", as_real("young", self.young, 0, lo_open=True, unit="Pa"))
-        check(self, "poisson", as_real("poisson", self.poisson, -1, 0.5, lo_open=True, hi_open=True))
+        check(
+            self, "poisson", as_real("poisson", self.poisson, -1, 0.5, lo_open=True, hi_open=True)
+        )
         check(self, "damping", as_real("damping", self.damping, 0, 1))
         check(self, "friction", as_real("friction", self.friction, 0))
 
@@ -102,8 +105,11 @@ class Simulation:
         max_overlap_ratio: float = 0.5,
         inertia_2d: str = "sphere",
     ) -> None:
-        if isinstance(dim, bool) or dim not in (2, 3):
+        if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
             raise GranpackError(f"invalid dim = {dim!r}: must be 2 or 3")
+        dim = int(dim)
+        if not isinstance(inertia_2d, str) or inertia_2d not in ("sphere", "disc"):
+            raise GranpackError(f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'")
         material = Material() if material is None else material
         if not isinstance(material, Material):
             raise GranpackError(f"invalid material = {material!r}: must be a granpack.Material")
@@ -127,16 +133,24 @@ class Simulation:
             if len(lo) != dim or len(hi) != dim:
                 raise GranpackError(f"invalid box = {box!r}: corners need {dim} coordinates")
             for k in range(dim):
-                if not math.isfinite(lo[k]) or (k != dim - 1 and not (math.isfinite(hi[k]) and hi[k] > lo[k])):
+                if not math.isfinite(lo[k]) or (
+                    k != dim - 1 and not (math.isfinite(hi[k]) and hi[k] > lo[k])
+                ):
                     raise GranpackError(
-                        f"invalid box = {box!r}: axis {k} needs finite lo < hi "
-                        "(the top may be inf)"
+                        f"invalid box = {box!r}: axis {k} needs finite lo < hi (the top may be inf)"
                     )
             walls = (lo, hi)
         self.dim = dim
         self.material = material
+        self._inertia_2d = inertia_2d
         self._sim = _core.Simulation(
-            dim, material.as_tuple(), dt, list(gravity), drag, rotations, walls,
+            dim,
+            material.as_tuple(),
+            dt,
+            list(gravity),
+            drag,
+            rotations,
+            walls,
             skin_ratio=as_real("skin_ratio", skin_ratio, 0, 10),
             max_overlap_ratio=as_real("max_overlap_ratio", max_overlap_ratio, 0, 1, lo_open=True),
             inertia_2d=inertia_2d,
@@ -150,7 +164,25 @@ class Simulation:
         if np.any(r <= 0):
             k = int(np.argmax(r <= 0))
             raise GranpackError(f"invalid radii[{k}] = {r[k]}: must be > 0 (m)")
-        v = None if velocities is None else as_array("velocities", velocities, (x.shape[0], self.dim))
+        # The engine divides by mass and moment of inertia: both must be finite and > 0.
+        rho = self.material.density
+        with np.errstate(over="ignore", under="ignore"):
+            disc = self.dim == 2 and self._inertia_2d == "disc"
+            m = np.pi * r * r * rho if disc else 4.0 / 3.0 * np.pi * r * r * r * rho
+            inertia = (0.5 if disc else 0.4) * m * r * r
+        bad = ~(np.isfinite(m) & (m > 0) & np.isfinite(inertia) & (inertia > 0))
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            raise GranpackError(
+                f"invalid radii[{k}] = {r[k]}: with density = {rho} kg/m^3 the mass "
+                f"{m[k]:.3g} kg or moment of inertia {inertia[k]:.3g} kg m^2 is not a finite "
+                "number > 0"
+            )
+        v = (
+            None
+            if velocities is None
+            else as_array("velocities", velocities, (x.shape[0], self.dim))
+        )
         w = None
         if spins is not None:
             shape = (x.shape[0],) if self.dim == 2 else (x.shape[0], 3)
@@ -159,8 +191,8 @@ class Simulation:
 
     def step(self, n: int = 1) -> None:
         """Advances n steps (the GIL is released meanwhile)."""
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
-            raise GranpackError(f"invalid n = {n!r}: must be an integer >= 0")
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n < 2**64:
+            raise GranpackError(f"invalid n = {n!r}: must be an integer in [0, 2^64)")
         self._sim.step(int(n))
 
     def run(self, seconds: float) -> None:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import io
 import json
+import lzma
 import os
+import struct
 import tempfile
 import time
 import zipfile
@@ -159,15 +161,19 @@ def load_pack(path: str | Path) -> Pack:
     except (
         zipfile.BadZipFile,
         zlib.error,
+        lzma.LZMAError,
+        struct.error,
         NotImplementedError,
+        RuntimeError,
         ValueError,
         OSError,
         EOFError,
         KeyError,
         MemoryError,
     ) as exc:
-        # NotImplementedError: a corrupt header names an unknown compression or zip
-        # version; MemoryError: a corrupt array header announces an absurd shape.
+        # A corrupt zip header can name an unknown compression method or zip version
+        # (NotImplementedError) or set the encryption flag (RuntimeError); a corrupt
+        # array header can announce an absurd shape (MemoryError).
         raise GranpackError(
             f"cannot read pack {path}: corrupt or truncated ({type(exc).__name__}: {exc})"
         ) from None

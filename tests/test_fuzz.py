@@ -1,0 +1,560 @@
+"""Fuzzing of every entry point that takes outside input (issue 7): TOML scene text and
+files, scene dicts, Material and Simulation keywords, the array arguments of
+`Simulation.add_particles`, and pack files (random, truncated, corrupted, doctored).
+
+Every input either works (and then gives finite numbers) or is refused with a
+`ValueError` (a `granpack.GranpackError` for granpack's own checks) whose message names
+the parameter or file. Any other exception type, a Rust panic
+(`pyo3_runtime.PanicException`, a BaseException), a hang or a NaN fails the test.
+
+Hypothesis runs derandomized (the same examples on every run) and without its example
+database, so CI is reproducible; the example counts keep this file to a few seconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import math
+import zipfile
+
+import numpy as np
+import pytest
+import tomli_w
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+import granpack as gp
+from granpack.pack import _packer
+
+FUZZ = settings(
+    max_examples=150,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
+FEW = settings(FUZZ, max_examples=60)
+
+SCENE_KEYS = [f.name for f in dataclasses.fields(gp.PackScene)]
+MATERIAL_KEYS = [f.name for f in dataclasses.fields(gp.Material)]
+SIM_KEYS = [
+    "dim",
+    "material",
+    "dt",
+    "gravity",
+    "drag",
+    "box",
+    "rotations",
+    "skin_ratio",
+    "max_overlap_ratio",
+    "inertia_2d",
+]
+
+
+def refused(exc: BaseException, *names: str) -> None:
+    """`exc` must be a ValueError whose message names one of `names`."""
+    assert isinstance(exc, ValueError), f"{type(exc).__name__}: {exc}"
+    msg = str(exc)
+    assert any(n in msg for n in names), f"message names none of {names}: {msg}"
+
+
+def attempt(fn, *names: str):
+    """Calls fn(); a ValueError must name one of `names`; anything else propagates
+    (and fails the test). Returns fn's result or None when refused."""
+    try:
+        return fn()
+    except ValueError as exc:
+        refused(exc, *names)
+        return None
+
+
+# -- values of every kind ------------------------------------------------------------------
+ODD_FLOATS = st.sampled_from(
+    [
+        0.0,
+        -0.0,
+        1e-320,
+        -1e-300,
+        1e-300,
+        1e300,
+        -1e300,
+        1.7e308,
+        math.inf,
+        -math.inf,
+        math.nan,
+        0.5,
+        2.0,
+        3.0,
+    ]
+)
+SCALARS = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    ODD_FLOATS,
+    st.text(max_size=8),
+    st.sampled_from(["4.1", "4.3", "constant", "gaussian", "sphere", "disc", ""]),
+    st.complex_numbers(max_magnitude=10),
+    st.binary(max_size=4),
+)
+VALUES = st.recursive(
+    SCALARS,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4),
+        st.tuples(inner, inner),
+        st.dictionaries(st.sampled_from(MATERIAL_KEYS + ["x"]), inner, max_size=3),
+    ),
+    max_leaves=6,
+)
+# What TOML can hold (tomli_w writes it): no None, no complex, no NaN-free restriction.
+TOML_SCALARS = st.one_of(
+    st.booleans(),
+    st.integers(min_value=-(2**63), max_value=2**63 - 1),
+    st.floats(allow_nan=True, allow_infinity=True),
+    ODD_FLOATS,
+    st.text(max_size=8),
+    st.sampled_from(["4.1", "4.2", "4.3", "4.4", "constant", "gaussian", "sphere", "disc"]),
+)
+TOML_VALUES = st.recursive(
+    TOML_SCALARS,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=3),
+        st.dictionaries(st.sampled_from(MATERIAL_KEYS + ["x"]), inner, max_size=3),
+    ),
+    max_leaves=5,
+)
+NEAR_VALID = {  # values around the valid ranges, to get past the first check
+    "dim": st.sampled_from([2, 3, 1, 4, 2.0, True]),
+    "base": st.lists(st.one_of(ODD_FLOATS, st.floats(0.01, 2.0)), max_size=3),
+    "height": st.one_of(ODD_FLOATS, st.floats(0.0, 1.0)),
+    "r_mean": st.one_of(ODD_FLOATS, st.floats(0.0, 0.05)),
+    "r_std": st.one_of(ODD_FLOATS, st.floats(0.0, 0.01)),
+    "phi_layer": st.one_of(ODD_FLOATS, st.floats(0.0, 0.6)),
+    "dt": st.one_of(ODD_FLOATS, st.floats(0.0, 1e-3)),
+    "seed": st.integers(min_value=-5, max_value=2**65),
+    "max_layers": st.integers(min_value=-5, max_value=2**65),
+    "radius_law": st.sampled_from(["constant", "gaussian", "normal"]),
+}
+
+
+def check_scene(scene: gp.PackScene) -> None:
+    """An accepted scene holds finite, typed numbers and builds the Rust packer."""
+    assert scene.dim in (2, 3) and type(scene.dim) is int
+    for f in dataclasses.fields(scene):
+        v = getattr(scene, f.name)
+        if isinstance(v, float):
+            assert math.isfinite(v), (f.name, v)
+    assert scene.estimated_particles() <= 5e8
+    _packer(scene)  # the Python/Rust boundary accepts every field
+
+
+# -- TOML scenes ---------------------------------------------------------------------------
+@FUZZ
+@given(st.text(max_size=120))
+def test_toml_random_text(text):
+    scene = attempt(lambda: gp.PackScene.from_toml_string(text), "scene", *SCENE_KEYS)
+    if scene is not None:
+        check_scene(scene)
+
+
+@FEW
+@given(st.binary(max_size=120))
+def test_toml_random_bytes_from_string_and_file(tmp_path_factory, data):
+    scene = attempt(lambda: gp.PackScene.from_toml_string(data), "scene", *SCENE_KEYS)
+    if scene is not None:
+        check_scene(scene)
+    path = tmp_path_factory.mktemp("toml") / "scene.toml"
+    path.write_bytes(data)
+    scene = attempt(lambda: gp.PackScene.from_toml(path), str(path), *SCENE_KEYS)
+    if scene is not None:
+        check_scene(scene)
+
+
+@FUZZ
+@given(
+    st.dictionaries(
+        st.sampled_from(SCENE_KEYS + ["preset", "bogus", "Dim"]), TOML_VALUES, max_size=5
+    )
+)
+def test_toml_documents_with_random_values(doc):
+    text = tomli_w.dumps(doc)
+    scene = attempt(lambda: gp.PackScene.from_toml_string(text), *SCENE_KEYS, "preset", "scene")
+    if scene is not None:
+        check_scene(scene)
+
+
+def test_toml_refusals_name_the_key(tmp_path):
+    cases = {
+        "dim = 2.0": "dim",
+        'preset = ["4.1"]': "preset",
+        "preset = 4.1": "preset",
+        "max_layers = 100000000000000000000": "max_layers",
+        "r_mean = 1e-300\ndt = 1e-310": "particles",
+        'material = "steel"': "material",
+        "material = {young = nan}": "young",
+        "base = 1.0": "base",
+        "inertia_2d = 2": "inertia_2d",
+        "rotations = 1": "rotations",
+    }
+    for text, name in cases.items():
+        with pytest.raises(gp.GranpackError, match=name):
+            gp.PackScene.from_toml_string(text)
+    with pytest.raises(gp.GranpackError, match="UTF-8"):
+        gp.PackScene.from_toml_string(b"\xff\xfe")
+    bad = tmp_path / "bad.toml"
+    bad.write_bytes(b"dim = 2\n\xff")
+    with pytest.raises(gp.GranpackError, match="bad.toml.*UTF-8"):
+        gp.PackScene.from_toml(bad)
+    for path in (None, 0, 3.5):  # open(0) would read stdin: a hang
+        with pytest.raises(gp.GranpackError, match="path"):
+            gp.PackScene.from_toml(path)
+    with pytest.raises(gp.GranpackError, match="text"):
+        gp.PackScene.from_toml_string(None)
+
+
+# -- dicts and keywords --------------------------------------------------------------------
+@FUZZ
+@given(
+    st.one_of(
+        st.dictionaries(st.sampled_from(SCENE_KEYS + ["preset", "bogus"]), VALUES, max_size=5),
+        st.fixed_dictionaries({}, optional={k: v for k, v in NEAR_VALID.items()}),
+        st.dictionaries(
+            st.one_of(st.integers(), st.none(), st.text(max_size=3)), SCALARS, max_size=2
+        ),
+        SCALARS,
+    )
+)
+def test_scene_from_random_dicts(d):
+    scene = attempt(lambda: gp.PackScene.from_dict(d), *SCENE_KEYS, "preset", "scene")
+    if scene is not None:
+        check_scene(scene)
+    if isinstance(d, dict) and all(isinstance(k, str) for k in d) and "preset" not in d:
+        scene = attempt(
+            lambda: gp.PackScene(**d) if all(k in SCENE_KEYS for k in d) else None,
+            *SCENE_KEYS,
+            "scene",
+        )
+        if scene is not None:
+            check_scene(scene)
+
+
+@FUZZ
+@given(
+    st.dictionaries(
+        st.sampled_from(MATERIAL_KEYS), st.one_of(SCALARS, st.floats(-2, 2)), max_size=5
+    )
+)
+def test_material_random_keywords(kw):
+    mat = attempt(lambda: gp.Material(**kw), *MATERIAL_KEYS)
+    if mat is not None:
+        assert all(math.isfinite(v) for v in mat.as_tuple())
+        crit = mat.critical_time_step(0.01)
+        assert crit > 0 and not math.isnan(crit)
+
+
+SIM_VALUES = {
+    "dim": st.one_of(st.sampled_from([2, 3, 2.0, 3.0, True, 1, 4, np.int64(3)]), SCALARS),
+    "material": st.one_of(st.just(gp.Material()), st.just(gp.Material(young=1e6)), SCALARS),
+    "dt": st.one_of(ODD_FLOATS, st.floats(1e-9, 1e-3), SCALARS),
+    "gravity": st.one_of(st.lists(ODD_FLOATS, min_size=2, max_size=3), VALUES),
+    "drag": st.one_of(ODD_FLOATS, SCALARS),
+    "box": st.one_of(
+        st.none(),
+        st.tuples(
+            st.lists(ODD_FLOATS, min_size=2, max_size=3),
+            st.lists(ODD_FLOATS, min_size=2, max_size=3),
+        ),
+        st.just(((0.0, 0.0, 0.0), (1.0, 1.0, math.inf))),
+        st.just(((0.0, 0.0), (1.0, math.inf))),
+        VALUES,
+    ),
+    "rotations": st.one_of(st.booleans(), SCALARS),
+    "skin_ratio": st.one_of(ODD_FLOATS, st.floats(0, 12), SCALARS),
+    "max_overlap_ratio": st.one_of(ODD_FLOATS, st.floats(0, 1.2), SCALARS),
+    "inertia_2d": st.one_of(st.sampled_from(["sphere", "disc", "cube"]), SCALARS),
+}
+
+
+@FUZZ
+@given(st.fixed_dictionaries({}, optional=SIM_VALUES))
+def test_simulation_random_keywords(kw):
+    sim = attempt(lambda: gp.Simulation(**kw), *SIM_KEYS)
+    if sim is None:
+        return
+    # An accepted world takes a particle inside its box (or at the origin) and steps.
+    d = sim.dim
+    x = np.full((1, d), 0.5)
+    box = kw.get("box")
+    if box is not None:
+        with np.errstate(all="ignore"):
+            lo = np.array(box[0], dtype=float)
+            hi = np.array(box[1], dtype=float)
+            hi[-1] = lo[-1] + 1.0
+            x[0] = np.where(np.isfinite(hi - lo), 0.5 * (lo + hi), lo + 1.0)
+    if attempt(lambda: sim.add_particles(x, [0.01]) or True, "positions", "radii") is None:
+        return
+    if attempt(lambda: sim.step(3), "dt", "unstable") is None:
+        return
+    assert np.all(np.isfinite(sim.positions)) and np.all(np.isfinite(sim.velocities))
+    assert math.isfinite(sim.kinetic_energy()) and math.isfinite(sim.potential_energy())
+
+
+# -- arrays into add_particles -------------------------------------------------------------
+DTYPES = st.sampled_from(
+    [
+        np.float64,
+        np.float32,
+        np.float16,
+        np.int64,
+        np.int8,
+        np.uint64,
+        np.bool_,
+        np.complex128,
+        "U3",
+        "S2",
+        "M8[s]",
+        object,
+    ]
+)
+ARRAY_FLOATS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.sampled_from([0.01, 0.02, 0.5, 1.0, 1e-9, 1e9]),
+)
+
+
+def any_array(rows: int, cols: int | None):
+    shapes = st.one_of(
+        st.just((rows,) if cols is None else (rows, cols)),
+        hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=4),
+    )
+
+    def build(dtype, shape):
+        if dtype is object:
+            return st.just(np.full(shape, None, dtype=object))
+        if dtype is np.float64:
+            return hnp.arrays(dtype, shape, elements=ARRAY_FLOATS)
+        return hnp.arrays(dtype, shape)
+
+    arrays = st.tuples(DTYPES, shapes).flatmap(lambda a: build(*a))
+    return st.one_of(arrays, arrays.map(lambda a: a.tolist()), VALUES)
+
+
+@st.composite
+def particle_arguments(draw):
+    dim = draw(st.sampled_from([2, 3]))
+    n = draw(st.integers(0, 4))
+    valid_x = draw(hnp.arrays(np.float64, (n, dim), elements=st.floats(0.05, 0.95)))
+    valid_r = draw(hnp.arrays(np.float64, (n,), elements=st.floats(0.001, 0.01)))
+    # each argument is, independently, valid or fuzzed
+    x = draw(st.one_of(st.just(valid_x), any_array(n, dim)))
+    r = draw(st.one_of(st.just(valid_r), any_array(n, None)))
+    v = draw(st.one_of(st.none(), st.just(np.zeros((n, dim))), any_array(n, dim)))
+    w = draw(st.one_of(st.none(), any_array(n, 3 if dim == 3 else None)))
+    boxed = draw(st.booleans())
+    return dim, x, r, v, w, boxed
+
+
+@FUZZ
+@given(particle_arguments())
+def test_add_particles_random_arrays(args):
+    dim, x, r, v, w, boxed = args
+    box = ((0.0,) * dim, (1.0,) * (dim - 1) + (math.inf,)) if boxed else None
+    sim = gp.Simulation(dim=dim, dt=1e-7, box=box)
+    ok = attempt(
+        lambda: sim.add_particles(x, r, velocities=v, spins=w) or True,
+        "positions",
+        "radii",
+        "velocities",
+        "spins",
+    )
+    if ok is None:
+        assert len(sim) == 0, "a refused call must not add particles"
+        return
+    stepped = attempt(lambda: sim.step(5) or True, "dt", "unstable")
+    if stepped:
+        for a in (sim.positions, sim.velocities, sim.spins):
+            assert np.all(np.isfinite(a))
+        assert not math.isnan(sim.kinetic_energy())
+
+
+def test_add_particles_refusals_name_the_argument():
+    sim = gp.Simulation(dim=3)
+    x = [[0.0, 0.0, 0.0]]
+    for args, name in [
+        ((x, [1e-200]), "radii"),  # mass underflows to 0: the engine would divide by it
+        ((x, [1e120]), "radii"),  # mass overflows to inf: NaN energies
+        ((np.zeros((1, 3), complex), [0.01]), "positions"),
+        ((x, np.array(["0.01"])), "radii"),
+        ((x, [[0.01]]), "radii"),
+    ]:
+        with pytest.raises(gp.GranpackError, match=name):
+            sim.add_particles(*args)
+    assert len(sim) == 0
+    for kw, name in [
+        ({"dim": 2.0}, "dim"),
+        ({"dim": np.float64(3)}, "dim"),
+        ({"inertia_2d": None}, "inertia_2d"),
+        ({"inertia_2d": ["disc"]}, "inertia_2d"),
+    ]:
+        with pytest.raises(gp.GranpackError, match=name):
+            gp.Simulation(**kw)
+    assert gp.Simulation(dim=np.int64(2)).dim == 2
+    with pytest.raises(gp.GranpackError, match="n = "):
+        gp.Simulation().step(2**64)
+
+
+@FEW
+@given(st.one_of(any_array(2, 3), VALUES), st.one_of(any_array(2, 3), VALUES))
+def test_velocity_and_spin_setters(v, w):
+    sim = gp.Simulation(dim=3, dt=1e-6)
+    sim.add_particles([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]], [0.01, 0.01])
+    attempt(lambda: setattr(sim, "velocities", v), "velocities")
+    attempt(lambda: setattr(sim, "spins", w), "spins")
+    if attempt(lambda: sim.step(2) or True, "unstable"):
+        assert np.all(np.isfinite(sim.positions))
+
+
+@FEW
+@given(st.one_of(SCALARS, st.integers(-(2**66), 2**66)), st.one_of(SCALARS, ODD_FLOATS))
+def test_step_and_run_arguments(n, seconds):
+    sim = gp.Simulation(dim=2, dt=1e-4, gravity=[0.0, 0.0])
+    if isinstance(n, int) and not isinstance(n, bool) and n > 1000:
+        n = 2**64 + n if n > 2**63 else -n  # no very long runs: only the refusals
+    attempt(lambda: sim.step(n), "n")
+    if isinstance(seconds, float) and math.isfinite(seconds) and seconds > 1.0:
+        seconds = -seconds
+    attempt(lambda: sim.run(seconds), "seconds")
+
+
+# -- pack files ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def pack_bytes(tmp_path_factory) -> bytes:
+    scene = gp.PackScene.preset("4.1").replace(
+        base=(0.12,), height=0.03, h_layer=0.03, settle_time=0.02, seed=1
+    )
+    pack = gp.generate(scene)
+    layers = [{**rep, "wall_seconds": 0.0} for rep in pack.layers]
+    path = tmp_path_factory.mktemp("pack") / "pack.npz"
+    dataclasses.replace(pack, layers=layers, wall_time=0.0).save(path)
+    # Same bytes on every run (zip time stamps fixed), so the corruptions are reproducible.
+    out = io.BytesIO()
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
+        for name in src.namelist():
+            dst.writestr(
+                zipfile.ZipInfo(name, date_time=(2000, 1, 1, 0, 0, 0)),
+                src.read(name),
+                compress_type=zipfile.ZIP_DEFLATED,
+            )
+    return out.getvalue()
+
+
+def load_bytes(tmp_path, data: bytes, name: str = "p.npz"):
+    path = tmp_path / name
+    path.write_bytes(data)
+    pack = attempt(lambda: gp.load_pack(path), str(path))
+    if pack is not None:
+        assert np.all(np.isfinite(pack.positions)) and np.all(pack.radii > 0)
+        assert pack.positions.shape == (len(pack), pack.dim)
+    return pack
+
+
+def test_pack_file_round_trips(tmp_path, pack_bytes):
+    assert load_bytes(tmp_path, pack_bytes) is not None
+
+
+def test_truncated_pack_files(tmp_path, pack_bytes):
+    cuts = sorted(set(np.linspace(0, len(pack_bytes) - 1, 120).astype(int)))
+    for cut in cuts:
+        assert load_bytes(tmp_path, pack_bytes[:cut]) is None, cut
+
+
+def test_corrupted_pack_files(tmp_path, pack_bytes):
+    """Random bytes overwritten (fixed seed): CRC and zlib errors, unknown compression
+    methods and zip versions, damaged headers. Some flips land in bytes zip does not
+    check (timestamps, padding) and the pack still loads: it must then be sound."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        b = bytearray(pack_bytes)
+        for q in rng.integers(0, len(b), size=rng.integers(1, 6)):
+            b[q] = rng.integers(0, 256)
+        load_bytes(tmp_path, bytes(b))
+
+
+@FEW
+@given(st.binary(max_size=300))
+def test_random_bytes_as_pack_file(tmp_path_factory, data):
+    load_bytes(tmp_path_factory.mktemp("p"), data)
+
+
+def archive(members: dict) -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, **members)
+    return buf.getvalue()
+
+
+def unpack(raw: bytes) -> dict:
+    with np.load(io.BytesIO(raw)) as z:
+        return {k: z[k] for k in z.files}
+
+
+def text(s: str) -> np.ndarray:
+    return np.frombuffer(s.encode(), dtype=np.uint8)
+
+
+def test_doctored_pack_archives(tmp_path, pack_bytes):
+    """Valid zip archives whose members are missing, of the wrong kind or shape."""
+    good = unpack(pack_bytes)
+    n = len(good["radii"])
+    doctored = {
+        "no meta": {k: v for k, v in good.items() if k != "meta.json"},
+        "no positions": {k: v for k, v in good.items() if k != "positions"},
+        "no contacts": {k: v for k, v in good.items() if not k.startswith("contacts.")},
+        "meta is a list": {**good, "meta.json": text("[]")},
+        "meta is a number": {**good, "meta.json": np.array(10**11)},
+        "meta deeply nested": {**good, "meta.json": text("[" * 100_000)},
+        "meta wrong format": {**good, "meta.json": text('{"format": "other"}')},
+        "height overflows": {
+            **good,
+            "meta.json": text(
+                json.dumps({**json.loads(good["meta.json"].tobytes()), "height": 10**400})
+            ),
+        },
+        "scene not TOML": {**good, "scene.toml": text("dim = ")},
+        "scene invalid": {**good, "scene.toml": text("dim = 5")},
+        "scene as floats": {**good, "scene.toml": np.zeros(4)},
+        "positions 1-D": {**good, "positions": np.zeros(n)},
+        "positions text": {**good, "positions": np.full((n, 2), "a")},
+        "positions NaN": {**good, "positions": np.full((n, 2), np.nan)},
+        "radii short": {**good, "radii": good["radii"][:-1]},
+        "radii negative": {**good, "radii": -good["radii"]},
+        "layer floats": {**good, "layer": good["layer"].astype(float)},
+        "spins 3-D in 2D": {**good, "spins": np.zeros((n, 3))},
+        "contacts ragged": {**good, "contacts.normal": np.zeros((1, 2))},
+        "contacts i float": {**good, "contacts.i": good["contacts.i"].astype(float)},
+    }
+    for what, members in doctored.items():
+        assert load_bytes(tmp_path, archive(members)) is None, what
+    one = tmp_path / "one.npz"  # np.save: a plain .npy array named like a pack
+    np.save(tmp_path / "one.npy", np.arange(3))
+    one.write_bytes((tmp_path / "one.npy").read_bytes())
+    with pytest.raises(gp.GranpackError, match="one.npz"):
+        gp.load_pack(one)
+    pickled = tmp_path / "obj.npz"
+    pickled.write_bytes(archive({"meta.json": np.array([{"a": 1}], dtype=object)}))
+    with pytest.raises(gp.GranpackError, match="obj.npz"):
+        gp.load_pack(pickled)
+    zipped = tmp_path / "text.npz"  # a zip that is not an npz
+    with zipfile.ZipFile(zipped, "w") as zf:
+        zf.writestr("readme.txt", "hello")
+    with pytest.raises(gp.GranpackError, match="text.npz"):
+        gp.load_pack(zipped)
+    for path in (tmp_path / "missing.npz", tmp_path):
+        with pytest.raises(gp.GranpackError, match="cannot read pack"):
+            gp.load_pack(path)
+    for path in (None, 3, b"\x00"):
+        with pytest.raises(gp.GranpackError, match="path"):
+            gp.load_pack(path)
