@@ -13,7 +13,8 @@
 //! (max, min index) or per-chunk partial sums added in chunk order, so results are
 //! bit-identical on any number of threads.
 
-use crate::dynamics::{hertz_mindlin, hertz_mindlin_coefs, LawCoefs, Material, PairParams};
+use crate::dynamics::batch::{law_batch, Batch, BATCH};
+use crate::dynamics::{hertz_mindlin, LawCoefs, Material, PairParams};
 use crate::error::{check_range, Error, Result};
 use crate::geometry::neighbor_pairs;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
@@ -208,6 +209,41 @@ struct Wall {
     axis: usize,
     pos: Real,
     sign: Real,
+}
+
+/// Writes a batch's results back to its pairs: history, total force on j, the torques
+/// of the tangential force on i and j, overlap.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn scatter<const D: usize>(
+    b: &Batch<D>,
+    ij: &[[u32; 2]],
+    r: &[Real],
+    torques: bool,
+    hist: &mut [Vector<D>],
+    fvec: &mut [Vector<D>],
+    torque: &mut [[Ang<D>; 2]],
+    ovl: &mut [Real],
+) where
+    Dim<D>: Spatial<D>,
+{
+    for m in 0..b.len {
+        let k = b.pair[m] as usize;
+        let n = Vector::<D>::from_fn(|a, _| b.n[a][m]);
+        let ft = Vector::<D>::from_fn(|a, _| b.ft[a][m]);
+        hist[k] = Vector::<D>::from_fn(|a, _| b.h[a][m]);
+        fvec[k] = n * b.fnorm[m] + ft;
+        let d = b.d[m];
+        if torques {
+            let [i, j] = ij[k];
+            let c = <Dim<D>>::cross_vv(&n, &ft);
+            torque[k] = [
+                c * -(r[i as usize] - 0.5 * d),
+                c * -(r[j as usize] - 0.5 * d),
+            ];
+        }
+        ovl[k] = d;
+    }
 }
 
 /// The DEM world in `D` dimensions.
@@ -944,6 +980,18 @@ where
             .filter_map(
                 |(c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
                     let mut bad: Option<usize> = None;
+                    // Geometry per pair; contacts are compacted into a batch whose law
+                    // runs vectorised (see `dynamics::batch`), then scattered back.
+                    let mut b = Batch::<D>::default();
+                    let flush = |b: &mut Batch<D>,
+                                 hist: &mut [Vector<D>],
+                                 fvec: &mut [Vector<D>],
+                                 torque: &mut [[Ang<D>; 2]],
+                                 ovl: &mut [Real]| {
+                        law_batch(b, mat.friction, dt);
+                        scatter::<D>(b, ij, &p.r, rot && friction_on, hist, fvec, torque, ovl);
+                        b.len = 0;
+                    };
                     for k in 0..ij.len() {
                         let i = ij[k][0] as usize;
                         let j = ij[k][1] as usize;
@@ -973,16 +1021,27 @@ where
                         let n = dx / dist;
                         let mut vrel = p.v[j] - p.v[i];
                         if rot {
-                            vrel += <Dim<D>>::cross_wv(p.w[j], &(n * -(rj - 0.5 * d)))
-                                - <Dim<D>>::cross_wv(p.w[i], &(n * (ri - 0.5 * d)));
+                            // w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n)
+                            let w = p.w[i] * (ri - 0.5 * d) + p.w[j] * (rj - 0.5 * d);
+                            vrel -= <Dim<D>>::cross_wv(w, &n);
                         }
-                        let f = hertz_mindlin_coefs(&coefs[k], d, &n, &vrel, &mut hist[k], dt);
-                        fvec[k] = n * f.normal + f.tangential;
-                        if rot && friction_on {
-                            let c = <Dim<D>>::cross_vv(&n, &f.tangential);
-                            torque[k] = [c * -(ri - 0.5 * d), c * -(rj - 0.5 * d)];
+                        let m = b.len;
+                        b.pair[m] = k as u32;
+                        for a in 0..D {
+                            b.n[a][m] = n[a];
+                            b.v[a][m] = vrel[a];
+                            b.h[a][m] = hist[k][a];
                         }
-                        ovl[k] = d;
+                        b.d[m] = d;
+                        let co = &coefs[k];
+                        (b.kn[m], b.cn[m], b.kt[m], b.ct[m]) = (co.kn, co.cn, co.kt, co.ct);
+                        b.len += 1;
+                        if b.len == BATCH {
+                            flush(&mut b, hist, fvec, torque, ovl);
+                        }
+                    }
+                    if b.len > 0 {
+                        flush(&mut b, hist, fvec, torque, ovl);
                     }
                     bad
                 },
@@ -1125,17 +1184,32 @@ where
     }
 
     /// Elastic energy stored in the contacts at the last force evaluation (J): Hertz
-    /// 8/15 E* sqrt(R*) d^{5/2} plus the tangential springs 1/2 k_t |xi_t|^2, over pairs
-    /// and wall contacts.
+    /// 8/15 E* sqrt(R*) d^{5/2} (= 2/5 f_el d) plus the tangential springs
+    /// 1/2 k_t |xi_t|^2, capped at (mu f_el)^2 / (2 k_t), over pairs and wall contacts.
     pub fn elastic_energy(&self) -> Real {
+        let mu = self.cfg.material.friction;
+        // Energy of one contact from its law coefficients. A sliding contact stores the
+        // stretch -(f_t + c_t v_t) / k_t, which includes the dashpot's share; the spring
+        // itself can hold at most (mu f_n)^2 / (2 k_t) under Coulomb's cap, with f_n the
+        // elastic normal force, so the tangential term is capped there.
+        let contact = |kn: Real, kt: Real, d: Real, h2: Real| {
+            let s = d.sqrt();
+            let f_el = (2.0 / 3.0) * kn * s * d;
+            let k_t = kt * s;
+            let tangential = if k_t > 0.0 {
+                (0.5 * k_t * h2).min((mu * f_el).powi(2) / (2.0 * k_t))
+            } else {
+                0.0
+            };
+            0.4 * f_el * d + tangential
+        };
         let pr = &self.pairs;
         let mut e = 0.0;
         for k in 0..pr.ij.len() {
             let d = pr.overlap[k];
             if d > 0.0 {
                 let c = &pr.coefs[k];
-                e += (4.0 / 15.0) * c.kn * d * d * d.sqrt()
-                    + 0.5 * c.kt * d.sqrt() * pr.hist[k].norm_squared();
+                e += contact(c.kn, c.kt, d, pr.hist[k].norm_squared());
             }
         }
         for q in 0..self.len() {
@@ -1143,13 +1217,8 @@ where
                 let d = self.p.r[q] - (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
                 if d > 0.0 {
                     let sr = self.p.r[q].sqrt();
-                    e += (4.0 / 15.0) * 2.0 * self.e_star * sr * d * d * d.sqrt()
-                        + 0.5
-                            * 8.0
-                            * self.g_star
-                            * sr
-                            * d.sqrt()
-                            * self.p.wall_hist[q][wi].norm_squared();
+                    let h2 = self.p.wall_hist[q][wi].norm_squared();
+                    e += contact(2.0 * self.e_star * sr, 8.0 * self.g_star * sr, d, h2);
                 }
             }
         }
