@@ -181,6 +181,9 @@ struct Particles<const D: usize, A> {
     frozen: Vec<bool>,
     /// Bit w set: wall w was in contact at the last evaluation (its state is nonzero).
     wall_mask: Vec<u8>,
+    /// Bit w set: wall w lies within r + skin of the particle at the last pair-list
+    /// rebuild, so a contact with it is possible until the next rebuild.
+    wall_near: Vec<u8>,
 }
 
 /// The pair (Verlet) list and its per-pair state, sorted by (i, j).
@@ -539,6 +542,7 @@ where
             self.p.wall_force.push([Vector::<D>::zeros(); MAX_WALLS]);
             self.p.frozen.push(false);
             self.p.wall_mask.push(0);
+            self.p.wall_near.push(0);
         }
         self.forces_valid = false;
         self.list_valid = false;
@@ -909,6 +913,19 @@ where
             inc,
         };
         self.p.x_ref.copy_from_slice(&self.p.x);
+        // No particle moves more than skin / 2 before the next rebuild, so only walls
+        // within r + skin can be touched meanwhile: the gather skips the others.
+        let skin = self.skin;
+        for q in 0..self.p.x.len() {
+            let mut near = 0u8;
+            for (wi, wall) in self.walls.iter().enumerate() {
+                let s = (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                if s < self.p.r[q] + skin {
+                    near |= 1 << wi;
+                }
+            }
+            self.p.wall_near[q] = near;
+        }
         self.list_valid = true;
         self.rebuilds += 1;
     }
@@ -1076,8 +1093,9 @@ where
                 .zip(p.wall_hist.par_chunks_mut(CHUNK))
                 .zip(p.wall_force.par_chunks_mut(CHUNK))
                 .zip(p.wall_mask.par_chunks_mut(CHUNK))
+                .zip(p.wall_near.par_chunks(CHUNK))
                 .enumerate()
-                .filter_map(|(c, ((((f, t), wh), wf), wm))| {
+                .filter_map(|(c, (((((f, t), wh), wf), wm), wn))| {
                     let mut bad = None;
                     for k in 0..f.len() {
                         let q = c * CHUNK + k;
@@ -1089,17 +1107,24 @@ where
                             fq -= v[q] * drag;
                         }
                         let mut tq = Ang::<D>::default();
-                        for &e in &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize] {
-                            let pk = (e >> 1) as usize;
+                        let inc = &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize];
+                        for &e in inc {
                             // +1 when q is the pair's j, -1 when it is i: a multiply instead
                             // of a branch that mispredicts half the time.
                             let sign = 2.0 * (e & 1) as Real - 1.0;
-                            fq += pr.fvec[pk] * sign;
-                            if rot && friction_on {
-                                tq += pr.torque[pk][(e & 1) as usize];
+                            fq += pr.fvec[(e >> 1) as usize] * sign;
+                        }
+                        if rot && friction_on {
+                            for &e in inc {
+                                tq += pr.torque[(e >> 1) as usize][(e & 1) as usize];
                             }
                         }
-                        for (wi, wall) in walls.iter().enumerate() {
+                        // visit only the walls that can touch (most particles: none)
+                        let mut candidates = wn[k] | wm[k];
+                        while candidates != 0 {
+                            let wi = candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            let wall = &walls[wi];
                             let s = (wall.pos - x[q][wall.axis]) * wall.sign;
                             let d = r[q] - s;
                             if d <= 0.0 {
