@@ -30,8 +30,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -40,6 +38,7 @@ import polars as pl
 
 from ._validate import GranpackError
 from .microstructure import Microstructure
+from .pack import atomic_write
 
 __all__ = [
     "ensemble_table",
@@ -383,19 +382,6 @@ def to_markdown(df: pl.DataFrame) -> str:
     return "\n".join([head, align, *body]) + "\n"
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
     """Writes each table as ``<name>.csv`` and ``<name>.md`` in `out_dir` (created if
     needed), each atomically (a temporary file in the same folder, then a rename).
@@ -429,7 +415,7 @@ def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
     for name, df in tables.items():
         csv = out / f"{name}.csv"
         md = out / f"{name}.md"
-        _atomic_write(csv, df.write_csv().encode())
-        _atomic_write(md, to_markdown(df).encode())
+        atomic_write(csv, df.write_csv().encode())
+        atomic_write(md, to_markdown(df).encode())
         written += [csv, md]
     return written
