@@ -500,3 +500,14 @@ def test_read_xyzr_errors_name_the_line(tmp_path, text, dim, match):
 def test_read_xyzr_missing_file(tmp_path):
     with pytest.raises(gp.GranpackError, match="no such file"):
         read_xyzr(tmp_path / "nope.txt")
+
+
+def test_phi_centres_measures_the_height_at_the_highest_centre():
+    """Two discs stacked on the floor (touching, overlap 1e-6 m): H_top = 4 r, highest
+    centre at 3 r."""
+    r = 0.1
+    x = np.array([[0.5, r], [0.5, 3 * r - 1e-6]])
+    m = gp.microstructure(positions=x, radii=[r, r], box=([0.0, 0.0], [1.0, 1.0]), core_margin=0.0)
+    area = 2 * np.pi * r * r
+    assert m.phi == pytest.approx(area / (1.0 * (4 * r - 1e-6)))
+    assert m.phi_centres == pytest.approx(area / (1.0 * (3 * r - 1e-6)))

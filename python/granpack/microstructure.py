@@ -773,6 +773,12 @@ class Microstructure:
         "is then NaN, without a warning.",
     )
     h_top = _field("h_top", "H_top = max(z_i + r_i), the pack's height (m) along the vertical.")
+    phi_centres = _field(
+        "phi_centres",
+        "Solid volume over base x (max(z_i) - floor): the packing fraction with the height "
+        "measured at the highest centre instead of the highest top (-). The paper's tables "
+        "are consistent with this reading (see the README).",
+    )
     box = _field(
         "box",
         "(lo, hi): (D,) arrays of the box used (m); hi[-1] = H_top. The side walls, or the "
@@ -893,6 +899,7 @@ class Microstructure:
         for key in (
             "h_top",
             "phi",
+            "phi_centres",
             "phi_core",
             "phi_core_centres",
             "void_ratio",
@@ -1169,6 +1176,12 @@ def microstructure(
     vol = math.pi * r * r if d == 2 else 4.0 / 3.0 * math.pi * r**3
     box_volume = float(np.prod(hi - lo))
     phi = float(np.sum(vol) / box_volume)
+    h_centres = float(np.max(x[:, -1])) - lo[-1]
+    phi_centres = (
+        float(np.sum(vol) / (box_volume / (hi[-1] - lo[-1]) * h_centres))
+        if h_centres > 0
+        else math.nan
+    )
     wlo, whi = lo + margin, hi - margin
     if np.all(whi > wlo):
         w_volume = float(np.prod(whi - wlo))
@@ -1206,6 +1219,7 @@ def microstructure(
         "h_top": h_top,
         "box": (lo, hi),
         "phi": phi,
+        "phi_centres": phi_centres,
         "phi_core": phi_core,
         "phi_core_centres": phi_core_centres,
         "void_ratio": e,
