@@ -42,5 +42,42 @@ fn bench_step(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_step);
+/// The pair search (cell grid + Verlet list with the engine's skin) on the settled 3D
+/// pack, and one RSA layer of example 4.3 (746 spheres) on top of it.
+fn bench_grid_and_rsa(c: &mut Criterion) {
+    use _core::pipeline::rsa::{place_layer, LayerSpec};
+    use _core::{RadiusLaw, Vector};
+    use rand::SeedableRng;
+    let w = common::settled_world::<3>(1, 200, 1);
+    let (x, r) = (w.positions().to_vec(), w.radii().to_vec());
+    let mut g = c.benchmark_group("search");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(x.len() as u64));
+    g.bench_function(BenchmarkId::new("grid_rebuild", x.len()), |b| {
+        b.iter(|| _core::geometry::neighbor_pairs(&x, &r, 0.004))
+    });
+    let height = x.iter().zip(&r).map(|(p, r)| p[2] + r).fold(0.0, f64::max);
+    g.throughput(Throughput::Elements(746));
+    g.bench_function("rsa_layer_4.3", |b| {
+        b.iter(|| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+            let spec = LayerSpec::<3> {
+                lo: Vector::<3>::zeros(),
+                hi: Vector::<3>::new(1.0, 1.0, f64::INFINITY),
+                vertical: 2,
+                height,
+                h_layer: 0.1,
+                phi_layer: 0.25,
+                radii: RadiusLaw::Constant(0.02),
+                max_attempts: 1_000_000,
+                existing: (&x, &r),
+                layer: 0,
+            };
+            place_layer(&spec, &mut rng).unwrap()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_step, bench_grid_and_rsa);
 criterion_main!(benches);
