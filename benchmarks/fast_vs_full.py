@@ -1,0 +1,114 @@
+"""Run time against error: the paper's full-fidelity settings against faster ones.
+
+For each preset, `--packs` packs with the paper's settings (dt = 1e-4 s, 1.0 s of
+jamming per layer, no freezing) and the same number with each faster variant:
+
+- ``dt``: dt = `--dt-fraction` of the Rayleigh estimate (all presets are stable up to
+  the estimate, `benchmarks/stability.py`);
+- ``fast``: `PackScene.fast()` (adaptive settling and freezing);
+- ``fast+dt``: both.
+
+Packs of one setting use the master seed and streams 0..n-1, like `granpack paper`.
+For each variant it reports the wall time per pack and the difference of the mean phi,
+Z and |a^r| from the full-fidelity ensemble, in units of the full ensemble's standard
+deviation (ddof = 1), and writes a CSV and a plot of time against error.
+
+    python benchmarks/fast_vs_full.py --presets 4.1 --packs 10 --out bench-out
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import polars as pl
+
+import granpack as gp
+
+
+def variants(scene: gp.PackScene, dt_fraction: float) -> dict[str, gp.PackScene]:
+    dt = dt_fraction * scene.material.critical_time_step(scene.r_min)
+    return {
+        "full": scene,
+        "dt": scene.replace(dt=dt),
+        "fast": scene.fast(),
+        "fast+dt": scene.fast().replace(dt=dt),
+    }
+
+
+def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]:
+    out: dict[str, list[float]] = {"time": [], "phi": [], "z": [], "a_r": []}
+    for k in range(packs):
+        t0 = time.perf_counter()
+        pack = gp.generate(scene.replace(seed=seed, stream=k))
+        out["time"].append(time.perf_counter() - t0)
+        m = gp.microstructure(pack)
+        out["phi"].append(pack.phi)
+        out["z"].append(m.z)
+        out["a_r"].append(float(np.linalg.norm(m.a_r)))
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--presets", nargs="+", default=["4.1", "4.2", "4.3", "4.4"])
+    ap.add_argument("--packs", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--dt-fraction", type=float, default=0.9)
+    ap.add_argument("--out", type=Path, default=Path("bench-fast-vs-full"))
+    a = ap.parse_args(argv)
+    rows = []
+    for name in a.presets:
+        base = gp.PackScene.preset(name)
+        results = {}
+        for label, scene in variants(base, a.dt_fraction).items():
+            results[label] = measure(scene, a.packs, a.seed)
+            full = results["full"]
+            r = results[label]
+            row = {
+                "preset": name,
+                "variant": label,
+                "packs": a.packs,
+                "seconds_per_pack": float(r["time"].mean()),
+            }
+            for q in ("phi", "z", "a_r"):
+                sd = float(full[q].std(ddof=1)) if a.packs > 1 else float("nan")
+                row[f"{q}_mean"] = float(r[q].mean())
+                row[f"{q}_shift_sd"] = float((r[q].mean() - full[q].mean()) / sd)
+            rows.append(row)
+            print(
+                ", ".join(
+                    f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()
+                ),
+                flush=True,
+            )
+    df = pl.DataFrame(rows)
+    a.out.mkdir(parents=True, exist_ok=True)
+    df.write_csv(a.out / "fast_vs_full.csv")
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 4))
+    ax = fig.add_subplot()
+    for label, sub in df.group_by("variant"):
+        err = np.max(
+            np.abs(sub.select(["phi_shift_sd", "z_shift_sd", "a_r_shift_sd"]).to_numpy()), axis=1
+        )
+        ax.scatter(sub["seconds_per_pack"], err, label=str(label[0]))
+    ax.axhline(1.0, color="grey", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.set_xlabel("wall time per pack (s)")
+    ax.set_ylabel("largest |shift| of mean phi, Z, |a^r| (full-fidelity sd)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(a.out / "fast_vs_full.png", dpi=120)
+    print(f"wrote {a.out / 'fast_vs_full.csv'} and {a.out / 'fast_vs_full.png'}")
+
+
+if __name__ == "__main__":
+    main()
