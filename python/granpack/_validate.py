@@ -69,17 +69,23 @@ def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndar
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
         raise GranpackError(f"invalid {name}: not an array ({exc})") from None
-    if a.dtype == object or not (
-        np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
-    ) or a.dtype == np.bool_:
+    if (
+        a.dtype == object
+        or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer))
+        or a.dtype == np.bool_
+    ):
         raise GranpackError(f"invalid {name}: dtype {a.dtype}, expected a real (float64) array")
     a = np.ascontiguousarray(a, dtype=np.float64)
     want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
-    if a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape)):
+    # zip is safe: a.ndim == len(shape) is checked first
+    if a.ndim != len(shape) or any(
+        s is not None and s != n for s, n in zip(shape, a.shape, strict=False)
+    ):
         raise GranpackError(f"invalid {name}: shape {a.shape}, expected {want}")
     if not np.all(np.isfinite(a)):
         bad = np.argwhere(~np.isfinite(a))[0]
-        raise GranpackError(f"invalid {name}: non-finite value at index {tuple(int(b) for b in bad)}")
+        where = tuple(int(b) for b in bad)
+        raise GranpackError(f"invalid {name}: non-finite value at index {where}")
     return a
 
 

@@ -166,7 +166,7 @@ class PackScene:
             rmax = as_real("r_max", rmax, rmin, unit="m; r_max >= r_min")
             if not rmin <= self.r_mean <= rmax:
                 raise GranpackError(
-                        f"invalid r_mean = {self.r_mean}: must lie in "
+                    f"invalid r_mean = {self.r_mean}: must lie in "
                     f"[r_min, r_max] = [{rmin}, {rmax}] (m)"
                 )
             s(self, "r_min", rmin)
