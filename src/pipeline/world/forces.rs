@@ -1,0 +1,303 @@
+//! Forces: the pair pass (geometry per pair, contacts compacted into batches for the
+//! vectorised law, results scattered back), the per-particle gather with walls and
+//! body forces, and the freezing decisions that need every particle's net force.
+
+use super::*;
+
+/// Writes a batch's results back to its pairs: history, total force on j, the torques
+/// of the tangential force on i and j, overlap.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn scatter<const D: usize>(
+    b: &Batch<D>,
+    ij: &[[u32; 2]],
+    r: &[Real],
+    torques: bool,
+    hist: &mut [Vector<D>],
+    fvec: &mut [Vector<D>],
+    torque: &mut [[Ang<D>; 2]],
+    ovl: &mut [Real],
+) where
+    Dim<D>: Spatial<D>,
+{
+    for m in 0..b.len {
+        let k = b.pair[m] as usize;
+        let n = Vector::<D>::from_fn(|a, _| b.n[a][m]);
+        let ft = Vector::<D>::from_fn(|a, _| b.ft[a][m]);
+        hist[k] = Vector::<D>::from_fn(|a, _| b.h[a][m]);
+        fvec[k] = n * b.fnorm[m] + ft;
+        let d = b.d[m];
+        if torques {
+            let [i, j] = ij[k];
+            let c = <Dim<D>>::cross_vv(&n, &ft);
+            torque[k] = [
+                c * -(r[i as usize] - 0.5 * d),
+                c * -(r[j as usize] - 0.5 * d),
+            ];
+        }
+        ovl[k] = d;
+    }
+}
+
+impl<const D: usize> World<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// Pair forces, then the per-particle gather with walls and body forces, for every
+    /// particle (frozen ones included).
+    pub(super) fn compute_forces(&mut self) -> Result<()> {
+        self.compute_forces_inner(true)
+    }
+
+    /// Freezes settled particles below the freeze level and unfreezes pushed ones.
+    /// Runs right after a full force evaluation; each decision is per particle, so the
+    /// result does not depend on the thread count.
+    pub(super) fn update_frozen(&mut self) {
+        let Some(fc) = self.freeze else { return };
+        let vert = <Dim<D> as Spatial<D>>::VERTICAL;
+        let g = self.cfg.gravity.norm();
+        let p = &mut self.p;
+        let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
+        let speed2 = fc.speed * fc.speed;
+        p.frozen
+            .par_chunks_mut(CHUNK)
+            .zip(p.v.par_chunks_mut(CHUNK))
+            .zip(p.w.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, ((fz, v), w))| {
+                for k in 0..fz.len() {
+                    let q = c * CHUNK + k;
+                    let fmax = fc.force_ratio * m[q] * g;
+                    let quiet = f[q].norm_squared() <= fmax * fmax;
+                    if fz[k] {
+                        fz[k] = quiet;
+                    } else if quiet && x[q][vert] + r[q] < fc.below && v[k].norm_squared() <= speed2
+                    {
+                        fz[k] = true;
+                        v[k] = Vector::<D>::zeros();
+                        w[k] = Ang::<D>::default();
+                    }
+                }
+            });
+        self.n_frozen = self.p.frozen.iter().filter(|&&z| z).count();
+    }
+
+    /// Pair forces and the gather. With `all` false, pairs of two frozen particles
+    /// keep their stored force and frozen particles are not gathered.
+    pub(super) fn compute_forces_inner(&mut self, all: bool) -> Result<()> {
+        let skip_frozen = !all && self.n_frozen > 0;
+        let frozen = &self.p.frozen;
+        let dt = self.cfg.dt;
+        let rot = self.cfg.rotations;
+        let mat = self.cfg.material;
+        let friction_on = mat.friction > 0.0;
+        let (e_star, g_star) = (self.e_star, self.g_star);
+        let max_ratio = self.cfg.max_overlap_ratio;
+        let p = &self.p;
+        let pr = &mut self.pairs;
+
+        // 3. pair pass
+        let bad_pair = pr
+            .ij
+            .par_chunks(CHUNK)
+            .zip(pr.coefs.par_chunks(CHUNK))
+            .zip(pr.hist.par_chunks_mut(CHUNK))
+            .zip(pr.fvec.par_chunks_mut(CHUNK))
+            .zip(pr.torque.par_chunks_mut(CHUNK))
+            .zip(pr.dmax.par_chunks(CHUNK))
+            .zip(pr.overlap.par_chunks_mut(CHUNK))
+            .enumerate()
+            .filter_map(
+                |(c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
+                    let mut bad: Option<usize> = None;
+                    // Geometry per pair; contacts are compacted into a batch whose law
+                    // runs vectorised (see `dynamics::batch`), then scattered back.
+                    let mut b = Batch::<D>::default();
+                    let flush = |b: &mut Batch<D>,
+                                 hist: &mut [Vector<D>],
+                                 fvec: &mut [Vector<D>],
+                                 torque: &mut [[Ang<D>; 2]],
+                                 ovl: &mut [Real]| {
+                        law_batch(b, mat.friction, dt);
+                        scatter::<D>(b, ij, &p.r, rot && friction_on, hist, fvec, torque, ovl);
+                        b.len = 0;
+                    };
+                    for k in 0..ij.len() {
+                        let i = ij[k][0] as usize;
+                        let j = ij[k][1] as usize;
+                        if skip_frozen && frozen[i] && frozen[j] {
+                            continue;
+                        }
+                        let (ri, rj) = (p.r[i], p.r[j]);
+                        let dx = p.x[j] - p.x[i];
+                        let dist2 = dx.norm_squared();
+                        let cut = ri + rj;
+                        if dist2 >= cut * cut {
+                            // Zero the pair only when it just separated: most pairs inside the
+                            // skin stay apart for many steps, and rewriting them is pure traffic.
+                            if ovl[k] != 0.0 {
+                                hist[k] = Vector::<D>::zeros();
+                                fvec[k] = Vector::<D>::zeros();
+                                torque[k] = [Ang::<D>::default(); 2];
+                                ovl[k] = 0.0;
+                            }
+                            continue;
+                        }
+                        let dist = dist2.sqrt();
+                        let d = cut - dist;
+                        if d > dmax[k] && bad.is_none() {
+                            bad = Some(c * CHUNK + k);
+                        }
+                        let n = dx / dist;
+                        let mut vrel = p.v[j] - p.v[i];
+                        if rot {
+                            // w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n)
+                            let w = p.w[i] * (ri - 0.5 * d) + p.w[j] * (rj - 0.5 * d);
+                            vrel -= <Dim<D>>::cross_wv(w, &n);
+                        }
+                        let m = b.len;
+                        b.pair[m] = k as u32;
+                        for a in 0..D {
+                            b.n[a][m] = n[a];
+                            b.v[a][m] = vrel[a];
+                            b.h[a][m] = hist[k][a];
+                        }
+                        b.d[m] = d;
+                        let co = &coefs[k];
+                        (b.kn[m], b.cn[m], b.kt[m], b.ct[m]) = (co.kn, co.cn, co.kt, co.ct);
+                        b.len += 1;
+                        if b.len == BATCH {
+                            flush(&mut b, hist, fvec, torque, ovl);
+                        }
+                    }
+                    if b.len > 0 {
+                        flush(&mut b, hist, fvec, torque, ovl);
+                    }
+                    bad
+                },
+            )
+            .min();
+        if let Some(k) = bad_pair {
+            let [i, j] = pr.ij[k];
+            let d = pr.overlap[k];
+            let rmin = p.r[i as usize].min(p.r[j as usize]);
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: i as usize,
+                what: format!(
+                    "overlap with particle {j} is {d:e} m = {:.3} of the smaller radius \
+                     (limit max_overlap_ratio = {max_ratio}); reduce dt: the contact is not resolved",
+                    d / rmin
+                ),
+            });
+        }
+
+        // 4. gather
+        let pr = &self.pairs;
+        let walls = &self.walls;
+        let gravity = self.cfg.gravity;
+        let drag = self.cfg.drag;
+        let p = &mut self.p;
+        let (x, v, w, r, m, fz) = (&p.x, &p.v, &p.w, &p.r, &p.m, &p.frozen);
+        let bad_wall =
+            p.f.par_chunks_mut(CHUNK)
+                .zip(p.t.par_chunks_mut(CHUNK))
+                .zip(p.wall_hist.par_chunks_mut(CHUNK))
+                .zip(p.wall_force.par_chunks_mut(CHUNK))
+                .zip(p.wall_mask.par_chunks_mut(CHUNK))
+                .zip(p.wall_near.par_chunks(CHUNK))
+                .enumerate()
+                .filter_map(|(c, (((((f, t), wh), wf), wm), wn))| {
+                    let mut bad = None;
+                    for k in 0..f.len() {
+                        let q = c * CHUNK + k;
+                        if skip_frozen && fz[q] {
+                            continue;
+                        }
+                        let mut fq = gravity * m[q];
+                        if drag > 0.0 {
+                            fq -= v[q] * drag;
+                        }
+                        let mut tq = Ang::<D>::default();
+                        let inc = &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize];
+                        for &e in inc {
+                            // +1 when q is the pair's j, -1 when it is i: a multiply instead
+                            // of a branch that mispredicts half the time.
+                            let sign = 2.0 * (e & 1) as Real - 1.0;
+                            fq += pr.fvec[(e >> 1) as usize] * sign;
+                        }
+                        if rot && friction_on {
+                            for &e in inc {
+                                tq += pr.torque[(e >> 1) as usize][(e & 1) as usize];
+                            }
+                        }
+                        // visit only the walls that can touch (most particles: none)
+                        let mut candidates = wn[k] | wm[k];
+                        while candidates != 0 {
+                            let wi = candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            let wall = &walls[wi];
+                            let s = (wall.pos - x[q][wall.axis]) * wall.sign;
+                            let d = r[q] - s;
+                            if d <= 0.0 {
+                                // As for pairs: clear the wall's state only when the contact
+                                // just opened (the force is exactly zero otherwise).
+                                if wm[k] & (1 << wi) != 0 {
+                                    wh[k][wi] = Vector::<D>::zeros();
+                                    wf[k][wi] = Vector::<D>::zeros();
+                                    wm[k] &= !(1 << wi);
+                                }
+                                continue;
+                            }
+                            if d > max_ratio * r[q] && bad.is_none() {
+                                bad = Some((q, wi, d));
+                            }
+                            let mut n = Vector::<D>::zeros();
+                            n[wall.axis] = wall.sign;
+                            let arm = r[q] - 0.5 * d;
+                            // wall at rest: relative velocity of the wall w.r.t. the particle
+                            let mut vrel = -v[q];
+                            if rot {
+                                vrel -= <Dim<D>>::cross_wv(w[q], &(n * arm));
+                            }
+                            let params = PairParams {
+                                r_eff: r[q],
+                                m_eff: m[q],
+                                e_star,
+                                g_star,
+                                damping: mat.damping,
+                                friction: mat.friction,
+                            };
+                            let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
+                            let on_wall = n * fc.normal + fc.tangential;
+                            wf[k][wi] = on_wall;
+                            wm[k] |= 1 << wi;
+                            fq -= on_wall;
+                            if rot && friction_on {
+                                tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
+                            }
+                        }
+                        f[k] = fq;
+                        t[k] = tq;
+                    }
+                    bad
+                })
+                .min_by_key(|b| b.0);
+        if let Some((q, wi, d)) = bad_wall {
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: q,
+                what: format!(
+                    "overlap with wall {} is {d:e} m = {:.3} of its radius \
+                     (limit max_overlap_ratio = {max_ratio})",
+                    -(wi as i64) - 1,
+                    d / self.p.r[q]
+                ),
+            });
+        }
+        self.forces_valid = true;
+        Ok(())
+    }
+}
