@@ -6,13 +6,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from numbers import Integral
 from pathlib import Path
 
 import tomli_w
-import tomllib
 
 from ._validate import GranpackError, as_bool, as_int, as_real, unknown_keys
 from .engine import Material
