@@ -107,12 +107,15 @@ where
             .zip(pr.dmax.par_chunks(CHUNK))
             .zip(pr.overlap.par_chunks_mut(CHUNK))
             .enumerate()
-            .filter_map(
-                |(c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
+            .map_init(
+                // one batch buffer per rayon job, not per chunk: it is 19 KB in 3D
+                || Box::new(Batch::<D>::default()),
+                |b, (c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
+                    let b: &mut Batch<D> = b;
+                    b.len = 0;
                     let mut bad: Option<usize> = None;
                     // Geometry per pair; contacts are compacted into a batch whose law
                     // runs vectorised (see `dynamics::batch`), then scattered back.
-                    let mut b = Batch::<D>::default();
                     let flush = |b: &mut Batch<D>,
                                  hist: &mut [Vector<D>],
                                  fvec: &mut [Vector<D>],
@@ -167,15 +170,16 @@ where
                         (b.kn[m], b.cn[m], b.kt[m], b.ct[m]) = (co.kn, co.cn, co.kt, co.ct);
                         b.len += 1;
                         if b.len == BATCH {
-                            flush(&mut b, hist, fvec, torque, ovl);
+                            flush(b, hist, fvec, torque, ovl);
                         }
                     }
                     if b.len > 0 {
-                        flush(&mut b, hist, fvec, torque, ovl);
+                        flush(b, hist, fvec, torque, ovl);
                     }
                     bad
                 },
             )
+            .flatten()
             .min();
         if let Some(k) = bad_pair {
             let [i, j] = pr.ij[k];

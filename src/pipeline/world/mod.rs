@@ -619,7 +619,10 @@ where
                 .zip(p.inv_m.par_chunks(CHUNK))
                 .zip(p.x_ref.par_chunks(CHUNK))
                 .zip(p.frozen.par_chunks(CHUNK))
-                .map(|(((((x, v), f), im), xr), fz)| {
+                .zip(p.w.par_chunks_mut(CHUNK))
+                .zip(p.t.par_chunks(CHUNK))
+                .zip(p.inv_i.par_chunks(CHUNK))
+                .map(|((((((((x, v), f), im), xr), fz), w), t), ii)| {
                     let mut m2: Real = 0.0;
                     for k in 0..x.len() {
                         if fz[k] {
@@ -628,23 +631,13 @@ where
                         v[k] += f[k] * (im[k] * half);
                         x[k] += v[k] * dt;
                         m2 = m2.max((x[k] - xr[k]).norm_squared());
+                        if rot {
+                            w[k] += t[k] * (ii[k] * half);
+                        }
                     }
                     m2
                 })
                 .reduce(|| 0.0, Real::max);
-        if rot {
-            p.w.par_chunks_mut(CHUNK)
-                .zip(p.t.par_chunks(CHUNK))
-                .zip(p.inv_i.par_chunks(CHUNK))
-                .zip(p.frozen.par_chunks(CHUNK))
-                .for_each(|(((w, t), ii), fz)| {
-                    for k in 0..w.len() {
-                        if !fz[k] {
-                            w[k] += t[k] * (ii[k] * half);
-                        }
-                    }
-                });
-        }
         // 2. pair list
         let half_skin = 0.5 * self.skin;
         if max_disp2.is_nan() || max_disp2 > half_skin * half_skin {
@@ -664,7 +657,10 @@ where
                 .zip(p.inv_m.par_chunks(CHUNK))
                 .zip(p.r.par_chunks(CHUNK))
                 .zip(p.frozen.par_chunks(CHUNK))
-                .map(|((((v, f), im), r), fz)| {
+                .zip(p.w.par_chunks_mut(CHUNK))
+                .zip(p.t.par_chunks(CHUNK))
+                .zip(p.inv_i.par_chunks(CHUNK))
+                .map(|(((((((v, f), im), r), fz), w), t), ii)| {
                     let mut flag = false;
                     for k in 0..v.len() {
                         if fz[k] {
@@ -675,23 +671,13 @@ where
                         // written so that NaN also trips it
                         let v2 = v[k].norm_squared();
                         flag |= v2.is_nan() || v2 > lim * lim;
+                        if rot {
+                            w[k] += t[k] * (ii[k] * half);
+                        }
                     }
                     flag
                 })
                 .reduce(|| false, |a, b| a | b);
-        if rot {
-            p.w.par_chunks_mut(CHUNK)
-                .zip(p.t.par_chunks(CHUNK))
-                .zip(p.inv_i.par_chunks(CHUNK))
-                .zip(p.frozen.par_chunks(CHUNK))
-                .for_each(|(((w, t), ii), fz)| {
-                    for k in 0..w.len() {
-                        if !fz[k] {
-                            w[k] += t[k] * (ii[k] * half);
-                        }
-                    }
-                });
-        }
         if decide {
             self.update_frozen();
         }
