@@ -199,18 +199,26 @@ enum SimInner {
     D3(World<3>),
 }
 
-macro_rules! with_world {
-    ($self:expr, $w:ident, $D:ident, $body:expr) => {
+/// Runs `$body` with `$w` bound to the 2D or 3D engine object inside `$self` (an enum
+/// with variants `D2` and `D3`) and the constant `$D` set to its dimension.
+macro_rules! dispatch {
+    ($enum:ident, $self:expr, $w:ident, $D:ident, $body:expr) => {
         match $self {
-            SimInner::D2($w) => {
+            $enum::D2($w) => {
                 const $D: usize = 2;
                 $body
             }
-            SimInner::D3($w) => {
+            $enum::D3($w) => {
                 const $D: usize = 3;
                 $body
             }
         }
+    };
+}
+
+macro_rules! with_world {
+    ($self:expr, $w:ident, $D:ident, $body:expr) => {
+        dispatch!(SimInner, $self, $w, $D, $body)
     };
 }
 
@@ -405,16 +413,7 @@ enum PackInner {
 
 macro_rules! with_packer {
     ($self:expr, $p:ident, $D:ident, $body:expr) => {
-        match $self {
-            PackInner::D2($p) => {
-                const $D: usize = 2;
-                $body
-            }
-            PackInner::D3($p) => {
-                const $D: usize = 3;
-                $body
-            }
-        }
+        dispatch!(PackInner, $self, $p, $D, $body)
     };
 }
 

@@ -91,7 +91,8 @@ pub fn hertz_mindlin<const D: usize>(
     hertz_mindlin_coefs(&LawCoefs::new(p), overlap, n, v_rel, history, dt)
 }
 
-/// [`hertz_mindlin`] with precomputed [`LawCoefs`] (the engine's hot path).
+/// [`hertz_mindlin`] with precomputed [`LawCoefs`]: the scalar reference of the batched
+/// law the engine runs (`dynamics::batch::law_batch`, tested against it).
 #[inline(always)]
 pub fn hertz_mindlin_coefs<const D: usize>(
     c: &LawCoefs,
