@@ -113,6 +113,11 @@ where
                 |b, (c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
                     let b: &mut Batch<D> = b;
                     b.len = 0;
+                    // Equal lengths, stated once, let the compiler drop the per-pair
+                    // bounds checks on these chunk slices.
+                    let m = ij.len();
+                    assert!(coefs.len() == m && hist.len() == m && fvec.len() == m);
+                    assert!(torque.len() == m && dmax.len() == m && ovl.len() == m);
                     let mut bad: Option<usize> = None;
                     // Geometry per pair; contacts are compacted into a batch whose law
                     // runs vectorised (see `dynamics::batch`), then scattered back.
