@@ -12,7 +12,6 @@ use rayon::prelude::*;
 /// A static cell grid over a set of positions.
 #[derive(Clone, Debug)]
 pub struct CellGrid<const D: usize> {
-    origin: Vector<D>,
     cell: Real,
     dims: [usize; D],
     /// `start[c]..start[c + 1]` indexes `members` for cell `c`.
@@ -81,7 +80,6 @@ impl<const D: usize> CellGrid<D> {
             fill[c as usize] += 1;
         }
         CellGrid {
-            origin: lo,
             cell,
             dims,
             start,
@@ -103,34 +101,6 @@ impl<const D: usize> CellGrid<D> {
             c /= m;
         }
         out
-    }
-
-    /// Calls `f(j)` for every particle in the cells adjacent to (and including) the
-    /// cell of particle `i`.
-    #[inline]
-    pub fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
-        let ci = self.coords(self.cell_of[i] as usize);
-        let nb = 3usize.pow(D as u32);
-        'outer: for m in 0..nb {
-            let mut c = 0usize;
-            let mut mm = m;
-            let mut idx = [0usize; D];
-            for k in 0..D {
-                let off = (mm % 3) as isize - 1;
-                mm /= 3;
-                let v = ci[k] as isize + off;
-                if v < 0 || v >= self.dims[k] as isize {
-                    continue 'outer;
-                }
-                idx[k] = v as usize;
-            }
-            for k in (0..D).rev() {
-                c = c * self.dims[k] + idx[k];
-            }
-            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
-                f(j as usize);
-            }
-        }
     }
 
     /// Calls `f(j)` for the particles that can pair with `i` without counting a pair
@@ -170,45 +140,6 @@ impl<const D: usize> CellGrid<D> {
             }
             for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
                 f(j as usize);
-            }
-        }
-    }
-
-    /// Calls `f(j)` for every particle in the cells that a ball of radius `reach`
-    /// around `p` touches (p need not be a member; used to test a candidate position).
-    pub fn for_each_near(&self, p: &Vector<D>, reach: Real, mut f: impl FnMut(usize)) {
-        let mut lo = [0usize; D];
-        let mut hi = [0usize; D];
-        for k in 0..D {
-            let a = ((p[k] - reach - self.origin[k]) / self.cell).floor();
-            let b = ((p[k] + reach - self.origin[k]) / self.cell).floor();
-            if b < 0.0 || a > (self.dims[k] - 1) as Real {
-                return;
-            }
-            lo[k] = a.max(0.0) as usize;
-            hi[k] = (b as usize).min(self.dims[k] - 1);
-        }
-        let mut idx = lo;
-        loop {
-            let mut c = 0usize;
-            for k in (0..D).rev() {
-                c = c * self.dims[k] + idx[k];
-            }
-            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
-                f(j as usize);
-            }
-            // odometer increment
-            let mut k = 0;
-            loop {
-                if k == D {
-                    return;
-                }
-                if idx[k] < hi[k] {
-                    idx[k] += 1;
-                    break;
-                }
-                idx[k] = lo[k];
-                k += 1;
             }
         }
     }
