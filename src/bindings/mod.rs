@@ -6,7 +6,7 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{Contacts, Inertia2D};
+use crate::pipeline::world::{box_walls, Contacts, Inertia2D};
 use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, World};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
@@ -246,29 +246,24 @@ impl Simulation {
         max_overlap_ratio: f64,
         inertia_2d: &str,
     ) -> PyResult<Self> {
+        macro_rules! make {
+            ($D:literal, $variant:ident) => {
+                SimInner::$variant(World::new(sim_config::<$D>(
+                    material,
+                    dt,
+                    &gravity,
+                    drag,
+                    rotations,
+                    walls,
+                    skin_ratio,
+                    max_overlap_ratio,
+                    inertia_2d,
+                )?)?)
+            };
+        }
         let inner = match dim {
-            2 => SimInner::D2(World::new(sim_config::<2>(
-                material,
-                dt,
-                &gravity,
-                drag,
-                rotations,
-                walls,
-                skin_ratio,
-                max_overlap_ratio,
-                inertia_2d,
-            )?)?),
-            3 => SimInner::D3(World::new(sim_config::<3>(
-                material,
-                dt,
-                &gravity,
-                drag,
-                rotations,
-                walls,
-                skin_ratio,
-                max_overlap_ratio,
-                inertia_2d,
-            )?)?),
+            2 => make!(2, D2),
+            3 => make!(3, D3),
             other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
         };
         Ok(Simulation { inner })
@@ -657,19 +652,12 @@ fn geometric_contacts<const D: usize>(
         c.branch.push(dx);
     }
     if let Some((lo, hi)) = walls {
-        let vert = D - 1;
-        // (axis, position, sign of the outward normal), in wall-id order -1, -2, ...
-        let mut planes = vec![(vert, lo[vert], -1.0)];
-        for k in 0..vert {
-            planes.push((k, lo[k], -1.0));
-            planes.push((k, hi[k], 1.0));
-        }
+        let planes = box_walls(&lo, &hi);
         for q in 0..x.len() {
-            for (w, &(axis, pos, sign)) in planes.iter().enumerate() {
-                let d = r[q] - (pos - x[q][axis]) * sign;
+            for (w, wall) in planes.iter().enumerate() {
+                let d = r[q] - wall.gap(&x[q]);
                 if d > 0.0 {
-                    let mut n = Vector::<D>::zeros();
-                    n[axis] = sign;
+                    let n = wall.normal::<D>();
                     c.i.push(q as i64);
                     c.j.push(-(w as i64) - 1);
                     c.normal.push(n);

@@ -77,7 +77,7 @@ where
                     ));
                 }
                 for (wi, wall) in walls.iter().enumerate() {
-                    let s = (wall.pos - x[wall.axis]) * wall.sign;
+                    let s = wall.gap(x);
                     if s < 0.0 {
                         return Some((
                             k,
@@ -155,7 +155,7 @@ where
         }
         for q in 0..self.len() {
             for (wi, wall) in self.walls.iter().enumerate() {
-                let d = self.p.r[q] - (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                let d = self.p.r[q] - wall.gap(&self.p.x[q]);
                 if d > 0.0 {
                     let sr = self.p.r[q].sqrt();
                     let h2 = self.p.wall_hist[q][wi].norm_squared();

@@ -247,7 +247,7 @@ where
                             let wi = candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
                             let wall = &walls[wi];
-                            let s = (wall.pos - x[q][wall.axis]) * wall.sign;
+                            let s = wall.gap(&x[q]);
                             let d = r[q] - s;
                             if d <= 0.0 {
                                 // As for pairs: clear the wall's state only when the contact
@@ -262,8 +262,7 @@ where
                             if d > max_ratio * r[q] && bad.is_none() {
                                 bad = Some((q, wi, d));
                             }
-                            let mut n = Vector::<D>::zeros();
-                            n[wall.axis] = wall.sign;
+                            let n = wall.normal::<D>();
                             let arm = r[q] - 0.5 * d;
                             // wall at rest: relative velocity of the wall w.r.t. the particle
                             let mut vrel = -v[q];

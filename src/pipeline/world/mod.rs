@@ -215,10 +215,51 @@ struct Pairs<const D: usize, A> {
 /// A wall plane: axis, position, outward normal sign (normal points from the particle
 /// to the wall).
 #[derive(Clone, Copy, Debug)]
-struct Wall {
+pub(crate) struct Wall {
     axis: usize,
     pos: Real,
     sign: Real,
+}
+
+impl Wall {
+    /// Distance from `x` to the plane, positive on the box side (m).
+    #[inline(always)]
+    pub(crate) fn gap<const D: usize>(&self, x: &Vector<D>) -> Real {
+        (self.pos - x[self.axis]) * self.sign
+    }
+
+    /// Unit normal from a particle towards the wall.
+    #[inline(always)]
+    pub(crate) fn normal<const D: usize>(&self) -> Vector<D> {
+        let mut n = Vector::<D>::zeros();
+        n[self.axis] = self.sign;
+        n
+    }
+}
+
+/// The walls of a box in wall-id order (-1 floor, then -2 lo and -3 hi on the first
+/// horizontal axis, -4 and -5 on the second): floor at `lo[vertical]`, side walls at
+/// `lo[k]` and `hi[k]`; the top is open.
+pub(crate) fn box_walls<const D: usize>(lo: &Vector<D>, hi: &Vector<D>) -> Vec<Wall> {
+    let vert = D - 1;
+    let mut walls = vec![Wall {
+        axis: vert,
+        pos: lo[vert],
+        sign: -1.0,
+    }];
+    for k in 0..vert {
+        walls.push(Wall {
+            axis: k,
+            pos: lo[k],
+            sign: -1.0,
+        });
+        walls.push(Wall {
+            axis: k,
+            pos: hi[k],
+            sign: 1.0,
+        });
+    }
+    walls
 }
 
 /// The DEM world in `D` dimensions.
@@ -257,27 +298,12 @@ where
     /// A world with no particles. Fails if the configuration is invalid.
     pub fn new(cfg: SimConfig<D>) -> Result<Self> {
         cfg.validate()?;
-        let vert = <Dim<D> as Spatial<D>>::VERTICAL;
-        let mut walls = Vec::new();
-        if let Some((lo, hi)) = &cfg.walls {
-            walls.push(Wall {
-                axis: vert,
-                pos: lo[vert],
-                sign: -1.0,
-            });
-            for k in (0..D).filter(|&k| k != vert) {
-                walls.push(Wall {
-                    axis: k,
-                    pos: lo[k],
-                    sign: -1.0,
-                });
-                walls.push(Wall {
-                    axis: k,
-                    pos: hi[k],
-                    sign: 1.0,
-                });
-            }
-        }
+        // box_walls takes the last axis as vertical, as Spatial does
+        debug_assert_eq!(<Dim<D> as Spatial<D>>::VERTICAL, D - 1);
+        let walls = cfg
+            .walls
+            .as_ref()
+            .map_or_else(Vec::new, |(lo, hi)| box_walls(lo, hi));
         Ok(World {
             e_star: cfg.material.e_star(),
             g_star: cfg.material.g_star(),
@@ -453,7 +479,7 @@ where
                 ));
             }
             for wall in &self.walls {
-                let s = (wall.pos - xk[wall.axis]) * wall.sign;
+                let s = wall.gap(xk);
                 if s < 0.0 {
                     return Err(Error::invalid(
                         &format!("positions[{k}]"),
@@ -781,7 +807,7 @@ where
         for q in 0..self.p.x.len() {
             let mut near = 0u8;
             for (wi, wall) in self.walls.iter().enumerate() {
-                let s = (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                let s = wall.gap(&self.p.x[q]);
                 if s < self.p.r[q] + skin {
                     near |= 1 << wi;
                 }
@@ -822,13 +848,12 @@ where
         }
         for q in 0..self.len() {
             for (wi, wall) in self.walls.iter().enumerate() {
-                let s = (wall.pos - self.p.x[q][wall.axis]) * wall.sign;
+                let s = wall.gap(&self.p.x[q]);
                 let d = self.p.r[q] - s;
                 if d <= 0.0 {
                     continue;
                 }
-                let mut n = Vector::<D>::zeros();
-                n[wall.axis] = wall.sign;
+                let n = wall.normal::<D>();
                 let fv = self.p.wall_force[q][wi];
                 let fn_ = fv.dot(&n);
                 out.i.push(q as i64);
