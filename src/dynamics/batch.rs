@@ -8,7 +8,62 @@
 //! selects instead of branches, so that the compiler vectorises it and the chains of
 //! different contacts overlap. The results are scattered back by the caller.
 
+use crate::dynamics::PairParams;
 use crate::math::Real;
+
+/// The material's share of the law coefficients; a pair's own share is two numbers,
+/// sqrt(R*) and sqrt(m* sqrt(R*)), so that the pair list stores 16 bytes of constants
+/// per pair instead of 32 (see [`PairFactors`]).
+///
+/// For a pair: k_n = kn sqrt(R*) sqrt(d), c_n = cn sqrt(m* sqrt(R*)) d^{1/4}, and the
+/// same with kt and ct, which equals [`LawCoefs`](super::LawCoefs) term by term.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LawConsts {
+    /// 2 E* (Pa).
+    pub kn: Real,
+    /// 2 xi sqrt(2 E*) (Pa^{1/2}).
+    pub cn: Real,
+    /// 8 G* (Pa).
+    pub kt: Real,
+    /// 2 xi sqrt(8 G*) (Pa^{1/2}).
+    pub ct: Real,
+    /// Friction coefficient mu (-).
+    pub mu: Real,
+}
+
+impl LawConsts {
+    /// From the effective moduli E*, G* (Pa), damping ratio xi and friction mu.
+    pub fn new(e_star: Real, g_star: Real, damping: Real, friction: Real) -> Self {
+        LawConsts {
+            kn: 2.0 * e_star,
+            cn: 2.0 * damping * (2.0 * e_star).sqrt(),
+            kt: 8.0 * g_star,
+            ct: 2.0 * damping * (8.0 * g_star).sqrt(),
+            mu: friction,
+        }
+    }
+}
+
+/// A pair's share of the law coefficients (see [`LawConsts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairFactors {
+    /// sqrt(R*) (m^{1/2}).
+    pub sr: Real,
+    /// sqrt(m* sqrt(R*)) (kg^{1/2} m^{1/4}).
+    pub sm: Real,
+}
+
+impl PairFactors {
+    /// From the effective radius R* (m) and mass m* (kg) of `p`.
+    #[inline]
+    pub fn new(p: &PairParams) -> Self {
+        let sr = p.r_eff.sqrt();
+        PairFactors {
+            sr,
+            sm: (p.m_eff * sr).sqrt(),
+        }
+    }
+}
 
 /// Contacts per batch.
 pub const BATCH: usize = 128;
@@ -28,14 +83,10 @@ pub struct Batch<const D: usize> {
     pub h: [[Real; BATCH]; D],
     /// Overlap d > 0.
     pub d: [Real; BATCH],
-    /// Law coefficients (see `LawCoefs`).
-    pub kn: [Real; BATCH],
-    /// Normal dashpot coefficient.
-    pub cn: [Real; BATCH],
-    /// Tangential stiffness coefficient.
-    pub kt: [Real; BATCH],
-    /// Tangential dashpot coefficient.
-    pub ct: [Real; BATCH],
+    /// The pair's sqrt(R*) (see [`PairFactors`]).
+    pub sr: [Real; BATCH],
+    /// The pair's sqrt(m* sqrt(R*)).
+    pub sm: [Real; BATCH],
     /// Output: normal force magnitude (N).
     pub fnorm: [Real; BATCH],
     /// Output: tangential force on j (N), by component.
@@ -51,10 +102,8 @@ impl<const D: usize> Default for Batch<D> {
             v: [[0.0; BATCH]; D],
             h: [[0.0; BATCH]; D],
             d: [0.0; BATCH],
-            kn: [0.0; BATCH],
-            cn: [0.0; BATCH],
-            kt: [0.0; BATCH],
-            ct: [0.0; BATCH],
+            sr: [0.0; BATCH],
+            sm: [0.0; BATCH],
             fnorm: [0.0; BATCH],
             ft: [[0.0; BATCH]; D],
         }
@@ -64,8 +113,9 @@ impl<const D: usize> Default for Batch<D> {
 /// Runs the law on the first `b.len` contacts: fills `fnorm` and `ft`, advances `h`.
 /// Same formulas, in the same order, as `hertz_mindlin_coefs`.
 #[inline(never)]
-pub fn law_batch<const D: usize>(b: &mut Batch<D>, mu: Real, dt: Real) {
+pub fn law_batch<const D: usize>(b: &mut Batch<D>, c: &LawConsts, dt: Real) {
     let len = b.len;
+    let mu = c.mu;
     for m in 0..len {
         let d = b.d[m];
         let s = d.sqrt();
@@ -74,8 +124,8 @@ pub fn law_batch<const D: usize>(b: &mut Batch<D>, mu: Real, dt: Real) {
         for a in 0..D {
             vn += b.v[a][m] * b.n[a][m];
         }
-        let f_elastic = (2.0 / 3.0) * b.kn[m] * s * d;
-        b.fnorm[m] = (f_elastic - b.cn[m] * q * vn).max(0.0);
+        let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
+        b.fnorm[m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
     }
     if mu <= 0.0 {
         // no friction: no tangential force, and no history to keep
@@ -108,8 +158,8 @@ pub fn law_batch<const D: usize>(b: &mut Batch<D>, mu: Real, dt: Real) {
         } else {
             1.0
         };
-        let k_t = b.kt[m] * s;
-        let c_t = b.ct[m] * q;
+        let k_t = (c.kt * b.sr[m]) * s;
+        let c_t = (c.ct * b.sm[m]) * q;
         let mut vt = [0.0; D];
         let mut ft = [0.0; D];
         let mut ft2 = 0.0;
@@ -150,6 +200,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         for mu in [0.0, 0.2, 1.0] {
             let mut b = Batch::<3>::default();
+            let consts = LawConsts::new(5.3e7, 1.1e7, 0.1, mu);
             let mut expect = Vec::new();
             for m in 0..BATCH {
                 let p = PairParams {
@@ -169,10 +220,9 @@ mod tests {
                 let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4);
                 expect.push((f, h_scalar));
                 b.d[m] = d;
-                b.kn[m] = c.kn;
-                b.cn[m] = c.cn;
-                b.kt[m] = c.kt;
-                b.ct[m] = c.ct;
+                let pf = PairFactors::new(&p);
+                b.sr[m] = pf.sr;
+                b.sm[m] = pf.sm;
                 for a in 0..3 {
                     b.n[a][m] = n[a];
                     b.v[a][m] = v[a];
@@ -180,7 +230,7 @@ mod tests {
                 }
             }
             b.len = BATCH;
-            law_batch(&mut b, mu, 1e-4);
+            law_batch(&mut b, &consts, 1e-4);
             for (m, (f, h)) in expect.iter().enumerate() {
                 let tol = 1e-12 * (1.0 + f.normal.abs());
                 assert!((b.fnorm[m] - f.normal).abs() <= tol);

@@ -145,6 +145,74 @@ impl<const D: usize> CellGrid<D> {
     }
 }
 
+impl<const D: usize> CellGrid<D> {
+    /// Calls `f(j)` for every particle in the 3^D cells around `i`'s (`i` included).
+    #[inline]
+    pub fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
+        let ci = self.coords(self.cell_of[i] as usize);
+        'outer: for m in 0..3usize.pow(D as u32) {
+            let mut mm = m;
+            let mut c = 0usize;
+            let mut stride = 1usize;
+            for (&ck, &dk) in ci.iter().zip(&self.dims) {
+                let v = ck as isize + (mm % 3) as isize - 1;
+                mm /= 3;
+                if v < 0 || v >= dk as isize {
+                    continue 'outer;
+                }
+                c += v as usize * stride;
+                stride *= dk;
+            }
+            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
+                f(j as usize);
+            }
+        }
+    }
+}
+
+/// The pairs of [`neighbor_pairs`] that have at least one particle with `active` set,
+/// sorted by (i, j). Pairs of two inactive particles are not searched at all: the
+/// engine keeps those of frozen particles from an earlier search.
+pub fn neighbor_pairs_active<const D: usize>(
+    x: &[Vector<D>],
+    r: &[Real],
+    skin: Real,
+    active: &[bool],
+) -> Vec<[u32; 2]> {
+    let n = x.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let r_max = r.iter().cloned().fold(0.0, Real::max);
+    let grid = CellGrid::build(x, 2.0 * r_max + skin);
+    const CHUNK: usize = 1024;
+    let chunks: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| active[i]) {
+                let xi = x[i];
+                let ri = r[i];
+                grid.for_each_candidate(i, |j| {
+                    // an active pair is taken from its lower index, a mixed one from
+                    // its active particle
+                    if j == i || (active[j] && j < i) {
+                        return;
+                    }
+                    let cut = ri + r[j] + skin;
+                    if (x[j] - xi).norm_squared() < cut * cut {
+                        out.push([i.min(j) as u32, i.max(j) as u32]);
+                    }
+                });
+            }
+            out
+        })
+        .collect();
+    let mut pairs = chunks.concat();
+    pairs.par_sort_unstable();
+    pairs
+}
+
 /// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
 ///
 /// `skin` >= 0 (m) widens the cutoff so that the list stays valid while no particle has
@@ -221,6 +289,21 @@ mod tests {
                                            ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {
             let (x, r) = cloud::<3>(seed, n, ratio);
             prop_assert_eq!(neighbor_pairs(&x, &r, skin), brute_force_pairs(&x, &r, skin));
+        }
+
+        /// The active-only search returns exactly the brute-force pairs that touch
+        /// an active particle.
+        #[test]
+        fn active_pairs_equal_filtered_brute_force(seed in 0u64..10_000, n in 0usize..400,
+                                                   ratio in 1.0f64..4.0, skin in 0.0f64..0.01,
+                                                   frac in 0.0f64..1.0) {
+            let (x, r) = cloud::<3>(seed, n, ratio);
+            let active: Vec<bool> = (0..n).map(|k| ((k * 7919) % 100) as f64 >= 100.0 * frac).collect();
+            let expect: Vec<[u32; 2]> = brute_force_pairs(&x, &r, skin)
+                .into_iter()
+                .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                .collect();
+            prop_assert_eq!(neighbor_pairs_active(&x, &r, skin, &active), expect);
         }
 
         #[test]

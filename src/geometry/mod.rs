@@ -2,4 +2,4 @@
 
 pub mod grid;
 
-pub use grid::{brute_force_pairs, morton_order, neighbor_pairs, CellGrid};
+pub use grid::{brute_force_pairs, morton_order, neighbor_pairs, neighbor_pairs_active, CellGrid};

@@ -149,8 +149,9 @@ where
         for k in 0..pr.ij.len() {
             let d = pr.overlap[k];
             if d > 0.0 {
-                let c = &pr.coefs[k];
-                e += contact(c.kn, c.kt, d, pr.hist[k].norm_squared());
+                let sr = pr.coefs[k].sr;
+                let (kn, kt) = (2.0 * self.e_star * sr, 8.0 * self.g_star * sr);
+                e += contact(kn, kt, d, pr.hist[k].norm_squared());
             }
         }
         for q in 0..self.len() {

@@ -3,19 +3,18 @@
 //! body forces, and the freezing decisions that need every particle's net force.
 
 use super::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Writes a batch's results back to its pairs: history, total force on j, the torques
-/// of the tangential force on i and j, overlap.
+/// Writes a batch's results back to its pairs: history, total force on j, n x f_t
+/// (for the torques), overlap.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn scatter<const D: usize>(
     b: &Batch<D>,
-    ij: &[[u32; 2]],
-    r: &[Real],
     torques: bool,
     hist: &mut [Vector<D>],
     fvec: &mut [Vector<D>],
-    torque: &mut [[Ang<D>; 2]],
+    nxf: &mut [Ang<D>],
     ovl: &mut [Real],
 ) where
     Dim<D>: Spatial<D>,
@@ -26,16 +25,10 @@ fn scatter<const D: usize>(
         let ft = Vector::<D>::from_fn(|a, _| b.ft[a][m]);
         hist[k] = Vector::<D>::from_fn(|a, _| b.h[a][m]);
         fvec[k] = n * b.fnorm[m] + ft;
-        let d = b.d[m];
         if torques {
-            let [i, j] = ij[k];
-            let c = <Dim<D>>::cross_vv(&n, &ft);
-            torque[k] = [
-                c * -(r[i as usize] - 0.5 * d),
-                c * -(r[j as usize] - 0.5 * d),
-            ];
+            nxf[k] = <Dim<D>>::cross_vv(&n, &ft);
         }
-        ovl[k] = d;
+        ovl[k] = b.d[m];
     }
 }
 
@@ -59,6 +52,7 @@ where
         let p = &mut self.p;
         let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
         let speed2 = fc.speed * fc.speed;
+        let thawed = AtomicBool::new(false);
         p.frozen
             .par_chunks_mut(CHUNK)
             .zip(p.v.par_chunks_mut(CHUNK))
@@ -70,7 +64,10 @@ where
                     let fmax = fc.force_ratio * m[q] * g;
                     let quiet = f[q].norm_squared() <= fmax * fmax;
                     if fz[k] {
-                        fz[k] = quiet;
+                        if !quiet {
+                            fz[k] = false;
+                            thawed.store(true, Ordering::Relaxed);
+                        }
                     } else if quiet && x[q][vert] + r[q] < fc.below && v[k].norm_squared() <= speed2
                     {
                         fz[k] = true;
@@ -79,63 +76,70 @@ where
                     }
                 }
             });
+        let (n_before, thawed) = (self.n_frozen, thawed.load(Ordering::Relaxed));
         self.n_frozen = self.p.frozen.iter().filter(|&&z| z).count();
+        if thawed {
+            // A thawed particle may move again: its pairs leave the frozen run and are
+            // searched afresh at the next (partial) rebuild, which sees it as active.
+            self.partition_pairs();
+            self.list_valid = false;
+        } else if self.n_frozen != n_before {
+            self.partition_pairs();
+        }
     }
 
     /// Pair forces and the gather. With `all` false, pairs of two frozen particles
     /// keep their stored force and frozen particles are not gathered.
     pub(super) fn compute_forces_inner(&mut self, all: bool) -> Result<()> {
         let skip_frozen = !all && self.n_frozen > 0;
-        let frozen = &self.p.frozen;
         let dt = self.cfg.dt;
         let rot = self.cfg.rotations;
         let mat = self.cfg.material;
         let friction_on = mat.friction > 0.0;
         let (e_star, g_star) = (self.e_star, self.g_star);
+        let consts = LawConsts::new(e_star, g_star, mat.damping, mat.friction);
         let max_ratio = self.cfg.max_overlap_ratio;
         let p = &self.p;
         let pr = &mut self.pairs;
+        // Between freeze decisions only the first run (pairs with an active particle)
+        // changes; the frozen pairs keep their forces.
+        let first = if skip_frozen { pr.n_frozen_pairs } else { 0 };
 
         // 3. pair pass
-        let bad_pair = pr
-            .ij
+        let bad_pair = pr.ij[first..]
             .par_chunks(CHUNK)
-            .zip(pr.coefs.par_chunks(CHUNK))
-            .zip(pr.hist.par_chunks_mut(CHUNK))
-            .zip(pr.fvec.par_chunks_mut(CHUNK))
-            .zip(pr.torque.par_chunks_mut(CHUNK))
-            .zip(pr.dmax.par_chunks(CHUNK))
-            .zip(pr.overlap.par_chunks_mut(CHUNK))
+            .zip(pr.coefs[first..].par_chunks(CHUNK))
+            .zip(pr.hist[first..].par_chunks_mut(CHUNK))
+            .zip(pr.fvec[first..].par_chunks_mut(CHUNK))
+            .zip(pr.nxf[first..].par_chunks_mut(CHUNK))
+            .zip(pr.overlap[first..].par_chunks_mut(CHUNK))
             .enumerate()
             .map_init(
-                // one batch buffer per rayon job, not per chunk: it is 19 KB in 3D
+                // one batch buffer per rayon job, not per chunk: it is 16 KB in 3D
                 || Box::new(Batch::<D>::default()),
-                |b, (c, ((((((ij, coefs), hist), fvec), torque), dmax), ovl))| {
+                |b, (c, (((((ij, coefs), hist), fvec), nxf), ovl))| {
                     let b: &mut Batch<D> = b;
                     b.len = 0;
                     // Equal lengths, stated once, let the compiler drop the per-pair
                     // bounds checks on these chunk slices.
                     let m = ij.len();
                     assert!(coefs.len() == m && hist.len() == m && fvec.len() == m);
-                    assert!(torque.len() == m && dmax.len() == m && ovl.len() == m);
+                    assert!(nxf.len() == m && ovl.len() == m);
                     let mut bad: Option<usize> = None;
                     // Geometry per pair; contacts are compacted into a batch whose law
                     // runs vectorised (see `dynamics::batch`), then scattered back.
                     let flush = |b: &mut Batch<D>,
                                  hist: &mut [Vector<D>],
                                  fvec: &mut [Vector<D>],
-                                 torque: &mut [[Ang<D>; 2]],
+                                 nxf: &mut [Ang<D>],
                                  ovl: &mut [Real]| {
-                        law_batch(b, mat.friction, dt);
-                        scatter::<D>(b, ij, &p.r, rot && friction_on, hist, fvec, torque, ovl);
+                        law_batch(b, &consts, dt);
+                        scatter::<D>(b, rot && friction_on, hist, fvec, nxf, ovl);
                         b.len = 0;
                     };
                     for k in 0..ij.len() {
                         let i = ij[k][0] as usize;
                         let j = ij[k][1] as usize;
-                        if skip_frozen && frozen[i] && frozen[j] {
-                            continue;
-                        }
                         let (ri, rj) = (p.r[i], p.r[j]);
                         let dx = p.x[j] - p.x[i];
                         let dist2 = dx.norm_squared();
@@ -146,15 +150,15 @@ where
                             if ovl[k] != 0.0 {
                                 hist[k] = Vector::<D>::zeros();
                                 fvec[k] = Vector::<D>::zeros();
-                                torque[k] = [Ang::<D>::default(); 2];
+                                nxf[k] = Ang::<D>::default();
                                 ovl[k] = 0.0;
                             }
                             continue;
                         }
                         let dist = dist2.sqrt();
                         let d = cut - dist;
-                        if d > dmax[k] && bad.is_none() {
-                            bad = Some(c * CHUNK + k);
+                        if d > max_ratio * ri.min(rj) && bad.is_none() {
+                            bad = Some(first + c * CHUNK + k);
                         }
                         let n = dx / dist;
                         let mut vrel = p.v[j] - p.v[i];
@@ -171,15 +175,14 @@ where
                             b.h[a][m] = hist[k][a];
                         }
                         b.d[m] = d;
-                        let co = &coefs[k];
-                        (b.kn[m], b.cn[m], b.kt[m], b.ct[m]) = (co.kn, co.cn, co.kt, co.ct);
+                        (b.sr[m], b.sm[m]) = (coefs[k].sr, coefs[k].sm);
                         b.len += 1;
                         if b.len == BATCH {
-                            flush(b, hist, fvec, torque, ovl);
+                            flush(b, hist, fvec, nxf, ovl);
                         }
                     }
                     if b.len > 0 {
-                        flush(b, hist, fvec, torque, ovl);
+                        flush(b, hist, fvec, nxf, ovl);
                     }
                     bad
                 },
@@ -238,7 +241,8 @@ where
                         }
                         if rot && friction_on {
                             for &e in inc {
-                                tq += pr.torque[(e >> 1) as usize][(e & 1) as usize];
+                                let k = (e >> 1) as usize;
+                                tq += pr.nxf[k] * -(r[q] - 0.5 * pr.overlap[k]);
                             }
                         }
                         // visit only the walls that can touch (most particles: none)

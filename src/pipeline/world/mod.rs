@@ -17,10 +17,10 @@
 //! (max, min index) or per-chunk partial sums added in chunk order, so results are
 //! bit-identical on any number of threads.
 
-use crate::dynamics::batch::{law_batch, Batch, BATCH};
-use crate::dynamics::{hertz_mindlin, LawCoefs, Material, PairParams};
+use crate::dynamics::batch::{law_batch, Batch, LawConsts, PairFactors, BATCH};
+use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, Error, Result};
-use crate::geometry::neighbor_pairs;
+use crate::geometry::{neighbor_pairs, neighbor_pairs_active};
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
 use rayon::prelude::*;
 
@@ -193,23 +193,59 @@ struct Particles<const D: usize, A> {
     wall_near: Vec<u8>,
 }
 
-/// The pair (Verlet) list and its per-pair state, sorted by (i, j).
+/// The pair (Verlet) list and its per-pair state in two runs, each sorted by (i, j):
+/// first the pairs of two frozen particles, whose forces need no update between
+/// freeze decisions and which a rebuild keeps without a search, then the pairs with at
+/// least one active particle.
 #[derive(Clone, Debug, Default)]
 struct Pairs<const D: usize, A> {
     ij: Vec<[u32; 2]>,
-    /// Law coefficients of each pair (from R*, m* and the material).
-    coefs: Vec<LawCoefs>,
+    /// Length of the first run (0 when nothing is frozen).
+    n_frozen_pairs: usize,
+    /// The pair's share of the law coefficients (from R* and m*).
+    coefs: Vec<PairFactors>,
     hist: Vec<Vector<D>>,
     /// Total force on j (N).
     fvec: Vec<Vector<D>>,
-    /// Torques of the tangential force on i and on j: -(r - d/2) n x f_t.
-    torque: Vec<[A; 2]>,
-    /// Overlap beyond which the pair counts as a blow-up (m).
-    dmax: Vec<Real>,
+    /// n x f_t (N): the torque of the tangential force on particle q is
+    /// -(r_q - d/2) n x f_t for both particles, so one vector serves both.
+    nxf: Vec<A>,
     overlap: Vec<Real>,
     /// For particle p, `inc[inc_start[p]..inc_start[p+1]]` lists (pair << 1 | p_is_j).
     inc_start: Vec<u32>,
     inc: Vec<u32>,
+}
+
+impl<const D: usize, A: Copy> Pairs<D, A> {
+    /// Reorders every per-pair array: entry k takes the old entry `order[k]`.
+    fn permute(&mut self, order: &[u32]) {
+        fn by<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+            *v = order.iter().map(|&k| v[k as usize]).collect();
+        }
+        by(&mut self.ij, order);
+        by(&mut self.coefs, order);
+        by(&mut self.hist, order);
+        by(&mut self.fvec, order);
+        by(&mut self.nxf, order);
+        by(&mut self.overlap, order);
+    }
+
+    /// Pair indices in (i, j) order: the merge of the two sorted runs.
+    fn sorted_order(&self) -> Vec<u32> {
+        let (m, na) = (self.ij.len(), self.n_frozen_pairs);
+        let mut out = Vec::with_capacity(m);
+        let (mut a, mut b) = (0, na);
+        while a < na || b < m {
+            if b == m || (a < na && self.ij[a] < self.ij[b]) {
+                out.push(a as u32);
+                a += 1;
+            } else {
+                out.push(b as u32);
+                b += 1;
+            }
+        }
+        out
+    }
 }
 
 /// A wall plane: axis, position, outward normal sign (normal points from the particle
@@ -282,6 +318,8 @@ where
     dt_checked: bool,
     /// Number of pair-list rebuilds so far (diagnostics).
     rebuilds: u64,
+    /// Wall-clock seconds spent in pair-list rebuilds (diagnostics).
+    rebuild_seconds: Real,
     freeze: Option<FreezeConfig>,
     n_frozen: usize,
     /// Kinetic plus potential energy when the state was last set by the user (J): with
@@ -318,6 +356,7 @@ where
             list_valid: false,
             dt_checked: false,
             rebuilds: 0,
+            rebuild_seconds: 0.0,
             freeze: None,
             n_frozen: 0,
             energy_ref: None,
@@ -352,6 +391,16 @@ where
     /// Pair-list rebuilds so far.
     pub fn rebuilds(&self) -> u64 {
         self.rebuilds
+    }
+
+    /// Pairs in the Verlet list, and how many of them join two frozen particles.
+    pub fn pair_counts(&self) -> (usize, usize) {
+        (self.pairs.ij.len(), self.pairs.n_frozen_pairs)
+    }
+
+    /// Wall-clock seconds spent rebuilding the pair list so far (s).
+    pub fn rebuild_seconds(&self) -> Real {
+        self.rebuild_seconds
     }
 
     /// Positions (m).
@@ -397,10 +446,11 @@ where
             if f.interval == 0 {
                 return Err(Error::invalid("freeze.interval", 0, "must be >= 1 step"));
             }
-        } else {
+        } else if self.n_frozen > 0 {
             self.p.frozen.iter_mut().for_each(|z| *z = false);
             self.n_frozen = 0;
             self.forces_valid = false;
+            self.list_valid = false;
         }
         self.freeze = freeze;
         Ok(())
@@ -720,86 +770,91 @@ where
     }
 
     /// Rebuilds the Verlet list and carries the tangential history of surviving pairs
-    /// over (both lists are sorted by (i, j), so a merge suffices).
+    /// over (old and new runs are sorted by (i, j), so a merge suffices).
+    ///
+    /// With particles frozen only the pairs with an active particle are searched: the
+    /// frozen run is kept as it is. Its pairs stay valid for good, because frozen
+    /// particles do not move and were within skin / 2 of the search that found them; a
+    /// thaw moves the thawed particle's pairs out of the frozen run (`partition_pairs`)
+    /// and asks for a rebuild, which searches them afresh.
     fn rebuild_pairs(&mut self) {
+        let start = std::time::Instant::now();
         let r_min = self.r_min();
         self.skin = if r_min.is_finite() {
             self.cfg.skin_ratio * r_min
         } else {
             0.0
         };
-        let ij = neighbor_pairs(&self.p.x, &self.p.r, self.skin);
+        let partial = self.n_frozen > 0;
+        let mut pr = std::mem::take(&mut self.pairs);
+        let (ij, keep) = if partial {
+            let active: Vec<bool> = self.p.frozen.iter().map(|&z| !z).collect();
+            let ij = neighbor_pairs_active(&self.p.x, &self.p.r, self.skin, &active);
+            (ij, pr.n_frozen_pairs)
+        } else {
+            (neighbor_pairs(&self.p.x, &self.p.r, self.skin), 0)
+        };
+        // Old pairs that may survive, in (i, j) order: the active run, or everything.
+        let old_order: Vec<u32> = if partial {
+            (pr.n_frozen_pairs as u32..pr.ij.len() as u32).collect()
+        } else {
+            pr.sorted_order()
+        };
         let m = ij.len();
-        let old = std::mem::take(&mut self.pairs);
         let mut hist = vec![Vector::<D>::zeros(); m];
         let mut fvec = vec![Vector::<D>::zeros(); m];
-        let mut torque = vec![[Ang::<D>::default(); 2]; m];
+        let mut nxf = vec![Ang::<D>::default(); m];
         let mut overlap = vec![0.0; m];
         let mut a = 0usize;
         for (k, pair) in ij.iter().enumerate() {
-            while a < old.ij.len() && old.ij[a] < *pair {
+            while a < old_order.len() && pr.ij[old_order[a] as usize] < *pair {
                 a += 1;
             }
-            if a < old.ij.len() && old.ij[a] == *pair {
-                hist[k] = old.hist[a];
-                fvec[k] = old.fvec[a];
-                torque[k] = old.torque[a];
-                overlap[k] = old.overlap[a];
+            if a < old_order.len() && pr.ij[old_order[a] as usize] == *pair {
+                let o = old_order[a] as usize;
+                hist[k] = pr.hist[o];
+                fvec[k] = pr.fvec[o];
+                nxf[k] = pr.nxf[o];
+                overlap[k] = pr.overlap[o];
             }
         }
+        drop(old_order);
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
-        let ratio = self.cfg.max_overlap_ratio;
-        let dmax = ij
-            .iter()
-            .map(|&[i, j]| ratio * r[i as usize].min(r[j as usize]))
-            .collect();
-        let coefs = ij
-            .iter()
-            .map(|&[i, j]| {
-                let (ri, rj) = (r[i as usize], r[j as usize]);
-                let (mi, mj) = (mass[i as usize], mass[j as usize]);
-                LawCoefs::new(&PairParams {
-                    r_eff: ri * rj / (ri + rj),
-                    m_eff: mi * mj / (mi + mj),
-                    e_star,
-                    g_star,
-                    damping: mat.damping,
-                    friction: mat.friction,
-                })
+        let coefs = ij.iter().map(|&[i, j]| {
+            let (ri, rj) = (r[i as usize], r[j as usize]);
+            let (mi, mj) = (mass[i as usize], mass[j as usize]);
+            PairFactors::new(&PairParams {
+                r_eff: ri * rj / (ri + rj),
+                m_eff: mi * mj / (mi + mj),
+                e_star,
+                g_star,
+                damping: mat.damping,
+                friction: mat.friction,
             })
-            .collect();
-        // Incidence lists: for each particle its pairs, in pair order.
-        let n = self.p.x.len();
-        let mut inc_start = vec![0u32; n + 1];
-        for &[i, j] in &ij {
-            inc_start[i as usize + 1] += 1;
-            inc_start[j as usize + 1] += 1;
+        });
+        // The kept frozen run stays in front; the new pairs follow it.
+        pr.ij.truncate(keep);
+        pr.ij.extend_from_slice(&ij);
+        pr.coefs.truncate(keep);
+        pr.coefs.extend(coefs);
+        pr.hist.truncate(keep);
+        pr.hist.extend_from_slice(&hist);
+        pr.fvec.truncate(keep);
+        pr.fvec.extend_from_slice(&fvec);
+        pr.nxf.truncate(keep);
+        pr.nxf.extend_from_slice(&nxf);
+        pr.overlap.truncate(keep);
+        pr.overlap.extend_from_slice(&overlap);
+        pr.n_frozen_pairs = keep;
+        self.pairs = pr;
+        if partial {
+            self.build_incidence();
+        } else {
+            self.partition_pairs();
         }
-        for p in 0..n {
-            inc_start[p + 1] += inc_start[p];
-        }
-        let mut fill = inc_start.clone();
-        let mut inc = vec![0u32; 2 * m];
-        for (k, &[i, j]) in ij.iter().enumerate() {
-            inc[fill[i as usize] as usize] = (k as u32) << 1;
-            fill[i as usize] += 1;
-            inc[fill[j as usize] as usize] = ((k as u32) << 1) | 1;
-            fill[j as usize] += 1;
-        }
-        self.pairs = Pairs {
-            ij,
-            coefs,
-            hist,
-            fvec,
-            torque,
-            dmax,
-            overlap,
-            inc_start,
-            inc,
-        };
         self.p.x_ref.copy_from_slice(&self.p.x);
         // No particle moves more than skin / 2 before the next rebuild, so only walls
         // within r + skin can be touched meanwhile: the gather skips the others.
@@ -816,6 +871,60 @@ where
         }
         self.list_valid = true;
         self.rebuilds += 1;
+        self.rebuild_seconds += start.elapsed().as_secs_f64();
+    }
+
+    /// Puts the pairs of two frozen particles in front of the others (both runs in
+    /// (i, j) order) and rebuilds the incidence lists. Runs after every full rebuild and
+    /// whenever particles freeze or thaw.
+    fn partition_pairs(&mut self) {
+        let fz = &self.p.frozen;
+        let pr = &mut self.pairs;
+        let m = pr.ij.len();
+        let both = |&[i, j]: &[u32; 2]| fz[i as usize] && fz[j as usize];
+        if self.n_frozen == 0 {
+            if pr.n_frozen_pairs > 0 {
+                let order = pr.sorted_order();
+                pr.permute(&order);
+            }
+            pr.n_frozen_pairs = 0;
+        } else {
+            let order = pr.sorted_order();
+            let order: Vec<u32> = order
+                .iter()
+                .copied()
+                .filter(|&k| both(&pr.ij[k as usize]))
+                .chain(order.iter().copied().filter(|&k| !both(&pr.ij[k as usize])))
+                .collect();
+            pr.permute(&order);
+            pr.n_frozen_pairs = pr.ij.iter().filter(|p| both(p)).count();
+        }
+        debug_assert_eq!(pr.ij.len(), m);
+        self.build_incidence();
+    }
+
+    /// Incidence lists: for each particle its pairs, in list order.
+    fn build_incidence(&mut self) {
+        let pr = &mut self.pairs;
+        let n = self.p.x.len();
+        let mut inc_start = vec![0u32; n + 1];
+        for &[i, j] in &pr.ij {
+            inc_start[i as usize + 1] += 1;
+            inc_start[j as usize + 1] += 1;
+        }
+        for p in 0..n {
+            inc_start[p + 1] += inc_start[p];
+        }
+        let mut fill = inc_start.clone();
+        let mut inc = vec![0u32; 2 * pr.ij.len()];
+        for (k, &[i, j]) in pr.ij.iter().enumerate() {
+            inc[fill[i as usize] as usize] = (k as u32) << 1;
+            fill[i as usize] += 1;
+            inc[fill[j as usize] as usize] = ((k as u32) << 1) | 1;
+            fill[j as usize] += 1;
+        }
+        pr.inc_start = inc_start;
+        pr.inc = inc;
     }
 
     /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
@@ -829,7 +938,8 @@ where
         }
         let mut out = Contacts::<D>::default();
         let pr = &self.pairs;
-        for k in 0..pr.ij.len() {
+        for k in pr.sorted_order() {
+            let k = k as usize;
             if pr.overlap[k] <= 0.0 {
                 continue;
             }
@@ -986,5 +1096,84 @@ mod tests {
         assert_eq!(w.spins()[0], Vector::<3>::zeros());
         // Friction still decelerates the sliding sphere.
         assert!(w.velocities()[0][0] < 0.3);
+    }
+
+    /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
+    /// contact: after every few steps the contacts the world reports are exactly the
+    /// overlapping pairs of a brute-force search, while a second batch of spheres lands
+    /// on a frozen bed (which thaws part of it).
+    #[test]
+    fn frozen_runs_keep_every_contact() {
+        use crate::geometry::brute_force_pairs;
+        use rand::{Rng, SeedableRng};
+        let mut cfg = SimConfig::<3>::paper();
+        cfg.walls = Some((
+            Vector::<3>::zeros(),
+            Vector::<3>::new(0.2, 0.2, f64::INFINITY),
+        ));
+        cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+        // drag (time constant about 0.2 s) so that the bed comes to rest quickly
+        cfg.drag = 0.05;
+        let mut w = World::new(cfg).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut batch = |z0: f64| -> (Vec<Vector<3>>, Vec<Real>) {
+            // a loose 6 x 6 x 3 lattice with jitter, radii 8-12 mm
+            let mut x = Vec::new();
+            for a in 0..6 {
+                for b in 0..6 {
+                    for c in 0..3 {
+                        x.push(Vector::<3>::new(
+                            0.02 + 0.032 * a as f64 + 0.004 * rng.random::<f64>(),
+                            0.02 + 0.032 * b as f64 + 0.004 * rng.random::<f64>(),
+                            z0 + 0.032 * c as f64,
+                        ));
+                    }
+                }
+            }
+            let r = (0..x.len())
+                .map(|_| 0.008 + 0.004 * rng.random::<f64>())
+                .collect();
+            (x, r)
+        };
+        let (x, r) = batch(0.015);
+        w.add_particles(&x, &r, None, None).unwrap();
+        w.set_freeze(Some(FreezeConfig {
+            below: 0.1,
+            speed: 1e-2,
+            force_ratio: 0.3,
+            interval: 10,
+        }))
+        .unwrap();
+        let check = |w: &mut World<3>| {
+            let c = w.contacts().unwrap();
+            let mut got: Vec<[u32; 2]> =
+                c.i.iter()
+                    .zip(&c.j)
+                    .filter(|(_, &j)| j >= 0)
+                    .map(|(&i, &j)| [i as u32, j as u32])
+                    .collect();
+            got.sort();
+            let expect = brute_force_pairs(w.positions(), w.radii(), 0.0);
+            assert_eq!(got, expect, "step {}", w.steps());
+        };
+        for _ in 0..1000 {
+            w.step_n(10).unwrap();
+            check(&mut w);
+        }
+        let frozen_before = w.n_frozen();
+        assert!(frozen_before > 20, "the bed froze: {frozen_before}");
+        let (x, r) = batch(0.15);
+        w.add_particles(&x, &r, None, None).unwrap();
+        let mut min_frozen = usize::MAX;
+        for _ in 0..300 {
+            w.step_n(10).unwrap();
+            min_frozen = min_frozen.min(w.n_frozen());
+            check(&mut w);
+        }
+        assert!(
+            min_frozen < frozen_before,
+            "the impact thawed part of the bed"
+        );
+        assert!(w.rebuilds() > 10);
     }
 }

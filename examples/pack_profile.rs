@@ -1,0 +1,73 @@
+//! One pack of the paper's example 4.3 (or 4.1 with `2d`), layer by layer, with the
+//! time spent in pair-list rebuilds: where a pack's wall time goes.
+//! `cargo run --release --example pack_profile -- [2d] [fast] [layers]`.
+use _core::pipeline::pack::{PackConfig, Packer, RadiusLaw};
+use _core::{Dim, SimConfig, Spatial, Vector};
+use std::time::Instant;
+
+fn run<const D: usize>(fast: bool, layers: usize, r: f64, phi_layer: f64)
+where
+    Dim<D>: Spatial<D>,
+{
+    // freeze depth (m) from the environment, for trying values: DEPTH=0.1
+    let depth = std::env::var("DEPTH")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.2);
+    let mut sim = SimConfig::<D>::paper();
+    sim.drag = 0.005;
+    let cfg = PackConfig::<D> {
+        sim,
+        base: Vector::<D>::from_element(1.0),
+        height: 0.5,
+        radii: RadiusLaw::Constant(r),
+        h_layer: 0.1,
+        phi_layer,
+        settle_time: 1.0,
+        seed: 1,
+        stream: 0,
+        max_attempts: 100_000,
+        max_layers: layers,
+        adaptive_settle: fast.then_some(1e-4),
+        freeze_depth: fast.then_some(depth),
+        freeze_speed: 1e-3,
+        freeze_force: 0.1,
+    };
+    let mut p = Packer::new(cfg).unwrap();
+    let t0 = Instant::now();
+    let mut steps = 0;
+    let mut psteps = 0.0;
+    while !p.done() && p.reports().len() < layers {
+        let rep = p.next_layer().unwrap();
+        steps += rep.steps;
+        psteps += rep.steps as f64 * rep.total as f64;
+        println!(
+            "layer {:2}: N {:5} steps {:6} frozen {:5} {:6.2} s  rebuilds {:6} ({:.2} s)  pairs {:?}",
+            rep.layer,
+            rep.total,
+            rep.steps,
+            rep.frozen,
+            rep.wall_seconds,
+            p.world().rebuilds(),
+            p.world().rebuild_seconds(),
+            p.world().pair_counts()
+        );
+    }
+    let t = t0.elapsed().as_secs_f64();
+    println!(
+        "total {t:.2} s, {steps} steps, {:.0} ns per particle-step (all particles), rebuilds {:.2} s",
+        t * 1e9 / psteps,
+        p.world().rebuild_seconds()
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let fast = args.iter().any(|a| a == "fast");
+    let layers = args.iter().find_map(|a| a.parse().ok()).unwrap_or(100usize);
+    if args.iter().any(|a| a == "2d") {
+        run::<2>(fast, layers, 0.01, 0.4);
+    } else {
+        run::<3>(fast, layers, 0.02, 0.25);
+    }
+}
