@@ -21,9 +21,13 @@ fn main() {
     let before = vm_hwm_kib();
     let w = common::settled_world::<3>(tiles, 5, 1);
     let peak = vm_hwm_kib();
+    let (pairs, _) = w.pair_counts();
     println!(
-        "{} spheres: peak RSS {:.1} MiB (baseline {:.1} MiB) = {:.0} bytes per particle",
+        "{} spheres, {} pairs: engine state {:.0} bytes per particle; peak RSS {:.1} MiB \
+         (baseline {:.1} MiB) = {:.0} bytes per particle",
         w.len(),
+        pairs,
+        w.state_bytes() as f64 / w.len() as f64,
         peak as f64 / 1024.0,
         before as f64 / 1024.0,
         (peak - before) as f64 * 1024.0 / w.len() as f64

@@ -248,6 +248,14 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
     }
 }
 
+/// Returns spare capacity beyond a quarter of the length (a list that shrank a lot),
+/// without reallocating on every small fluctuation.
+fn trim<T>(v: &mut Vec<T>) {
+    if v.capacity() > v.len() + v.len() / 4 {
+        v.shrink_to_fit();
+    }
+}
+
 /// A wall plane: axis, position, outward normal sign (normal points from the particle
 /// to the wall).
 #[derive(Clone, Copy, Debug)]
@@ -391,6 +399,40 @@ where
     /// Pair-list rebuilds so far.
     pub fn rebuilds(&self) -> u64 {
         self.rebuilds
+    }
+
+    /// Bytes of engine state in use: particle arrays, the pair list with its per-pair
+    /// state and the incidence lists (lengths; spare capacity that was never touched
+    /// costs address space, not memory).
+    pub fn state_bytes(&self) -> usize {
+        fn b<T>(v: &[T]) -> usize {
+            std::mem::size_of_val(v)
+        }
+        let p = &self.p;
+        let pr = &self.pairs;
+        b(&p.x)
+            + b(&p.v)
+            + b(&p.f)
+            + b(&p.w)
+            + b(&p.t)
+            + b(&p.r)
+            + b(&p.m)
+            + b(&p.inv_m)
+            + b(&p.inv_i)
+            + b(&p.x_ref)
+            + b(&p.wall_hist)
+            + b(&p.wall_force)
+            + b(&p.frozen)
+            + b(&p.wall_mask)
+            + b(&p.wall_near)
+            + b(&pr.ij)
+            + b(&pr.coefs)
+            + b(&pr.hist)
+            + b(&pr.fvec)
+            + b(&pr.nxf)
+            + b(&pr.overlap)
+            + b(&pr.inc_start)
+            + b(&pr.inc)
     }
 
     /// Pairs in the Verlet list, and how many of them join two frozen particles.
@@ -800,25 +842,34 @@ where
         } else {
             pr.sorted_order()
         };
-        let m = ij.len();
-        let mut hist = vec![Vector::<D>::zeros(); m];
-        let mut fvec = vec![Vector::<D>::zeros(); m];
-        let mut nxf = vec![Ang::<D>::default(); m];
-        let mut overlap = vec![0.0; m];
+        // For each new pair, the old pair it continues (u32::MAX: a new contact).
+        let mut src = vec![u32::MAX; ij.len()];
         let mut a = 0usize;
         for (k, pair) in ij.iter().enumerate() {
             while a < old_order.len() && pr.ij[old_order[a] as usize] < *pair {
                 a += 1;
             }
             if a < old_order.len() && pr.ij[old_order[a] as usize] == *pair {
-                let o = old_order[a] as usize;
-                hist[k] = pr.hist[o];
-                fvec[k] = pr.fvec[o];
-                nxf[k] = pr.nxf[o];
-                overlap[k] = pr.overlap[o];
+                src[k] = old_order[a];
             }
         }
         drop(old_order);
+        // One array at a time, so that the peak holds the old list plus one new array
+        // rather than two whole lists. The kept frozen run stays in front.
+        fn carry<T: Copy>(v: &mut Vec<T>, keep: usize, src: &[u32], zero: T) {
+            let tail: Vec<T> = src
+                .iter()
+                .map(|&o| if o == u32::MAX { zero } else { v[o as usize] })
+                .collect();
+            v.truncate(keep);
+            v.extend_from_slice(&tail);
+            trim(v);
+        }
+        carry(&mut pr.hist, keep, &src, Vector::<D>::zeros());
+        carry(&mut pr.fvec, keep, &src, Vector::<D>::zeros());
+        carry(&mut pr.nxf, keep, &src, Ang::<D>::default());
+        carry(&mut pr.overlap, keep, &src, 0.0);
+        drop(src);
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
@@ -835,19 +886,13 @@ where
                 friction: mat.friction,
             })
         });
-        // The kept frozen run stays in front; the new pairs follow it.
-        pr.ij.truncate(keep);
-        pr.ij.extend_from_slice(&ij);
         pr.coefs.truncate(keep);
         pr.coefs.extend(coefs);
-        pr.hist.truncate(keep);
-        pr.hist.extend_from_slice(&hist);
-        pr.fvec.truncate(keep);
-        pr.fvec.extend_from_slice(&fvec);
-        pr.nxf.truncate(keep);
-        pr.nxf.extend_from_slice(&nxf);
-        pr.overlap.truncate(keep);
-        pr.overlap.extend_from_slice(&overlap);
+        trim(&mut pr.coefs);
+        pr.ij.truncate(keep);
+        pr.ij.extend_from_slice(&ij);
+        trim(&mut pr.ij);
+        drop(ij);
         pr.n_frozen_pairs = keep;
         self.pairs = pr;
         if partial {
