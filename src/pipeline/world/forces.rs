@@ -144,20 +144,24 @@ where
                         let dx = p.x[j] - p.x[i];
                         let dist2 = dx.norm_squared();
                         let cut = ri + rj;
-                        if dist2 >= cut * cut {
-                            // Zero the pair only when it just separated: most pairs inside the
-                            // skin stay apart for many steps, and rewriting them is pure traffic.
-                            if ovl[k] != 0.0 {
-                                hist[k] = Vector::<D>::zeros();
-                                fvec[k] = Vector::<D>::zeros();
-                                nxf[k] = Ang::<D>::default();
-                                ovl[k] = 0.0;
-                            }
-                            continue;
+                        let contact = dist2 < cut * cut;
+                        // Zero the pair only when it just separated: most pairs inside the
+                        // skin stay apart for many steps, and rewriting them is pure traffic.
+                        // (`&`, not `&&`: one rarely taken branch instead of one per pair
+                        // that goes either way.)
+                        if !contact & (ovl[k] != 0.0) {
+                            hist[k] = Vector::<D>::zeros();
+                            fvec[k] = Vector::<D>::zeros();
+                            nxf[k] = Ang::<D>::default();
+                            ovl[k] = 0.0;
                         }
+                        // Every pair is written to the next batch slot, but only a contact
+                        // advances the count: compaction without a data-dependent branch.
+                        // dist > 0 always (two centres never coincide within the overlap
+                        // limit); a separated pair's values are overwritten unused.
                         let dist = dist2.sqrt();
                         let d = cut - dist;
-                        if d > max_ratio * ri.min(rj) && bad.is_none() {
+                        if contact & (d > max_ratio * ri.min(rj)) && bad.is_none() {
                             bad = Some(first + c * CHUNK + k);
                         }
                         let n = dx / dist;
@@ -176,7 +180,7 @@ where
                         }
                         b.d[m] = d;
                         (b.sr[m], b.sm[m]) = (coefs[k].sr, coefs[k].sm);
-                        b.len += 1;
+                        b.len += contact as usize;
                         if b.len == BATCH {
                             flush(b, hist, fvec, nxf, ovl);
                         }
