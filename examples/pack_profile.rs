@@ -9,11 +9,15 @@ fn run<const D: usize>(fast: bool, layers: usize, r: f64, phi_layer: f64)
 where
     Dim<D>: Spatial<D>,
 {
-    // freeze depth (m) from the environment, for trying values: DEPTH=0.1
-    let depth = std::env::var("DEPTH")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0.2);
+    // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
+    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2
+    let env = |k: &str, d: f64| {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    let depth = env("DEPTH", 0.1);
     let mut sim = SimConfig::<D>::paper();
     sim.drag = 0.005;
     let cfg = PackConfig::<D> {
@@ -28,10 +32,10 @@ where
         stream: 0,
         max_attempts: 100_000,
         max_layers: layers,
-        adaptive_settle: fast.then_some(1e-4),
+        adaptive_settle: fast.then_some(env("TOL", 1e-2)),
         freeze_depth: fast.then_some(depth),
-        freeze_speed: 1e-3,
-        freeze_force: 0.1,
+        freeze_speed: env("SPEED", 1e-3),
+        freeze_force: env("FORCE", 0.1),
     };
     let mut p = Packer::new(cfg).unwrap();
     let t0 = Instant::now();

@@ -28,9 +28,9 @@ _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 
 #: Adaptive settling tolerance of `PackScene.fast()` (kinetic energy per moving particle
 #: over m g r).
-FAST_SETTLE_TOL = 1e-4
+FAST_SETTLE_TOL = 1e-2
 #: Freezing depth of `PackScene.fast()`, in layer thicknesses h_layer.
-FAST_FREEZE_LAYERS = 2.0
+FAST_FREEZE_LAYERS = 1.0
 
 
 @dataclass(frozen=True)

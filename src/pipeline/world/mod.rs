@@ -29,7 +29,7 @@ mod forces;
 
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.
-const CHUNK: usize = 2048;
+const CHUNK: usize = 512;
 /// Most walls a box has: the floor and two per horizontal axis.
 pub const MAX_WALLS: usize = 5;
 
