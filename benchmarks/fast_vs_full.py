@@ -3,6 +3,8 @@
 For each preset, `--packs` packs with the paper's settings (dt = 1e-4 s, 1.0 s of
 jamming per layer, no freezing) and the same number with each faster variant:
 
+- ``freeze``: the paper's fixed 1.0 s per layer, with freezing as in
+  `PackScene.fast()`;
 - ``dt``: dt = `--dt-fraction` of the Rayleigh estimate (all presets are stable up to
   the estimate, `benchmarks/stability.py`);
 - ``fast``: `PackScene.fast()` (adaptive settling and freezing);
@@ -10,10 +12,13 @@ jamming per layer, no freezing) and the same number with each faster variant:
 
 Packs of one setting use the master seed and streams 0..n-1, like `granpack paper`.
 For each variant it reports the wall time per pack and the difference of the mean phi,
-Z and |a^r| from the full-fidelity ensemble, in units of the full ensemble's standard
-deviation (ddof = 1), and writes a CSV and a plot of time against error.
+Z, |a^r| (fabric) and |a^n| (normal forces) from the full-fidelity ensemble, in units of
+the full ensemble's standard deviation (ddof = 1), and writes a CSV (rewritten after
+every variant, so a cut-off run keeps what it finished) and a plot of time against
+error.
 
     python benchmarks/fast_vs_full.py --presets 4.1 --packs 10 --out bench-out
+    python benchmarks/fast_vs_full.py --presets 4.3 --variants full freeze fast
 """
 
 from __future__ import annotations
@@ -26,12 +31,15 @@ import numpy as np
 import polars as pl
 
 import granpack as gp
+from granpack.pack import atomic_write
 
 
 def variants(scene: gp.PackScene, dt_fraction: float) -> dict[str, gp.PackScene]:
     dt = dt_fraction * scene.material.critical_time_step(scene.r_min)
+    fast = scene.fast()
     return {
         "full": scene,
+        "freeze": scene.replace(freeze_depth=fast.freeze_depth),
         "dt": scene.replace(dt=dt),
         "fast": scene.fast(),
         "fast+dt": scene.fast().replace(dt=dt),
@@ -39,7 +47,7 @@ def variants(scene: gp.PackScene, dt_fraction: float) -> dict[str, gp.PackScene]
 
 
 def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]:
-    out: dict[str, list[float]] = {"time": [], "phi": [], "z": [], "a_r": []}
+    out: dict[str, list[float]] = {"time": [], "phi": [], "z": [], "a_r": [], "a_n": []}
     for k in range(packs):
         t0 = time.perf_counter()
         pack = gp.generate(scene.replace(seed=seed, stream=k))
@@ -48,6 +56,7 @@ def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]
         out["phi"].append(pack.phi)
         out["z"].append(m.z)
         out["a_r"].append(float(np.linalg.norm(m.a_r)))
+        out["a_n"].append(float(np.linalg.norm(m.a_n)))
     return {k: np.asarray(v) for k, v in out.items()}
 
 
@@ -55,15 +64,25 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--presets", nargs="+", default=["4.1", "4.2", "4.3", "4.4"])
     ap.add_argument("--packs", type=int, default=10)
+    ap.add_argument(
+        "--variants",
+        nargs="+",
+        default=["full", "freeze", "dt", "fast", "fast+dt"],
+        help="which settings to run; 'full' always runs first (the reference)",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--dt-fraction", type=float, default=0.9)
     ap.add_argument("--out", type=Path, default=Path("bench-fast-vs-full"))
     a = ap.parse_args(argv)
     rows = []
+    a.out.mkdir(parents=True, exist_ok=True)
+    wanted = ["full"] + [v for v in a.variants if v != "full"]
     for name in a.presets:
         base = gp.PackScene.preset(name)
         results = {}
-        for label, scene in variants(base, a.dt_fraction).items():
+        all_variants = variants(base, a.dt_fraction)
+        for label in wanted:
+            scene = all_variants[label]
             results[label] = measure(scene, a.packs, a.seed)
             full = results["full"]
             r = results[label]
@@ -73,7 +92,7 @@ def main(argv: list[str] | None = None) -> None:
                 "packs": a.packs,
                 "seconds_per_pack": float(r["time"].mean()),
             }
-            for q in ("phi", "z", "a_r"):
+            for q in ("phi", "z", "a_r", "a_n"):
                 sd = float(full[q].std(ddof=1)) if a.packs > 1 else float("nan")
                 row[f"{q}_mean"] = float(r[q].mean())
                 row[f"{q}_shift_sd"] = float((r[q].mean() - full[q].mean()) / sd)
@@ -84,9 +103,8 @@ def main(argv: list[str] | None = None) -> None:
                 ),
                 flush=True,
             )
+            atomic_write(a.out / "fast_vs_full.csv", pl.DataFrame(rows).write_csv().encode())
     df = pl.DataFrame(rows)
-    a.out.mkdir(parents=True, exist_ok=True)
-    df.write_csv(a.out / "fast_vs_full.csv")
 
     import matplotlib
 
@@ -97,7 +115,8 @@ def main(argv: list[str] | None = None) -> None:
     ax = fig.add_subplot()
     for label, sub in df.group_by("variant"):
         err = np.max(
-            np.abs(sub.select(["phi_shift_sd", "z_shift_sd", "a_r_shift_sd"]).to_numpy()), axis=1
+            np.abs(sub.select(["phi_shift_sd", "z_shift_sd", "a_r_shift_sd"]).to_numpy()),
+            axis=1,
         )
         ax.scatter(sub["seconds_per_pack"], err, label=str(label[0]))
     ax.axhline(1.0, color="grey", lw=0.8, ls="--")

@@ -12,6 +12,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
+/// Time (s) a pack built with freezing relaxes after its last layer, all particles
+/// thawed (see [`PackConfig::freeze_depth`]).
+pub const FREEZE_RELAX: Real = 0.1;
+
 /// A packing scene. SI units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackConfig<const D: usize> {
@@ -45,7 +49,9 @@ pub struct PackConfig<const D: usize> {
     /// `settle_time`. None (default): the paper's fixed `settle_time`.
     pub adaptive_settle: Option<Real>,
     /// Freeze settled particles whose top lies more than this depth (m) below the pack
-    /// height before the current layer. None (default): never freeze.
+    /// height before the current layer. After the last layer every particle thaws and
+    /// the pack relaxes for [`FREEZE_RELAX`] (at most `settle_time`), so that the frozen
+    /// contacts take up the weight added above them. None (default): never freeze.
     pub freeze_depth: Option<Real>,
     /// Speed (m/s) under which a buried particle may freeze. Default 1e-3.
     pub freeze_speed: Real,
@@ -277,13 +283,23 @@ where
         }
         let mut steps = self.settle()?;
         self.height = self.measure_height();
-        let full = (self.cfg.settle_time / self.cfg.sim.dt).round() as u64;
+        let dt = self.cfg.sim.dt;
+        let full = (self.cfg.settle_time / dt).round() as u64;
         if self.done() && steps < full {
             // An adaptive settle may stop a layer while its top particles still roll:
             // harmless below, where the next layer lands on them anyway, but the last
             // layer is the pack's free surface, so it gets the whole settle_time.
             self.world.step_n(full - steps)?;
             steps = full;
+            self.height = self.measure_height();
+        }
+        if self.done() && self.world.n_frozen() > 0 {
+            // Frozen contacts kept the forces they had when they froze, before the
+            // layers above added their weight: thaw everything and let the load spread.
+            self.world.set_freeze(None)?;
+            let relax = ((FREEZE_RELAX.min(self.cfg.settle_time)) / dt).round() as u64;
+            self.world.step_n(relax)?;
+            steps += relax;
             self.height = self.measure_height();
         }
         let rep = LayerReport {
