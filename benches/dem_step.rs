@@ -79,5 +79,40 @@ fn bench_grid_and_rsa(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_step, bench_grid_and_rsa);
+/// The step on tiled copies of the peers' packs: 3D 8 952 x 9 = 80 568 and x 64 =
+/// 572 928 spheres, 2D 1 397 x 72 = 100 584 discs, on 1 and all threads. The cost per
+/// particle-step should stay flat with size.
+fn bench_sizes(c: &mut Criterion) {
+    let max_threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut g = c.benchmark_group("dem_step_sizes");
+    g.sample_size(10).measurement_time(Duration::from_secs(8));
+    for t in [1, max_threads] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .unwrap();
+        for tiles in [3, 8] {
+            let mut w = common::settled_world::<3>(tiles, 20, t);
+            g.throughput(Throughput::Elements(w.len() as u64 * 2));
+            g.bench_with_input(
+                BenchmarkId::new(format!("3d_{}_spheres", w.len()), format!("{t}threads")),
+                &t,
+                |b, _| b.iter(|| pool.install(|| w.step_n(2).unwrap())),
+            );
+        }
+        let mut w = common::settled_world::<2>(72, 20, t);
+        g.throughput(Throughput::Elements(w.len() as u64 * 2));
+        g.bench_with_input(
+            BenchmarkId::new(format!("2d_{}_discs", w.len()), format!("{t}threads")),
+            &t,
+            |b, _| b.iter(|| pool.install(|| w.step_n(2).unwrap())),
+        );
+        if max_threads == 1 {
+            break;
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_step, bench_grid_and_rsa, bench_sizes);
 criterion_main!(benches);

@@ -1,7 +1,9 @@
 //! Quick, interference-robust timing of one DEM step: the minimum (and median) over
 //! repeated batches of steps, in ns per particle-step. Used for before/after
 //! comparisons on a shared machine, where criterion's means drift with background load.
-//! `cargo bench --bench step_min [-- THREADS]`.
+//! `cargo bench --bench step_min [-- THREADS] [sizes]`: `sizes` adds the tiled packs
+//! (3D: 8 952, 80 568 and 572 928 spheres; 2D: 1 397 and 100 584 discs), to check that
+//! the cost per particle-step stays flat with size.
 
 mod common;
 
@@ -26,7 +28,10 @@ where
         .num_threads(threads)
         .build()
         .unwrap();
-    let mut w = common::settled_world::<D>(tiles, 2000, threads);
+    // The peers' packs are already settled; the tiled copies get a short settle only
+    // (2000 steps of half a million spheres would take minutes).
+    let settle = if tiles == 1 { 2000 } else { 50 };
+    let mut w = common::settled_world::<D>(tiles, settle, threads);
     let n = w.len();
     // batches of about 4e6 particle-steps (~1 s), so 10 ms CPU ticks resolve 1 %
     let steps = (4_000_000 / n).max(5) as u64;
@@ -54,4 +59,9 @@ fn main() {
         .unwrap_or(1);
     measure::<3>("3d peer pack (4.3)", 1, threads);
     measure::<2>("2d peer pack (4.1)", 1, threads);
+    if std::env::args().any(|a| a == "sizes") {
+        measure::<3>("3d 3x3 tiles", 3, threads);
+        measure::<3>("3d 8x8 tiles", 8, threads);
+        measure::<2>("2d 72 tiles", 72, threads);
+    }
 }
