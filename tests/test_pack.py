@@ -97,30 +97,40 @@ THREAD_SCRIPT = textwrap.dedent(
     scene = gp.PackScene.preset("4.1").replace(
         r_mean=0.004, height=0.25, settle_time=0.05, dt=5e-5, seed=9
     )
+    if sys.argv[1] == "fast":
+        # freezing (and thawing, partial rebuilds) and adaptive settling too
+        scene = scene.replace(
+            height=0.15, settle_time=0.4, settle_tol=1e-2, freeze_depth=0.02,
+            freeze_speed=2e-2, freeze_force=0.5,
+        )
     p = gp.generate(scene)
     h = hashlib.sha256()
     c = p.contacts
     for a in (p.positions, p.velocities, p.spins, c.force_normal, c.force_tangential):
         h.update(a.tobytes())
-    print(len(p), h.hexdigest())
+    print(len(p), max(r["frozen"] for r in p.layers), h.hexdigest())
     """
 )
 
 
-def test_bit_identical_on_one_and_two_threads():
-    """More than one parallel chunk (2048 particles) so that threads really split work."""
+@pytest.mark.parametrize("mode", ["paper", "fast"])
+def test_bit_identical_on_one_and_two_threads(mode):
+    """More than one parallel chunk (512 particles) so that threads really split work;
+    in `fast` mode particles freeze, thaw and the pair list is partly rebuilt."""
     out = {}
     for threads in ("1", "2"):
         env = {**os.environ, "RAYON_NUM_THREADS": threads}
         res = subprocess.run(
-            [sys.executable, "-c", THREAD_SCRIPT],
+            [sys.executable, "-c", THREAD_SCRIPT, mode],
             env=env,
             capture_output=True,
             text=True,
             check=True,
         )
         out[threads] = res.stdout.split()
-    assert int(out["1"][0]) > 2048
+    assert int(out["1"][0]) > 2 * 512
+    if mode == "fast":
+        assert int(out["1"][1]) > 0, "some particles froze"
     assert out["1"] == out["2"]
 
 
