@@ -60,6 +60,37 @@ def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]
     return {k: np.asarray(v) for k, v in out.items()}
 
 
+def plot(df: pl.DataFrame, out: Path) -> None:
+    """Time per pack against the largest shift of the four statistics."""
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 4))
+    ax = fig.add_subplot()
+    cols = ["phi_shift_sd", "z_shift_sd", "a_r_shift_sd", "a_n_shift_sd"]
+    markers = dict(zip(sorted(df["preset"].unique()), "osD^v<>", strict=False))
+    colors = {v: f"C{k}" for k, v in enumerate(["full", "freeze", "dt", "fast", "fast+dt"])}
+    for (preset, label), sub in df.group_by(["preset", "variant"], maintain_order=True):
+        err = np.max(np.abs(sub.select(cols).to_numpy()), axis=1)
+        ax.scatter(
+            sub["seconds_per_pack"],
+            err,
+            marker=markers[preset],
+            color=colors.get(label, "k"),
+            label=f"{preset} {label}",
+        )
+    ax.axhline(1.0, color="grey", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.set_xlabel("wall time per pack (s)")
+    ax.set_ylabel("largest |shift| of mean phi, Z, |a^r|, |a^n|\n(full-fidelity sd)")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out / "fast_vs_full.png", dpi=120)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--presets", nargs="+", default=["4.1", "4.2", "4.3", "4.4"])
@@ -73,7 +104,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--dt-fraction", type=float, default=0.9)
     ap.add_argument("--out", type=Path, default=Path("bench-fast-vs-full"))
+    ap.add_argument("--replot", action="store_true", help="only redraw the plot from --out's CSV")
     a = ap.parse_args(argv)
+    if a.replot:
+        plot(pl.read_csv(a.out / "fast_vs_full.csv"), a.out)
+        return
     rows = []
     a.out.mkdir(parents=True, exist_ok=True)
     wanted = ["full"] + [v for v in a.variants if v != "full"]
@@ -104,28 +139,7 @@ def main(argv: list[str] | None = None) -> None:
                 flush=True,
             )
             atomic_write(a.out / "fast_vs_full.csv", pl.DataFrame(rows).write_csv().encode())
-    df = pl.DataFrame(rows)
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(6, 4))
-    ax = fig.add_subplot()
-    for label, sub in df.group_by("variant"):
-        err = np.max(
-            np.abs(sub.select(["phi_shift_sd", "z_shift_sd", "a_r_shift_sd"]).to_numpy()),
-            axis=1,
-        )
-        ax.scatter(sub["seconds_per_pack"], err, label=str(label[0]))
-    ax.axhline(1.0, color="grey", lw=0.8, ls="--")
-    ax.set_xscale("log")
-    ax.set_xlabel("wall time per pack (s)")
-    ax.set_ylabel("largest |shift| of mean phi, Z, |a^r| (full-fidelity sd)")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(a.out / "fast_vs_full.png", dpi=120)
+    plot(pl.DataFrame(rows), a.out)
     print(f"wrote {a.out / 'fast_vs_full.csv'} and {a.out / 'fast_vs_full.png'}")
 
 
