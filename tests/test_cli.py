@@ -272,3 +272,12 @@ def test_installed_command_reports_errors_without_traceback(tmp_path):
         "(see granpack generate --help)"
     ]
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_fast_flag_uses_the_fast_settings(tmp_path):
+    out = tmp_path / "f"
+    argv = ["generate", "4.1", "--scale", "0.2", "--settle-time", "0.4", "--no-figures"]
+    assert main([*argv, "--fast", "--out", str(out), "--quiet", "--workers", "1"]) == 0
+    pack = gp.load_pack(out / "packs" / "pack_000.npz")
+    assert pack.scene.settle_tol == gp.scene.FAST_SETTLE_TOL
+    assert pack.scene.freeze_depth == gp.scene.FAST_FREEZE_LAYERS * pack.scene.h_layer

@@ -139,6 +139,12 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
         "instead of local processes; needs granpack[dask]",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument(
+        "--fast",
+        action="store_true",
+        help="PackScene.fast(): adaptive settling and freezing of buried settled particles "
+        "(about 2x faster; ensemble statistics within one sd, see the README)",
+    )
     # Development and test knobs (not the paper's physics): hidden from --help.
     p.add_argument("--settle-time", type=_positive_float, default=None, help=argparse.SUPPRESS)
     p.add_argument("--scale", type=_positive_float, default=None, help=argparse.SUPPRESS)
@@ -410,6 +416,8 @@ def cmd_generate(args, console: _Console) -> int:
     dev = _dev_changes(scene, args)
     if dev:
         scene = scene.replace(**dev)
+    if args.fast:
+        scene = scene.fast()
     seed = scene.seed if args.seed is None else args.seed
     scene = scene.replace(seed=seed, stream=0)
     out = args.out if args.out is not None else Path(f"granpack-{name}")
@@ -489,7 +497,8 @@ def cmd_paper(args, console: _Console) -> int:
     for ex, rot in cases:
         base = PackScene.preset(ex).replace(rotations=rot, seed=args.seed, stream=0)
         dev = _dev_changes(base, args)
-        scenes[ex, rot] = base.replace(**dev) if dev else base
+        scene = base.replace(**dev) if dev else base
+        scenes[ex, rot] = scene.fast() if args.fast else scene
     tasks = []
     for (ex, rot), scene in scenes.items():
         label = f"{ex} {'ON' if rot else 'OFF'}"
