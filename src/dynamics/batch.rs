@@ -89,6 +89,9 @@ pub struct Batch<const D: usize> {
     pub sm: [Real; BATCH],
     /// Output: normal force magnitude (N).
     pub fnorm: [Real; BATCH],
+    /// Scratch: sqrt(d), d^{1/4} and the normal relative velocity, from the normal
+    /// pass to the tangential one (cheaper to keep than to recompute).
+    scratch: [[Real; BATCH]; 3],
     /// Output: tangential force on j (N), by component.
     pub ft: [[Real; BATCH]; D],
 }
@@ -105,6 +108,7 @@ impl<const D: usize> Default for Batch<D> {
             sr: [0.0; BATCH],
             sm: [0.0; BATCH],
             fnorm: [0.0; BATCH],
+            scratch: [[0.0; BATCH]; 3],
             ft: [[0.0; BATCH]; D],
         }
     }
@@ -126,6 +130,9 @@ pub fn law_batch<const D: usize>(b: &mut Batch<D>, c: &LawConsts, dt: Real) {
         }
         let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
         b.fnorm[m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
+        b.scratch[0][m] = s;
+        b.scratch[1][m] = q;
+        b.scratch[2][m] = vn;
     }
     if mu <= 0.0 {
         // no friction: no tangential force, and no history to keep
@@ -135,14 +142,10 @@ pub fn law_batch<const D: usize>(b: &mut Batch<D>, c: &LawConsts, dt: Real) {
         return;
     }
     for m in 0..len {
-        let d = b.d[m];
-        let s = d.sqrt();
-        let q = s.sqrt();
-        let mut vn = 0.0;
+        let (s, q, vn) = (b.scratch[0][m], b.scratch[1][m], b.scratch[2][m]);
         let mut hn = 0.0;
         let mut h_old2 = 0.0;
         for a in 0..D {
-            vn += b.v[a][m] * b.n[a][m];
             hn += b.h[a][m] * b.n[a][m];
             h_old2 += b.h[a][m] * b.h[a][m];
         }

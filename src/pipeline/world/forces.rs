@@ -237,16 +237,21 @@ where
                         }
                         let mut tq = Ang::<D>::default();
                         let inc = &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize];
-                        for &e in inc {
-                            // +1 when q is the pair's j, -1 when it is i: a multiply instead
-                            // of a branch that mispredicts half the time.
-                            let sign = 2.0 * (e & 1) as Real - 1.0;
-                            fq += pr.fvec[(e >> 1) as usize] * sign;
-                        }
+                        // sign: +1 when q is the pair's j, -1 when it is i (a multiply
+                        // instead of a branch that mispredicts half the time). One loop
+                        // for force and torque; the sums keep the pair order either way.
                         if rot && friction_on {
+                            let rq = r[q];
                             for &e in inc {
                                 let k = (e >> 1) as usize;
-                                tq += pr.nxf[k] * -(r[q] - 0.5 * pr.overlap[k]);
+                                let sign = 2.0 * (e & 1) as Real - 1.0;
+                                fq += pr.fvec[k] * sign;
+                                tq += pr.nxf[k] * -(rq - 0.5 * pr.overlap[k]);
+                            }
+                        } else {
+                            for &e in inc {
+                                let sign = 2.0 * (e & 1) as Real - 1.0;
+                                fq += pr.fvec[(e >> 1) as usize] * sign;
                             }
                         }
                         // visit only the walls that can touch (most particles: none)
