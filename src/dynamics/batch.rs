@@ -65,8 +65,9 @@ impl PairFactors {
     }
 }
 
-/// Contacts per batch.
+/// Contacts per batch. A power of two: callers index with `len & (BATCH - 1)`.
 pub const BATCH: usize = 128;
+const _: () = assert!(BATCH.is_power_of_two());
 
 /// Inputs and outputs of [`law_batch`] for up to [`BATCH`] contacts (SI units).
 #[derive(Clone, Debug)]

@@ -230,6 +230,22 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
         by(&mut self.overlap, order);
     }
 
+    /// Checks the invariant that the unchecked indexing of the force loops relies on:
+    /// every particle index in the list is below `n`, every incidence entry below the
+    /// pair count, and the per-pair arrays have one entry per pair. Panics otherwise (a
+    /// bug in the list's construction, never a user error).
+    fn check_indices(&self, n: usize) {
+        let m = self.ij.len();
+        assert!(self
+            .ij
+            .iter()
+            .all(|&[i, j]| (i as usize) < n && (j as usize) < n));
+        assert!(self.inc.iter().all(|&e| ((e >> 1) as usize) < m));
+        assert!(self.inc_start.len() == n + 1 && self.inc.len() == 2 * m);
+        assert!(self.coefs.len() == m && self.hist.len() == m && self.fvec.len() == m);
+        assert!(self.nxf.len() == m && self.overlap.len() == m);
+    }
+
     /// Pair indices in (i, j) order: the merge of the two sorted runs.
     fn sorted_order(&self) -> Vec<u32> {
         let (m, na) = (self.ij.len(), self.n_frozen_pairs);
@@ -970,6 +986,7 @@ where
         }
         pr.inc_start = inc_start;
         pr.inc = inc;
+        pr.check_indices(n);
     }
 
     /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
