@@ -38,6 +38,7 @@ where
     let per = 1e9 / (steps as f64 * n as f64);
     let mut wall = Vec::new();
     let mut cpu = Vec::new();
+    let rebuilds0 = w.rebuilds();
     for _ in 0..7 {
         let (t0, c0) = (Instant::now(), cpu_seconds());
         pool.install(|| w.step_n(steps).unwrap());
@@ -47,8 +48,8 @@ where
     wall.sort_by(|a, b| a.partial_cmp(b).unwrap());
     cpu.sort_by(|a, b| a.partial_cmp(b).unwrap());
     println!(
-        "{label:<22} N = {n:>7}  threads = {threads}  ns/particle-step: wall min {:6.1} median {:6.1} | cpu/thread min {:6.1} median {:6.1}",
-        wall[0], wall[wall.len() / 2], cpu[0], cpu[cpu.len() / 2]
+        "{label:<22} N = {n:>7}  threads = {threads}  ns/particle-step: wall min {:6.1} median {:6.1} | cpu/thread min {:6.1} median {:6.1} | {} rebuilds in {} steps",
+        wall[0], wall[wall.len() / 2], cpu[0], cpu[cpu.len() / 2], w.rebuilds() - rebuilds0, 7 * steps
     );
 }
 
