@@ -179,38 +179,16 @@ pub fn neighbor_pairs_active<const D: usize>(
     skin: Real,
     active: &[bool],
 ) -> Vec<[u32; 2]> {
-    let n = x.len();
-    if n < 2 {
-        return Vec::new();
-    }
-    let r_max = r.iter().cloned().fold(0.0, Real::max);
-    let grid = CellGrid::build(x, 2.0 * r_max + skin);
-    const CHUNK: usize = 1024;
-    let chunks: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut out = Vec::new();
-            for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| active[i]) {
-                let xi = x[i];
-                let ri = r[i];
-                grid.for_each_candidate(i, |j| {
-                    // an active pair is taken from its lower index, a mixed one from
-                    // its active particle
-                    if j == i || (active[j] && j < i) {
-                        return;
-                    }
-                    let cut = ri + r[j] + skin;
-                    if (x[j] - xi).norm_squared() < cut * cut {
-                        out.push([i.min(j) as u32, i.max(j) as u32]);
-                    }
-                });
-            }
-            out
-        })
-        .collect();
-    let mut pairs = chunks.concat();
-    pairs.par_sort_unstable();
-    pairs
+    // Every cell around an active particle is visited (a mixed pair is met only from its
+    // active side); an active pair is taken from its lower index.
+    search(
+        x,
+        r,
+        skin,
+        false,
+        |i| active[i],
+        |i, j| j == i || (active[j] && j < i),
+    )
 }
 
 /// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
@@ -219,6 +197,22 @@ pub fn neighbor_pairs_active<const D: usize>(
 /// moved more than skin / 2 (a Verlet list). Parallel over particles; the output does
 /// not depend on the thread count.
 pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
+    // Each pair is met once, from the particle whose cell is "behind" (half shell).
+    search(x, r, skin, true, |_| true, |_, _| false)
+}
+
+/// The search behind both: a grid with cells of one cutoff, the particles `i` with
+/// `from(i)` visited in parallel chunks, their candidates (the half shell or all 3^D
+/// cells) tested unless `skip(i, j)`. Pairs are stored as (min, max) and sorted at the
+/// end, which fixes the order whatever the thread count.
+fn search<const D: usize>(
+    x: &[Vector<D>],
+    r: &[Real],
+    skin: Real,
+    half: bool,
+    from: impl Fn(usize) -> bool + Sync,
+    skip: impl Fn(usize, usize) -> bool + Sync,
+) -> Vec<[u32; 2]> {
     let n = x.len();
     if n < 2 {
         return Vec::new();
@@ -226,22 +220,27 @@ pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -
     let r_max = r.iter().cloned().fold(0.0, Real::max);
     let grid = CellGrid::build(x, 2.0 * r_max + skin);
     const CHUNK: usize = 1024;
-    // Each pair is met once, from the particle whose cell is "behind" (half shell);
-    // it is stored as (min, max) and the list sorted at the end, which fixes the order
-    // whatever the thread count.
     let chunks: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut out = Vec::new();
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| from(i)) {
                 let xi = x[i];
                 let ri = r[i];
-                grid.for_each_half_candidate(i, |j| {
+                let mut test = |j: usize| {
+                    if skip(i, j) {
+                        return;
+                    }
                     let cut = ri + r[j] + skin;
                     if (x[j] - xi).norm_squared() < cut * cut {
                         out.push([i.min(j) as u32, i.max(j) as u32]);
                     }
-                });
+                };
+                if half {
+                    grid.for_each_half_candidate(i, &mut test);
+                } else {
+                    grid.for_each_candidate(i, &mut test);
+                }
             }
             out
         })
