@@ -147,7 +147,7 @@ where
         let pr = &self.pairs;
         let mut e = 0.0;
         for k in 0..pr.ij.len() {
-            let d = pr.overlap[k];
+            let d = pr.out[k].d;
             if d > 0.0 {
                 let sr = pr.coefs[k].sr;
                 let (kn, kt) = (2.0 * self.e_star * sr, 8.0 * self.g_star * sr);

@@ -21,17 +21,14 @@ unsafe fn at<T: Copy>(s: &[T], i: usize) -> T {
     unsafe { *s.get_unchecked(i) }
 }
 
-/// Writes a batch's results back to its pairs: history, total force on j, n x f_t
-/// (for the torques), overlap.
-#[allow(clippy::too_many_arguments)]
+/// Writes a batch's results back to its pairs: history, then total force on j,
+/// n x f_t (for the torques) and overlap.
 #[inline]
 fn scatter<const D: usize>(
     b: &Batch<D>,
     torques: bool,
     hist: &mut [Vector<D>],
-    fvec: &mut [Vector<D>],
-    nxf: &mut [Ang<D>],
-    ovl: &mut [Real],
+    out: &mut [PairOut<D, Ang<D>>],
 ) where
     Dim<D>: Spatial<D>,
 {
@@ -40,11 +37,12 @@ fn scatter<const D: usize>(
         let n = Vector::<D>::from_fn(|a, _| b.n[a][m]);
         let ft = Vector::<D>::from_fn(|a, _| b.ft[a][m]);
         hist[k] = Vector::<D>::from_fn(|a, _| b.h[a][m]);
-        fvec[k] = n * b.fnorm[m] + ft;
+        let o = &mut out[k];
+        o.f = n * b.fnorm[m] + ft;
         if torques {
-            nxf[k] = <Dim<D>>::cross_vv(&n, &ft);
+            o.nxf = <Dim<D>>::cross_vv(&n, &ft);
         }
-        ovl[k] = b.d[m];
+        o.d = b.d[m];
     }
 }
 
@@ -126,31 +124,26 @@ where
             .par_chunks(CHUNK)
             .zip(pr.coefs[first..].par_chunks(CHUNK))
             .zip(pr.hist[first..].par_chunks_mut(CHUNK))
-            .zip(pr.fvec[first..].par_chunks_mut(CHUNK))
-            .zip(pr.nxf[first..].par_chunks_mut(CHUNK))
-            .zip(pr.overlap[first..].par_chunks_mut(CHUNK))
+            .zip(pr.out[first..].par_chunks_mut(CHUNK))
             .enumerate()
             .map_init(
                 // one batch buffer per rayon job, not per chunk: it is 16 KB in 3D
                 || Box::new(Batch::<D>::default()),
-                |b, (c, (((((ij, coefs), hist), fvec), nxf), ovl))| {
+                |b, (c, (((ij, coefs), hist), out))| {
                     let b: &mut Batch<D> = b;
                     b.len = 0;
                     // Equal lengths, stated once, let the compiler drop the per-pair
                     // bounds checks on these chunk slices.
                     let m = ij.len();
-                    assert!(coefs.len() == m && hist.len() == m && fvec.len() == m);
-                    assert!(nxf.len() == m && ovl.len() == m);
+                    assert!(coefs.len() == m && hist.len() == m && out.len() == m);
                     let mut bad: Option<usize> = None;
                     // Geometry per pair; contacts are compacted into a batch whose law
                     // runs vectorised (see `dynamics::batch`), then scattered back.
                     let flush = |b: &mut Batch<D>,
                                  hist: &mut [Vector<D>],
-                                 fvec: &mut [Vector<D>],
-                                 nxf: &mut [Ang<D>],
-                                 ovl: &mut [Real]| {
+                                 out: &mut [PairOut<D, Ang<D>>]| {
                         law_batch(b, &consts, dt);
-                        scatter::<D>(b, rot && friction_on, hist, fvec, nxf, ovl);
+                        scatter::<D>(b, rot && friction_on, hist, out);
                         b.len = 0;
                     };
                     for k in 0..ij.len() {
@@ -175,11 +168,9 @@ where
                         // skin stay apart for many steps, and rewriting them is pure traffic.
                         // (`&`, not `&&`: one rarely taken branch instead of one per pair
                         // that goes either way.)
-                        if !contact & (ovl[k] != 0.0) {
+                        if !contact & (out[k].d != 0.0) {
                             hist[k] = Vector::<D>::zeros();
-                            fvec[k] = Vector::<D>::zeros();
-                            nxf[k] = Ang::<D>::default();
-                            ovl[k] = 0.0;
+                            out[k] = PairOut::default();
                         }
                         // Every pair is written to the next batch slot, but only a contact
                         // advances the count: compaction without a data-dependent branch.
@@ -212,11 +203,11 @@ where
                         (b.sr[m], b.sm[m]) = (coefs[k].sr, coefs[k].sm);
                         b.len += contact as usize;
                         if b.len == BATCH {
-                            flush(b, hist, fvec, nxf, ovl);
+                            flush(b, hist, out);
                         }
                     }
                     if b.len > 0 {
-                        flush(b, hist, fvec, nxf, ovl);
+                        flush(b, hist, out);
                     }
                     bad
                 },
@@ -225,7 +216,7 @@ where
             .min();
         if let Some(k) = bad_pair {
             let [i, j] = pr.ij[k];
-            let d = pr.overlap[k];
+            let d = pr.out[k].d;
             let rmin = p.r[i as usize].min(p.r[j as usize]);
             return Err(Error::Blowup {
                 step: self.steps,
@@ -267,7 +258,7 @@ where
                         }
                         let mut tq = Ang::<D>::default();
                         let inc = &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize];
-                        let (fvec, nxf, ovl) = (&pr.fvec[..], &pr.nxf[..], &pr.overlap[..]);
+                        let pout = &pr.out[..];
                         // sign: +1 when q is the pair's j, -1 when it is i (a multiply
                         // instead of a branch that mispredicts half the time). One loop
                         // for force and torque; the sums keep the pair order either way.
@@ -277,15 +268,15 @@ where
                                 let k = (e >> 1) as usize;
                                 let sign = 2.0 * (e & 1) as Real - 1.0;
                                 // SAFETY: incidence entries are below the pair count (see `at`).
-                                let (fk, nk, dk) = unsafe { (at(fvec, k), at(nxf, k), at(ovl, k)) };
-                                fq += fk * sign;
-                                tq += nk * -(rq - 0.5 * dk);
+                                let o = unsafe { at(pout, k) };
+                                fq += o.f * sign;
+                                tq += o.nxf * -(rq - 0.5 * o.d);
                             }
                         } else {
                             for &e in inc {
                                 let sign = 2.0 * (e & 1) as Real - 1.0;
                                 // SAFETY: as above.
-                                fq += unsafe { at(fvec, (e >> 1) as usize) } * sign;
+                                fq += unsafe { at(pout, (e >> 1) as usize) }.f * sign;
                             }
                         }
                         // visit only the walls that can touch (most particles: none)

@@ -205,12 +205,9 @@ struct Pairs<const D: usize, A> {
     /// The pair's share of the law coefficients (from R* and m*).
     coefs: Vec<PairFactors>,
     hist: Vec<Vector<D>>,
-    /// Total force on j (N).
-    fvec: Vec<Vector<D>>,
-    /// n x f_t (N): the torque of the tangential force on particle q is
-    /// -(r_q - d/2) n x f_t for both particles, so one vector serves both.
-    nxf: Vec<A>,
-    overlap: Vec<Real>,
+    /// What the pair pass leaves for the gather: force, n x f_t and overlap of each
+    /// pair, side by side so that a gather visit touches one place.
+    out: Vec<PairOut<D, A>>,
     /// For particle p, `inc[inc_start[p]..inc_start[p+1]]` lists (pair << 1 | p_is_j).
     inc_start: Vec<u32>,
     inc: Vec<u32>,
@@ -225,9 +222,7 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
         by(&mut self.ij, order);
         by(&mut self.coefs, order);
         by(&mut self.hist, order);
-        by(&mut self.fvec, order);
-        by(&mut self.nxf, order);
-        by(&mut self.overlap, order);
+        by(&mut self.out, order);
     }
 
     /// Checks the invariant that the unchecked indexing of the force loops relies on:
@@ -242,8 +237,7 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
             .all(|&[i, j]| (i as usize) < n && (j as usize) < n));
         assert!(self.inc.iter().all(|&e| ((e >> 1) as usize) < m));
         assert!(self.inc_start.len() == n + 1 && self.inc.len() == 2 * m);
-        assert!(self.coefs.len() == m && self.hist.len() == m && self.fvec.len() == m);
-        assert!(self.nxf.len() == m && self.overlap.len() == m);
+        assert!(self.coefs.len() == m && self.hist.len() == m && self.out.len() == m);
     }
 
     /// Pair indices in (i, j) order: the merge of the two sorted runs.
@@ -269,6 +263,28 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
 fn trim<T>(v: &mut Vec<T>) {
     if v.capacity() > v.len() + v.len() / 4 {
         v.shrink_to_fit();
+    }
+}
+
+/// The pair pass's result for one pair (zero when the pair is apart).
+#[derive(Clone, Copy, Debug)]
+struct PairOut<const D: usize, A> {
+    /// Total force on j (N).
+    f: Vector<D>,
+    /// n x f_t (N): the torque of the tangential force on particle q is
+    /// -(r_q - d/2) n x f_t for both particles, so one vector serves both.
+    nxf: A,
+    /// Overlap d (m), 0 when apart.
+    d: Real,
+}
+
+impl<const D: usize, A: Default> Default for PairOut<D, A> {
+    fn default() -> Self {
+        PairOut {
+            f: Vector::<D>::zeros(),
+            nxf: A::default(),
+            d: 0.0,
+        }
     }
 }
 
@@ -444,9 +460,7 @@ where
             + b(&pr.ij)
             + b(&pr.coefs)
             + b(&pr.hist)
-            + b(&pr.fvec)
-            + b(&pr.nxf)
-            + b(&pr.overlap)
+            + b(&pr.out)
             + b(&pr.inc_start)
             + b(&pr.inc)
     }
@@ -882,9 +896,7 @@ where
             trim(v);
         }
         carry(&mut pr.hist, keep, &src, Vector::<D>::zeros());
-        carry(&mut pr.fvec, keep, &src, Vector::<D>::zeros());
-        carry(&mut pr.nxf, keep, &src, Ang::<D>::default());
-        carry(&mut pr.overlap, keep, &src, 0.0);
+        carry(&mut pr.out, keep, &src, PairOut::default());
         drop(src);
         let r = &self.p.r;
         let mass = &self.p.m;
@@ -1002,18 +1014,18 @@ where
         let pr = &self.pairs;
         for k in pr.sorted_order() {
             let k = k as usize;
-            if pr.overlap[k] <= 0.0 {
+            if pr.out[k].d <= 0.0 {
                 continue;
             }
             let [i, j] = pr.ij[k];
             let dx = self.p.x[j as usize] - self.p.x[i as usize];
             let n = dx / dx.norm();
-            let fv = pr.fvec[k];
+            let fv = pr.out[k].f;
             let fn_ = fv.dot(&n);
             out.i.push(i as i64);
             out.j.push(j as i64);
             out.normal.push(n);
-            out.overlap.push(pr.overlap[k]);
+            out.overlap.push(pr.out[k].d);
             out.force_normal.push(fn_.max(0.0));
             out.force_tangential.push(fv - n * fn_);
             out.branch.push(dx);
