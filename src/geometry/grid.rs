@@ -170,25 +170,20 @@ impl<const D: usize> CellGrid<D> {
     }
 }
 
-/// The pairs of [`neighbor_pairs`] that have at least one particle with `active` set,
+/// The pairs of [`neighbor_pairs`] that have at least one particle `i` with `active(i)`,
 /// sorted by (i, j). Pairs of two inactive particles are not searched at all: the
 /// engine keeps those of frozen particles from an earlier search.
 pub fn neighbor_pairs_active<const D: usize>(
     x: &[Vector<D>],
     r: &[Real],
     skin: Real,
-    active: &[bool],
+    active: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
     // Every cell around an active particle is visited (a mixed pair is met only from its
     // active side); an active pair is taken from its lower index.
-    search(
-        x,
-        r,
-        skin,
-        false,
-        |i| active[i],
-        |i, j| j == i || (active[j] && j < i),
-    )
+    search(x, r, skin, false, &active, |i, j| {
+        j == i || (active(j) && j < i)
+    })
 }
 
 /// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
@@ -302,7 +297,7 @@ mod tests {
                 .into_iter()
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
-            prop_assert_eq!(neighbor_pairs_active(&x, &r, skin, &active), expect);
+            prop_assert_eq!(neighbor_pairs_active(&x, &r, skin, |i| active[i]), expect);
         }
 
         #[test]

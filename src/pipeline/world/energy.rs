@@ -144,14 +144,15 @@ where
             };
             0.4 * f_el * d + tangential
         };
+        // the law's own constants: k_n = kn sqrt(R*) sqrt(d), k_t the same with kt
+        let c = LawConsts::new(self.e_star, self.g_star, 0.0, mu);
         let pr = &self.pairs;
         let mut e = 0.0;
         for k in 0..pr.ij.len() {
             let d = pr.out[k].d;
             if d > 0.0 {
                 let sr = pr.coefs[k].sr;
-                let (kn, kt) = (2.0 * self.e_star * sr, 8.0 * self.g_star * sr);
-                e += contact(kn, kt, d, pr.hist[k].norm_squared());
+                e += contact(c.kn * sr, c.kt * sr, d, pr.hist[k].norm_squared());
             }
         }
         for q in 0..self.len() {
@@ -160,7 +161,7 @@ where
                 if d > 0.0 {
                     let sr = self.p.r[q].sqrt();
                     let h2 = self.p.wall_hist[q][wi].norm_squared();
-                    e += contact(2.0 * self.e_star * sr, 8.0 * self.g_star * sr, d, h2);
+                    e += contact(c.kn * sr, c.kt * sr, d, h2);
                 }
             }
         }

@@ -860,8 +860,8 @@ where
         let partial = self.n_frozen > 0;
         let mut pr = std::mem::take(&mut self.pairs);
         let (ij, keep) = if partial {
-            let active: Vec<bool> = self.p.frozen.iter().map(|&z| !z).collect();
-            let ij = neighbor_pairs_active(&self.p.x, &self.p.r, self.skin, &active);
+            let fz = &self.p.frozen;
+            let ij = neighbor_pairs_active(&self.p.x, &self.p.r, self.skin, |i| !fz[i]);
             (ij, pr.n_frozen_pairs)
         } else {
             (neighbor_pairs(&self.p.x, &self.p.r, self.skin), 0)
@@ -953,26 +953,17 @@ where
     fn partition_pairs(&mut self) {
         let fz = &self.p.frozen;
         let pr = &mut self.pairs;
-        let m = pr.ij.len();
-        let both = |&[i, j]: &[u32; 2]| fz[i as usize] && fz[j as usize];
-        if self.n_frozen == 0 {
-            if pr.n_frozen_pairs > 0 {
-                let order = pr.sorted_order();
-                pr.permute(&order);
-            }
-            pr.n_frozen_pairs = 0;
-        } else {
-            let order = pr.sorted_order();
-            let order: Vec<u32> = order
-                .iter()
-                .copied()
-                .filter(|&k| both(&pr.ij[k as usize]))
-                .chain(order.iter().copied().filter(|&k| !both(&pr.ij[k as usize])))
-                .collect();
-            pr.permute(&order);
-            pr.n_frozen_pairs = pr.ij.iter().filter(|p| both(p)).count();
+        // Nothing frozen now or before: the list is already one sorted run.
+        if self.n_frozen > 0 || pr.n_frozen_pairs > 0 {
+            let both = |k: &u32| {
+                let [i, j] = pr.ij[*k as usize];
+                fz[i as usize] && fz[j as usize]
+            };
+            let (frozen, active): (Vec<u32>, Vec<u32>) =
+                pr.sorted_order().into_iter().partition(both);
+            pr.n_frozen_pairs = frozen.len();
+            pr.permute(&[frozen, active].concat());
         }
-        debug_assert_eq!(pr.ij.len(), m);
         self.build_incidence();
     }
 
