@@ -2,9 +2,9 @@
 //!
 //! Cells are cubes of side `cell` >= the largest interaction distance
 //! (largest diameter + skin), so every pair closer than its cutoff lies in the same or
-//! an adjacent cell (3^D cells to visit). Cells are filled by a counting sort, which is
-//! stable: inside a cell particles keep increasing index order, and the pair list comes
-//! out sorted by (i, j) whatever the thread count.
+//! an adjacent cell (3^D cells to visit, in 3^(D-1) runs of adjacent cells). Cells are
+//! filled by a counting sort, which is stable: inside a cell particles keep increasing
+//! index order. The pair list comes out sorted by (i, j) whatever the thread count.
 
 use crate::math::{Real, Vector};
 use rayon::prelude::*;
@@ -17,8 +17,8 @@ pub struct CellGrid<const D: usize> {
     /// `start[c]..start[c + 1]` indexes `members` for cell `c`.
     start: Vec<u32>,
     members: Vec<u32>,
-    /// Cell of each particle.
-    cell_of: Vec<u32>,
+    /// Lower corner of the grid (m).
+    lo: Vector<D>,
 }
 
 impl<const D: usize> CellGrid<D> {
@@ -84,7 +84,7 @@ impl<const D: usize> CellGrid<D> {
             dims,
             start,
             members,
-            cell_of,
+            lo,
         }
     }
 
@@ -93,79 +93,44 @@ impl<const D: usize> CellGrid<D> {
         self.cell
     }
 
-    fn coords(&self, c: usize) -> [usize; D] {
-        let mut out = [0usize; D];
-        let mut c = c;
-        for (o, &m) in out.iter_mut().zip(&self.dims) {
-            *o = c % m;
-            c /= m;
+    /// The cell coordinates of position `p`, clamped to the grid.
+    #[inline]
+    fn coords_of(&self, p: &Vector<D>) -> [usize; D] {
+        let mut c = [0usize; D];
+        for (k, ck) in c.iter_mut().enumerate() {
+            *ck = (((p[k] - self.lo[k]) / self.cell) as usize).min(self.dims[k] - 1);
         }
-        out
+        c
     }
 
-    /// Calls `f(j)` for the particles that can pair with `i` without counting a pair
-    /// twice: those after `i` in its own cell and all those in the "forward" half of
-    /// the adjacent cells (offsets whose first nonzero component, from the last axis
-    /// down, is positive: 13 of 26 in 3D, 4 of 8 in 2D).
+    /// Calls `f(range)` for the 3^(D-1) runs of `members` that cover the 3^D cells
+    /// around position `p` (its own included). Cells are numbered with the first axis
+    /// fastest, so the (up to) three cells of a row along that axis are adjacent in
+    /// `members`: one contiguous run per row, no per-cell bookkeeping.
     #[inline]
-    pub fn for_each_half_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
-        let own = self.cell_of[i] as usize;
-        let members = &self.members[self.start[own] as usize..self.start[own + 1] as usize];
-        // members are in increasing index order (stable counting sort)
-        let pos = members.partition_point(|&m| (m as usize) <= i);
-        for &j in &members[pos..] {
-            f(j as usize);
-        }
-        let ci = self.coords(own);
-        let nb = 3usize.pow(D as u32);
-        'outer: for m in 0..nb {
-            let mut off = [0isize; D];
+    pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(&[u32])) {
+        let c = self.coords_of(p);
+        let x_lo = c[0].saturating_sub(1);
+        let x_hi = (c[0] + 1).min(self.dims[0] - 1);
+        // Offsets along the other axes: 3^(D-1) rows.
+        'rows: for m in 0..3usize.pow(D as u32 - 1) {
             let mut mm = m;
-            for o in off.iter_mut() {
-                *o = (mm % 3) as isize - 1;
-                mm /= 3;
-            }
-            // forward half: the last nonzero offset component (highest axis) is +1
-            match off.iter().rev().find(|&&o| o != 0) {
-                Some(&1) => {}
-                _ => continue,
-            }
-            let mut c = 0usize;
-            for k in (0..D).rev() {
-                let v = ci[k] as isize + off[k];
-                if v < 0 || v >= self.dims[k] as isize {
-                    continue 'outer;
-                }
-                c = c * self.dims[k] + v as usize;
-            }
-            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
-                f(j as usize);
-            }
-        }
-    }
-}
-
-impl<const D: usize> CellGrid<D> {
-    /// Calls `f(j)` for every particle in the 3^D cells around `i`'s (`i` included).
-    #[inline]
-    pub fn for_each_candidate(&self, i: usize, mut f: impl FnMut(usize)) {
-        let ci = self.coords(self.cell_of[i] as usize);
-        'outer: for m in 0..3usize.pow(D as u32) {
-            let mut mm = m;
-            let mut c = 0usize;
-            let mut stride = 1usize;
-            for (&ck, &dk) in ci.iter().zip(&self.dims) {
+            let mut base = 0usize;
+            let mut stride = self.dims[0];
+            for (&ck, &dk) in c.iter().zip(&self.dims).skip(1) {
                 let v = ck as isize + (mm % 3) as isize - 1;
                 mm /= 3;
                 if v < 0 || v >= dk as isize {
-                    continue 'outer;
+                    continue 'rows;
                 }
-                c += v as usize * stride;
+                base += v as usize * stride;
                 stride *= dk;
             }
-            for &j in &self.members[self.start[c] as usize..self.start[c + 1] as usize] {
-                f(j as usize);
-            }
+            let (s, e) = (
+                self.start[base + x_lo] as usize,
+                self.start[base + x_hi + 1] as usize,
+            );
+            f(&self.members[s..e]);
         }
     }
 }
@@ -179,11 +144,9 @@ pub fn neighbor_pairs_active<const D: usize>(
     skin: Real,
     active: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
-    // Every cell around an active particle is visited (a mixed pair is met only from its
-    // active side); an active pair is taken from its lower index.
-    search(x, r, skin, false, &active, |i, j| {
-        j == i || (active(j) && j < i)
-    })
+    // Only active particles are visited: a pair with an inactive partner of lower
+    // index is met from its active side only, and taken there.
+    search(x, r, skin, &active, |j| !active(j))
 }
 
 /// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
@@ -192,21 +155,24 @@ pub fn neighbor_pairs_active<const D: usize>(
 /// moved more than skin / 2 (a Verlet list). Parallel over particles; the output does
 /// not depend on the thread count.
 pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
-    // Each pair is met once, from the particle whose cell is "behind" (half shell).
-    search(x, r, skin, true, |_| true, |_, _| false)
+    search(x, r, skin, |_| true, |_| false)
 }
 
-/// The search behind both: a grid with cells of one cutoff, the particles `i` with
-/// `from(i)` visited in parallel chunks, their candidates (the half shell or all 3^D
-/// cells) tested unless `skip(i, j)`. Pairs are stored as (min, max) and sorted at the
-/// end, which fixes the order whatever the thread count.
+/// The search behind both: a grid with cells of one cutoff; each particle `i` with
+/// `from(i)` tests every candidate in the 3^D cells around it and takes the pairs with
+/// j > i, and those with j < i when `lower(j)` (the partner is never visited itself).
+///
+/// Visiting the whole shell (instead of a half shell) doubles the distance tests, but
+/// every `i` then finds all its partners j > i itself: sorting those few per `i` and
+/// concatenating the parallel chunks in order gives the list sorted by (i, j) without
+/// a global sort, which cost more than the extra tests. Only the pairs taken from their
+/// upper end (few: the active particles next to frozen ones) need a sort and a merge.
 fn search<const D: usize>(
     x: &[Vector<D>],
     r: &[Real],
     skin: Real,
-    half: bool,
     from: impl Fn(usize) -> bool + Sync,
-    skip: impl Fn(usize, usize) -> bool + Sync,
+    lower: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
     let n = x.len();
     if n < 2 {
@@ -215,34 +181,65 @@ fn search<const D: usize>(
     let r_max = r.iter().cloned().fold(0.0, Real::max);
     let grid = CellGrid::build(x, 2.0 * r_max + skin);
     const CHUNK: usize = 1024;
-    let chunks: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(CHUNK))
+    // per chunk: the pairs taken from their lower end, and from their upper end
+    type Found = (Vec<[u32; 2]>, Vec<[u32; 2]>);
+    let chunks: Vec<Found> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut out = Vec::new();
+            let mut up = Vec::new();
+            let mut down = Vec::new();
+            let mut mine: Vec<u32> = Vec::new();
             for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| from(i)) {
-                let xi = x[i];
-                let ri = r[i];
-                let mut test = |j: usize| {
-                    if skip(i, j) {
-                        return;
+                let (xi, ri) = (x[i], r[i]);
+                // Branch-free: every candidate is written to the next slot, and the
+                // count advances only for a partner above i within the cutoff (a
+                // branch there went either way and mispredicted).
+                let mut w = 0usize;
+                grid.for_each_row(&xi, |run| {
+                    if mine.len() < w + run.len() {
+                        mine.resize(w + run.len(), 0);
                     }
-                    let cut = ri + r[j] + skin;
-                    if (x[j] - xi).norm_squared() < cut * cut {
-                        out.push([i.min(j) as u32, i.max(j) as u32]);
+                    for &j in run {
+                        let ju = j as usize;
+                        let cut = ri + r[ju] + skin;
+                        let near = (x[ju] - xi).norm_squared() < cut * cut;
+                        mine[w] = j;
+                        w += (near & (ju > i)) as usize;
+                        if near & (ju < i) && lower(ju) {
+                            down.push([j, i as u32]);
+                        }
                     }
-                };
-                if half {
-                    grid.for_each_half_candidate(i, &mut test);
-                } else {
-                    grid.for_each_candidate(i, &mut test);
-                }
+                });
+                let mine = &mut mine[..w];
+                mine.sort_unstable();
+                up.extend(mine.iter().map(|&j| [i as u32, j]));
             }
-            out
+            (up, down)
         })
         .collect();
-    let mut pairs = chunks.concat();
-    pairs.par_sort_unstable();
-    pairs
+    let mut up = Vec::with_capacity(chunks.iter().map(|c| c.0.len()).sum());
+    let mut down = Vec::new();
+    for (u, d) in chunks {
+        up.extend_from_slice(&u);
+        down.extend_from_slice(&d);
+    }
+    if down.is_empty() {
+        return up;
+    }
+    down.sort_unstable();
+    // merge the two sorted runs (they share no pair: each is taken from one end only)
+    let mut out = Vec::with_capacity(up.len() + down.len());
+    let (mut a, mut b) = (0, 0);
+    while a < up.len() || b < down.len() {
+        if b == down.len() || (a < up.len() && up[a] < down[b]) {
+            out.push(up[a]);
+            a += 1;
+        } else {
+            out.push(down[b]);
+            b += 1;
+        }
+    }
+    out
 }
 
 /// The O(N^2) reference for [`neighbor_pairs`] (tests and oracles only).
