@@ -30,6 +30,14 @@ mod forces;
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.
 const CHUNK: usize = 512;
+
+/// Steps between rebuilds that the adaptive skin aims at (see
+/// [`SimConfig::skin_ratio`]). A rebuild of a dense pack costs about as much as two or
+/// three steps, and a wider skin adds pairs that are tested every step; 40 steps keeps
+/// the rebuilds at a few per cent of the run.
+pub const SKIN_STEPS: Real = 40.0;
+/// Smallest adaptive skin, as a fraction of the largest ([`SimConfig::skin_ratio`]).
+pub const SKIN_FLOOR: Real = 0.25;
 /// Most walls a box has: the floor and two per horizontal axis.
 pub const MAX_WALLS: usize = 5;
 
@@ -60,7 +68,10 @@ pub struct SimConfig<const D: usize> {
     /// Box corners: floor at `lo[vertical]`, side walls at `lo[k]` and `hi[k]` for the
     /// horizontal axes; `hi[vertical]` is ignored (open top). None: no walls.
     pub walls: Option<(Vector<D>, Vector<D>)>,
-    /// Verlet skin as a fraction of the smallest radius (-). Default 0.2.
+    /// Largest Verlet skin, as a fraction of the smallest radius (-). Default 0.2.
+    /// At each rebuild the skin is chosen from the fastest particle's speed so that a
+    /// rebuild comes about every [`SKIN_STEPS`] steps, within [`SKIN_FLOOR`] of this
+    /// and this: moving scenes keep the wide skin, resting ones test fewer pairs.
     pub skin_ratio: Real,
     /// Largest overlap tolerated, as a fraction of the smaller radius, before the run
     /// stops as unstable (-). Default 0.5.
@@ -852,8 +863,17 @@ where
     fn rebuild_pairs(&mut self) {
         let start = std::time::Instant::now();
         let r_min = self.r_min();
+        // The skin that lasts about SKIN_STEPS steps at the fastest particle's speed
+        // (a max: the same whatever the thread count), within [floor, largest].
+        let v2max = self
+            .p
+            .v
+            .par_iter()
+            .map(|v| v.norm_squared())
+            .reduce(|| 0.0, Real::max);
+        let widest = self.cfg.skin_ratio * r_min;
         self.skin = if r_min.is_finite() {
-            self.cfg.skin_ratio * r_min
+            (2.0 * v2max.sqrt() * self.cfg.dt * SKIN_STEPS).clamp(SKIN_FLOOR * widest, widest)
         } else {
             0.0
         };
