@@ -31,10 +31,6 @@ _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 FAST_SETTLE_TOL = 1e-2
 #: Freezing depth of `PackScene.fast()`, in layer thicknesses h_layer.
 FAST_FREEZE_LAYERS = 1.0
-#: Time step of `PackScene.fast()`, as a fraction of the Rayleigh estimate for the
-#: smallest particle (a smaller dt of the scene is kept). Every preset is stable up to
-#: the whole estimate (`benchmarks/stability.py`).
-FAST_DT_FRACTION = 0.9
 
 
 @dataclass(frozen=True)
@@ -256,15 +252,11 @@ class PackScene:
 
     def fast(self) -> PackScene:
         """The same scene with the fast settings: adaptive settling (settle_tol =
-        FAST_SETTLE_TOL), freezing below FAST_FREEZE_LAYERS layer thicknesses and a time
-        step of FAST_DT_FRACTION of the Rayleigh estimate (or the scene's dt, if
-        smaller). The physics constants are untouched; `benchmarks/fast_vs_full.py`
-        measures how far the ensemble statistics move (see the README)."""
-        dt = max(self.dt, FAST_DT_FRACTION * self.material.critical_time_step(self.r_min))
+        FAST_SETTLE_TOL) and freezing below FAST_FREEZE_LAYERS layer thicknesses. The
+        physics constants are untouched; `benchmarks/fast_vs_full.py` measures how far
+        the ensemble statistics move (see the README)."""
         return self.replace(
-            settle_tol=FAST_SETTLE_TOL,
-            freeze_depth=FAST_FREEZE_LAYERS * self.h_layer,
-            dt=dt,
+            settle_tol=FAST_SETTLE_TOL, freeze_depth=FAST_FREEZE_LAYERS * self.h_layer
         )
 
     def replace(self, **changes) -> PackScene:
