@@ -103,12 +103,18 @@ impl<const D: usize> CellGrid<D> {
         c
     }
 
-    /// Calls `f(range)` for the 3^(D-1) runs of `members` that cover the 3^D cells
+    /// Particle indices in cell order: cell `c` holds those at `start[c]..start[c + 1]`.
+    pub fn members(&self) -> &[u32] {
+        &self.members
+    }
+
+    /// Calls `f(range)` for the 3^(D-1) runs of [`members`](Self::members) (as ranges of
+    /// positions in it) that cover the 3^D cells
     /// around position `p` (its own included). Cells are numbered with the first axis
     /// fastest, so the (up to) three cells of a row along that axis are adjacent in
     /// `members`: one contiguous run per row, no per-cell bookkeeping.
     #[inline]
-    pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(&[u32])) {
+    pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
         let c = self.coords_of(p);
         let x_lo = c[0].saturating_sub(1);
         let x_hi = (c[0] + 1).min(self.dims[0] - 1);
@@ -130,7 +136,7 @@ impl<const D: usize> CellGrid<D> {
                 self.start[base + x_lo] as usize,
                 self.start[base + x_hi + 1] as usize,
             );
-            f(&self.members[s..e]);
+            f(s..e);
         }
     }
 }
@@ -180,6 +186,11 @@ fn search<const D: usize>(
     }
     let r_max = r.iter().cloned().fold(0.0, Real::max);
     let grid = CellGrid::build(x, 2.0 * r_max + skin);
+    // Positions and radii copied in cell order: a row of cells is then one contiguous
+    // stretch of each, read in sequence instead of gathered through the indices.
+    let members = grid.members();
+    let xs: Vec<Vector<D>> = members.iter().map(|&j| x[j as usize]).collect();
+    let rs: Vec<Real> = members.iter().map(|&j| r[j as usize]).collect();
     const CHUNK: usize = 1024;
     // per chunk: the pairs taken from their lower end, and from their upper end
     type Found = (Vec<[u32; 2]>, Vec<[u32; 2]>);
@@ -199,10 +210,14 @@ fn search<const D: usize>(
                     if mine.len() < w + run.len() {
                         mine.resize(w + run.len(), 0);
                     }
-                    for &j in run {
+                    for ((&j, xj), &rj) in members[run.clone()]
+                        .iter()
+                        .zip(&xs[run.clone()])
+                        .zip(&rs[run])
+                    {
                         let ju = j as usize;
-                        let cut = ri + r[ju] + skin;
-                        let near = (x[ju] - xi).norm_squared() < cut * cut;
+                        let cut = ri + rj + skin;
+                        let near = (xj - xi).norm_squared() < cut * cut;
                         mine[w] = j;
                         w += (near & (ju > i)) as usize;
                         if near & (ju < i) && lower(ju) {

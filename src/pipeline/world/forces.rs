@@ -64,7 +64,8 @@ where
         let vert = <Dim<D> as Spatial<D>>::VERTICAL;
         let g = self.cfg.gravity.norm();
         let p = &mut self.p;
-        let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
+        let pr = &self.pairs;
+        let (x, f, r, m, wf) = (&p.x, &p.f, &p.r, &p.m, &p.wall_force);
         let speed2 = fc.speed * fc.speed;
         let thawed = AtomicBool::new(false);
         p.frozen
@@ -75,7 +76,23 @@ where
             .for_each(|(c, ((fz, v), w))| {
                 for k in 0..fz.len() {
                     let q = c * CHUNK + k;
-                    let fmax = fc.force_ratio * m[q] * g;
+                    // The force scale: the particle's weight, or the sum of its contact
+                    // forces' magnitudes where that is larger (deep in a pack, where
+                    // contacts carry the weight of the column above and vibrations
+                    // leave a net force in proportion to them).
+                    let mut carried: Real = wf[q].iter().map(|w| w.norm()).sum();
+                    for range in [
+                        pr.i_frozen[q] as usize..pr.i_frozen[q + 1] as usize,
+                        pr.i_active[q] as usize..pr.i_active[q + 1] as usize,
+                    ] {
+                        carried += pr.out[range].iter().map(|o| o.f.norm()).sum::<Real>();
+                    }
+                    let ends = &pr.j_inc[pr.j_start[q] as usize..pr.j_start[q + 1] as usize];
+                    carried += ends
+                        .iter()
+                        .map(|&k| pr.out[k as usize].f.norm())
+                        .sum::<Real>();
+                    let fmax = fc.force_ratio * (m[q] * g).max(carried);
                     let quiet = f[q].norm_squared() <= fmax * fmax;
                     if fz[k] {
                         if !quiet {
@@ -257,26 +274,38 @@ where
                             fq -= v[q] * drag;
                         }
                         let mut tq = Ang::<D>::default();
-                        let inc = &pr.inc[pr.inc_start[q] as usize..pr.inc_start[q + 1] as usize];
                         let pout = &pr.out[..];
-                        // sign: +1 when q is the pair's j, -1 when it is i (a multiply
-                        // instead of a branch that mispredicts half the time). One loop
-                        // for force and torque; the sums keep the pair order either way.
+                        // The pairs q starts (force on q: -f), as two ranges of the list,
+                        // then those it ends (+f) through their index list. The torque of
+                        // the tangential force is -(r_q - d/2) n x f_t on either end.
+                        let own = [
+                            pr.i_frozen[q] as usize..pr.i_frozen[q + 1] as usize,
+                            pr.i_active[q] as usize..pr.i_active[q + 1] as usize,
+                        ];
+                        let ends = &pr.j_inc[pr.j_start[q] as usize..pr.j_start[q + 1] as usize];
                         if rot && friction_on {
                             let rq = r[q];
-                            for &e in inc {
-                                let k = (e >> 1) as usize;
-                                let sign = 2.0 * (e & 1) as Real - 1.0;
-                                // SAFETY: incidence entries are below the pair count (see `at`).
+                            for k in own.into_iter().flatten() {
+                                // SAFETY: the ranges and index lists stay below the pair
+                                // count (see `at`).
                                 let o = unsafe { at(pout, k) };
-                                fq += o.f * sign;
+                                fq -= o.f;
+                                tq += o.nxf * -(rq - 0.5 * o.d);
+                            }
+                            for &k in ends {
+                                // SAFETY: as above.
+                                let o = unsafe { at(pout, k as usize) };
+                                fq += o.f;
                                 tq += o.nxf * -(rq - 0.5 * o.d);
                             }
                         } else {
-                            for &e in inc {
-                                let sign = 2.0 * (e & 1) as Real - 1.0;
+                            for k in own.into_iter().flatten() {
                                 // SAFETY: as above.
-                                fq += unsafe { at(pout, (e >> 1) as usize) }.f * sign;
+                                fq -= unsafe { at(pout, k) }.f;
+                            }
+                            for &k in ends {
+                                // SAFETY: as above.
+                                fq += unsafe { at(pout, k as usize) }.f;
                             }
                         }
                         // visit only the walls that can touch (most particles: none)

@@ -219,9 +219,15 @@ struct Pairs<const D: usize, A> {
     /// What the pair pass leaves for the gather: force, n x f_t and overlap of each
     /// pair, side by side so that a gather visit touches one place.
     out: Vec<PairOut<D, A>>,
-    /// For particle p, `inc[inc_start[p]..inc_start[p+1]]` lists (pair << 1 | p_is_j).
-    inc_start: Vec<u32>,
-    inc: Vec<u32>,
+    /// Pairs whose first particle is p: `i_frozen[p]..i_frozen[p + 1]` in the frozen
+    /// run and `i_active[p]..i_active[p + 1]` in the active one (both runs are sorted
+    /// by i, so these are ranges: the gather reads them in order, with no index list).
+    i_frozen: Vec<u32>,
+    i_active: Vec<u32>,
+    /// Pairs whose second particle is p: `j_inc[j_start[p]..j_start[p + 1]]`, in list
+    /// order.
+    j_start: Vec<u32>,
+    j_inc: Vec<u32>,
 }
 
 impl<const D: usize, A: Copy> Pairs<D, A> {
@@ -246,8 +252,12 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
             .ij
             .iter()
             .all(|&[i, j]| (i as usize) < n && (j as usize) < n));
-        assert!(self.inc.iter().all(|&e| ((e >> 1) as usize) < m));
-        assert!(self.inc_start.len() == n + 1 && self.inc.len() == 2 * m);
+        assert!(self.j_inc.iter().all(|&k| (k as usize) < m));
+        assert!(self.j_start.len() == n + 1 && self.j_inc.len() == m);
+        assert!(self.i_frozen.len() == n + 1 && self.i_active.len() == n + 1);
+        assert!(self.i_frozen[n] as usize == self.n_frozen_pairs && self.i_active[n] as usize == m);
+        assert!(self.i_frozen.windows(2).all(|w| w[0] <= w[1]));
+        assert!(self.i_active.windows(2).all(|w| w[0] <= w[1]));
         assert!(self.coefs.len() == m && self.hist.len() == m && self.out.len() == m);
     }
 
@@ -472,8 +482,10 @@ where
             + b(&pr.coefs)
             + b(&pr.hist)
             + b(&pr.out)
-            + b(&pr.inc_start)
-            + b(&pr.inc)
+            + b(&pr.i_frozen)
+            + b(&pr.i_active)
+            + b(&pr.j_start)
+            + b(&pr.j_inc)
     }
 
     /// Pairs in the Verlet list, and how many of them join two frozen particles.
@@ -987,28 +999,42 @@ where
         self.build_incidence();
     }
 
-    /// Incidence lists: for each particle its pairs, in list order.
+    /// Incidence: for each particle the ranges of the pairs it starts (one per run)
+    /// and the list of those it ends, in list order.
     fn build_incidence(&mut self) {
         let pr = &mut self.pairs;
         let n = self.p.x.len();
-        let mut inc_start = vec![0u32; n + 1];
-        for &[i, j] in &pr.ij {
-            inc_start[i as usize + 1] += 1;
-            inc_start[j as usize + 1] += 1;
+        let nf = pr.n_frozen_pairs;
+        // Runs sorted by i: the range of particle p starts at the first pair with
+        // i >= p (a counting pass per run, then prefix sums).
+        let starts = |run: &[[u32; 2]], base: usize| {
+            let mut st = vec![0u32; n + 1];
+            for &[i, _] in run {
+                st[i as usize + 1] += 1;
+            }
+            st[0] = base as u32;
+            for p in 0..n {
+                st[p + 1] += st[p];
+            }
+            st
+        };
+        pr.i_frozen = starts(&pr.ij[..nf], 0);
+        pr.i_active = starts(&pr.ij[nf..], nf);
+        let mut j_start = vec![0u32; n + 1];
+        for &[_, j] in &pr.ij {
+            j_start[j as usize + 1] += 1;
         }
         for p in 0..n {
-            inc_start[p + 1] += inc_start[p];
+            j_start[p + 1] += j_start[p];
         }
-        let mut fill = inc_start.clone();
-        let mut inc = vec![0u32; 2 * pr.ij.len()];
-        for (k, &[i, j]) in pr.ij.iter().enumerate() {
-            inc[fill[i as usize] as usize] = (k as u32) << 1;
-            fill[i as usize] += 1;
-            inc[fill[j as usize] as usize] = ((k as u32) << 1) | 1;
+        let mut fill = j_start.clone();
+        let mut j_inc = vec![0u32; pr.ij.len()];
+        for (k, &[_, j]) in pr.ij.iter().enumerate() {
+            j_inc[fill[j as usize] as usize] = k as u32;
             fill[j as usize] += 1;
         }
-        pr.inc_start = inc_start;
-        pr.inc = inc;
+        pr.j_start = j_start;
+        pr.j_inc = j_inc;
         pr.check_indices(n);
     }
 
