@@ -64,8 +64,7 @@ where
         let vert = <Dim<D> as Spatial<D>>::VERTICAL;
         let g = self.cfg.gravity.norm();
         let p = &mut self.p;
-        let pr = &self.pairs;
-        let (x, f, r, m, wf) = (&p.x, &p.f, &p.r, &p.m, &p.wall_force);
+        let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
         let speed2 = fc.speed * fc.speed;
         let thawed = AtomicBool::new(false);
         p.frozen
@@ -76,23 +75,7 @@ where
             .for_each(|(c, ((fz, v), w))| {
                 for k in 0..fz.len() {
                     let q = c * CHUNK + k;
-                    // The force scale: the particle's weight, or the sum of its contact
-                    // forces' magnitudes where that is larger (deep in a pack, where
-                    // contacts carry the weight of the column above and vibrations
-                    // leave a net force in proportion to them).
-                    let mut carried: Real = wf[q].iter().map(|w| w.norm()).sum();
-                    for range in [
-                        pr.i_frozen[q] as usize..pr.i_frozen[q + 1] as usize,
-                        pr.i_active[q] as usize..pr.i_active[q + 1] as usize,
-                    ] {
-                        carried += pr.out[range].iter().map(|o| o.f.norm()).sum::<Real>();
-                    }
-                    let ends = &pr.j_inc[pr.j_start[q] as usize..pr.j_start[q + 1] as usize];
-                    carried += ends
-                        .iter()
-                        .map(|&k| pr.out[k as usize].f.norm())
-                        .sum::<Real>();
-                    let fmax = fc.force_ratio * (m[q] * g).max(carried);
+                    let fmax = fc.force_ratio * m[q] * g;
                     let quiet = f[q].norm_squared() <= fmax * fmax;
                     if fz[k] {
                         if !quiet {
