@@ -1213,6 +1213,64 @@ mod tests {
     /// contact: after every few steps the contacts the world reports are exactly the
     /// overlapping pairs of a brute-force search, while a second batch of spheres lands
     /// on a frozen bed (which thaws part of it).
+    /// The adaptive skin never loses a contact: a 2D gas whose speeds span three
+    /// orders of magnitude (so the skin changes from rebuild to rebuild) has, at every
+    /// check, exactly the overlapping pairs of a brute-force search.
+    #[test]
+    fn adaptive_skin_keeps_every_contact() {
+        use crate::geometry::brute_force_pairs;
+        use rand::{Rng, SeedableRng};
+        let mut cfg = SimConfig::<2>::paper();
+        cfg.gravity = Vector::<2>::zeros();
+        cfg.walls = Some((Vector::<2>::zeros(), Vector::<2>::new(0.5, 0.5)));
+        cfg.dt = 2e-5;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut x = Vec::new();
+        let mut v = Vec::new();
+        for a in 0..15 {
+            for b in 0..15 {
+                x.push(Vector::<2>::new(
+                    0.03 + 0.03 * a as f64 + 0.004 * rng.random::<f64>(),
+                    0.03 + 0.03 * b as f64 + 0.004 * rng.random::<f64>(),
+                ));
+                // speeds from 1 mm/s to 1 m/s, random directions
+                let speed = 10f64.powf(-3.0 + 3.0 * rng.random::<f64>());
+                let phi = std::f64::consts::TAU * rng.random::<f64>();
+                v.push(Vector::<2>::new(phi.cos(), phi.sin()) * speed);
+            }
+        }
+        let r: Vec<Real> = (0..x.len())
+            .map(|_| 0.008 + 0.006 * rng.random::<f64>())
+            .collect();
+        let mut w = World::new(cfg).unwrap();
+        w.add_particles(&x, &r, Some(&v), None).unwrap();
+        let mut skins = Vec::new();
+        for _ in 0..400 {
+            w.step_n(5).unwrap();
+            skins.push(w.skin);
+            let c = w.contacts().unwrap();
+            let mut got: Vec<[u32; 2]> =
+                c.i.iter()
+                    .zip(&c.j)
+                    .filter(|(_, &j)| j >= 0)
+                    .map(|(&i, &j)| [i as u32, j as u32])
+                    .collect();
+            got.sort();
+            let expect = brute_force_pairs(w.positions(), w.radii(), 0.0);
+            assert_eq!(got, expect, "step {}", w.steps());
+        }
+        // the skin did adapt, within its bounds
+        let widest = 0.2 * 0.008;
+        let (lo, hi) = skins
+            .iter()
+            .fold((Real::MAX, 0.0 as Real), |(a, b), &s| (a.min(s), b.max(s)));
+        assert!(lo < hi, "skin constant at {lo}");
+        assert!(
+            lo >= SKIN_FLOOR * widest * 0.99 && hi <= widest * 1.01,
+            "{lo} {hi}"
+        );
+    }
+
     #[test]
     fn frozen_runs_keep_every_contact() {
         use crate::geometry::brute_force_pairs;
