@@ -55,30 +55,15 @@ impl<const D: usize> CellGrid<D> {
             cell *= (total / max_cells).powf(1.0 / D as f64) * 1.01;
         }
         let ncell: usize = dims.iter().product();
+        // each particle's cell once (the sort reads its key twice)
         let cell_of: Vec<u32> = x
             .iter()
             .map(|p| {
-                let mut c = 0usize;
-                for k in (0..D).rev() {
-                    let ik = (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
-                    c = c * dims[k] + ik;
-                }
-                c as u32
+                let c = cell_coords(p, &lo, cell, &dims);
+                (0..D).rev().fold(0, |acc, k| acc * dims[k] + c[k]) as u32
             })
             .collect();
-        let mut start = vec![0u32; ncell + 1];
-        for &c in &cell_of {
-            start[c as usize + 1] += 1;
-        }
-        for c in 0..ncell {
-            start[c + 1] += start[c];
-        }
-        let mut fill = start.clone();
-        let mut members = vec![0u32; n];
-        for (i, &c) in cell_of.iter().enumerate() {
-            members[fill[c as usize] as usize] = i as u32;
-            fill[c as usize] += 1;
-        }
+        let (start, members) = counting_sort(n, ncell, |i| cell_of[i] as usize);
         CellGrid {
             cell,
             dims,
@@ -93,16 +78,6 @@ impl<const D: usize> CellGrid<D> {
         self.cell
     }
 
-    /// The cell coordinates of position `p`, clamped to the grid.
-    #[inline]
-    fn coords_of(&self, p: &Vector<D>) -> [usize; D] {
-        let mut c = [0usize; D];
-        for (k, ck) in c.iter_mut().enumerate() {
-            *ck = (((p[k] - self.lo[k]) / self.cell) as usize).min(self.dims[k] - 1);
-        }
-        c
-    }
-
     /// Particle indices in cell order: cell `c` holds those at `start[c]..start[c + 1]`.
     pub fn members(&self) -> &[u32] {
         &self.members
@@ -115,7 +90,7 @@ impl<const D: usize> CellGrid<D> {
     /// `members`: one contiguous run per row, no per-cell bookkeeping.
     #[inline]
     pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
-        let c = self.coords_of(p);
+        let c = cell_coords(p, &self.lo, self.cell, &self.dims);
         let x_lo = c[0].saturating_sub(1);
         let x_hi = (c[0] + 1).min(self.dims[0] - 1);
         // Offsets along the other axes: 3^(D-1) rows.
@@ -139,6 +114,62 @@ impl<const D: usize> CellGrid<D> {
             f(s..e);
         }
     }
+}
+
+/// The cell coordinates of position `p` in a grid with lower corner `lo`, cells of side
+/// `cell` and `dims` cells per axis, clamped to the grid. The one formula both the
+/// binning and the search use, so that they agree on every particle's cell.
+#[inline]
+fn cell_coords<const D: usize>(
+    p: &Vector<D>,
+    lo: &Vector<D>,
+    cell: Real,
+    dims: &[usize; D],
+) -> [usize; D] {
+    let mut c = [0usize; D];
+    for (k, ck) in c.iter_mut().enumerate() {
+        *ck = (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
+    }
+    c
+}
+
+/// Where the bins of a counting sort start: item `k` (of `n_items`) falls in bin
+/// `key(k)` (< `n_bins`), and bin `b` takes positions `start[b]..start[b + 1]`, counted
+/// from `base`. Returns `start` (`n_bins + 1` entries).
+pub(crate) fn bin_starts(
+    n_items: usize,
+    n_bins: usize,
+    key: impl Fn(usize) -> usize,
+    base: usize,
+) -> Vec<u32> {
+    let mut start = vec![0u32; n_bins + 1];
+    for k in 0..n_items {
+        start[key(k) + 1] += 1;
+    }
+    start[0] = base as u32;
+    for b in 0..n_bins {
+        start[b + 1] += start[b];
+    }
+    start
+}
+
+/// A stable counting sort of the items `0..n_items` by `key` (< `n_bins`): returns
+/// `(start, order)` with the items of bin `b` at `order[start[b]..start[b + 1]]`, in
+/// increasing item order.
+pub(crate) fn counting_sort(
+    n_items: usize,
+    n_bins: usize,
+    key: impl Fn(usize) -> usize,
+) -> (Vec<u32>, Vec<u32>) {
+    let start = bin_starts(n_items, n_bins, &key, 0);
+    let mut fill = start.clone();
+    let mut order = vec![0u32; n_items];
+    for k in 0..n_items {
+        let b = key(k);
+        order[fill[b] as usize] = k as u32;
+        fill[b] += 1;
+    }
+    (start, order)
 }
 
 /// The pairs of [`neighbor_pairs`] that have at least one particle `i` with `active(i)`,

@@ -20,6 +20,7 @@
 use crate::dynamics::batch::{law_batch, Batch, LawConsts, PairFactors, BATCH};
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, Error, Result};
+use crate::geometry::grid::{bin_starts, counting_sort};
 use crate::geometry::{neighbor_pairs, neighbor_pairs_active};
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
 use rayon::prelude::*;
@@ -1005,34 +1006,13 @@ where
         let pr = &mut self.pairs;
         let n = self.p.x.len();
         let nf = pr.n_frozen_pairs;
-        // Runs sorted by i: the range of particle p starts at the first pair with
-        // i >= p (a counting pass per run, then prefix sums).
-        let starts = |run: &[[u32; 2]], base: usize| {
-            let mut st = vec![0u32; n + 1];
-            for &[i, _] in run {
-                st[i as usize + 1] += 1;
-            }
-            st[0] = base as u32;
-            for p in 0..n {
-                st[p + 1] += st[p];
-            }
-            st
-        };
-        pr.i_frozen = starts(&pr.ij[..nf], 0);
-        pr.i_active = starts(&pr.ij[nf..], nf);
-        let mut j_start = vec![0u32; n + 1];
-        for &[_, j] in &pr.ij {
-            j_start[j as usize + 1] += 1;
-        }
-        for p in 0..n {
-            j_start[p + 1] += j_start[p];
-        }
-        let mut fill = j_start.clone();
-        let mut j_inc = vec![0u32; pr.ij.len()];
-        for (k, &[_, j]) in pr.ij.iter().enumerate() {
-            j_inc[fill[j as usize] as usize] = k as u32;
-            fill[j as usize] += 1;
-        }
+        // Runs sorted by i: the range of particle p in a run is its bin in a counting
+        // sort of the run by i (the run is already in that order).
+        let (run_f, run_a) = pr.ij.split_at(nf);
+        pr.i_frozen = bin_starts(nf, n, |k| run_f[k][0] as usize, 0);
+        pr.i_active = bin_starts(run_a.len(), n, |k| run_a[k][0] as usize, nf);
+        let ij = &pr.ij;
+        let (j_start, j_inc) = counting_sort(ij.len(), n, |k| ij[k][1] as usize);
         pr.j_start = j_start;
         pr.j_inc = j_inc;
         pr.check_indices(n);
@@ -1213,12 +1193,29 @@ mod tests {
     /// contact: after every few steps the contacts the world reports are exactly the
     /// overlapping pairs of a brute-force search, while a second batch of spheres lands
     /// on a frozen bed (which thaws part of it).
+    /// The particle pairs `contacts()` reports are exactly the overlapping pairs of a
+    /// brute-force search on the current positions (the pair list lost none).
+    fn assert_contacts_are_the_overlaps<const D: usize>(w: &mut World<D>)
+    where
+        Dim<D>: Spatial<D>,
+    {
+        let c = w.contacts().unwrap();
+        let mut got: Vec<[u32; 2]> =
+            c.i.iter()
+                .zip(&c.j)
+                .filter(|(_, &j)| j >= 0)
+                .map(|(&i, &j)| [i as u32, j as u32])
+                .collect();
+        got.sort();
+        let expect = crate::geometry::brute_force_pairs(w.positions(), w.radii(), 0.0);
+        assert_eq!(got, expect, "step {}", w.steps());
+    }
+
     /// The adaptive skin never loses a contact: a 2D gas whose speeds span three
     /// orders of magnitude (so the skin changes from rebuild to rebuild) has, at every
     /// check, exactly the overlapping pairs of a brute-force search.
     #[test]
     fn adaptive_skin_keeps_every_contact() {
-        use crate::geometry::brute_force_pairs;
         use rand::{Rng, SeedableRng};
         let mut cfg = SimConfig::<2>::paper();
         cfg.gravity = Vector::<2>::zeros();
@@ -1248,16 +1245,7 @@ mod tests {
         for _ in 0..400 {
             w.step_n(5).unwrap();
             skins.push(w.skin);
-            let c = w.contacts().unwrap();
-            let mut got: Vec<[u32; 2]> =
-                c.i.iter()
-                    .zip(&c.j)
-                    .filter(|(_, &j)| j >= 0)
-                    .map(|(&i, &j)| [i as u32, j as u32])
-                    .collect();
-            got.sort();
-            let expect = brute_force_pairs(w.positions(), w.radii(), 0.0);
-            assert_eq!(got, expect, "step {}", w.steps());
+            assert_contacts_are_the_overlaps(&mut w);
         }
         // the skin did adapt, within its bounds
         let widest = 0.2 * 0.008;
@@ -1273,7 +1261,6 @@ mod tests {
 
     #[test]
     fn frozen_runs_keep_every_contact() {
-        use crate::geometry::brute_force_pairs;
         use rand::{Rng, SeedableRng};
         let mut cfg = SimConfig::<3>::paper();
         cfg.walls = Some((
@@ -1313,21 +1300,9 @@ mod tests {
             interval: 10,
         }))
         .unwrap();
-        let check = |w: &mut World<3>| {
-            let c = w.contacts().unwrap();
-            let mut got: Vec<[u32; 2]> =
-                c.i.iter()
-                    .zip(&c.j)
-                    .filter(|(_, &j)| j >= 0)
-                    .map(|(&i, &j)| [i as u32, j as u32])
-                    .collect();
-            got.sort();
-            let expect = brute_force_pairs(w.positions(), w.radii(), 0.0);
-            assert_eq!(got, expect, "step {}", w.steps());
-        };
         for _ in 0..1000 {
             w.step_n(10).unwrap();
-            check(&mut w);
+            assert_contacts_are_the_overlaps(&mut w);
         }
         let frozen_before = w.n_frozen();
         assert!(frozen_before > 20, "the bed froze: {frozen_before}");
@@ -1337,7 +1312,7 @@ mod tests {
         for _ in 0..300 {
             w.step_n(10).unwrap();
             min_frozen = min_frozen.min(w.n_frozen());
-            check(&mut w);
+            assert_contacts_are_the_overlaps(&mut w);
         }
         assert!(
             min_frozen < frozen_before,
