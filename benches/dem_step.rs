@@ -50,11 +50,13 @@ fn bench_grid_and_rsa(c: &mut Criterion) {
     use rand::SeedableRng;
     let w = common::settled_world::<3>(1, 200, 1);
     let (x, r) = (w.positions().to_vec(), w.radii().to_vec());
+    // reach: radius plus a half skin of 2 mm
+    let reach: Vec<f64> = r.iter().map(|r| r + 0.002).collect();
     let mut g = c.benchmark_group("search");
     g.sample_size(20);
     g.throughput(Throughput::Elements(x.len() as u64));
     g.bench_function(BenchmarkId::new("grid_rebuild", x.len()), |b| {
-        b.iter(|| _core::geometry::neighbor_pairs(&x, &r, 0.004))
+        b.iter(|| _core::geometry::neighbor_pairs(&x, &reach))
     });
     let height = x.iter().zip(&r).map(|(p, r)| p[2] + r).fold(0.0, f64::max);
     g.throughput(Throughput::Elements(746));

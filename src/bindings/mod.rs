@@ -631,7 +631,7 @@ fn geometric_contacts<const D: usize>(
     walls: Option<(Vector<D>, Vector<D>)>,
 ) -> Result<Contacts<D>, Error> {
     let mut c = Contacts::<D>::default();
-    for [i, j] in crate::geometry::neighbor_pairs(x, r, 0.0) {
+    for [i, j] in crate::geometry::neighbor_pairs(x, r) {
         let (i, j) = (i as usize, j as usize);
         let dx = x[j] - x[i];
         let dist = dx.norm();

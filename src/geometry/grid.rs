@@ -1,7 +1,7 @@
 //! Cell lists.
 //!
 //! Cells are cubes of side `cell` >= the largest interaction distance
-//! (largest diameter + skin), so every pair closer than its cutoff lies in the same or
+//! (twice the largest reach, radius + half skin), so every pair closer than its cutoff lies in the same or
 //! an adjacent cell (3^D cells to visit, in 3^(D-1) runs of adjacent cells). Cells are
 //! filled by a counting sort, which is stable: inside a cell particles keep increasing
 //! index order. The pair list comes out sorted by (i, j) whatever the thread count.
@@ -177,22 +177,23 @@ pub(crate) fn counting_sort(
 /// engine keeps those of frozen particles from an earlier search.
 pub fn neighbor_pairs_active<const D: usize>(
     x: &[Vector<D>],
-    r: &[Real],
-    skin: Real,
+    reach: &[Real],
     active: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
     // Only active particles are visited: a pair with an inactive partner of lower
     // index is met from its active side only, and taken there.
-    search(x, r, skin, &active, |j| !active(j))
+    search(x, reach, &active, |j| !active(j))
 }
 
-/// Every pair (i < j) with |x_i - x_j| < r_i + r_j + skin, sorted by (i, j).
+/// Every pair (i < j) with |x_i - x_j| < reach_i + reach_j, sorted by (i, j).
 ///
-/// `skin` >= 0 (m) widens the cutoff so that the list stays valid while no particle has
-/// moved more than skin / 2 (a Verlet list). Parallel over particles; the output does
-/// not depend on the thread count.
-pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
-    search(x, r, skin, |_| true, |_| false)
+/// `reach` (m) is each particle's radius plus its half skin h_i >= 0: the list stays
+/// valid while no particle has moved more than its own h_i, since a pair left out has a
+/// gap of at least h_i + h_j (a Verlet list with a skin per particle; reach = r gives
+/// the contacts). Parallel over particles; the output does not depend on the thread
+/// count.
+pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], reach: &[Real]) -> Vec<[u32; 2]> {
+    search(x, reach, |_| true, |_| false)
 }
 
 /// The search behind both: a grid with cells of one cutoff; each particle `i` with
@@ -206,8 +207,7 @@ pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -
 /// upper end (few: the active particles next to frozen ones) need a sort and a merge.
 fn search<const D: usize>(
     x: &[Vector<D>],
-    r: &[Real],
-    skin: Real,
+    reach: &[Real],
     from: impl Fn(usize) -> bool + Sync,
     lower: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
@@ -215,13 +215,13 @@ fn search<const D: usize>(
     if n < 2 {
         return Vec::new();
     }
-    let r_max = r.iter().cloned().fold(0.0, Real::max);
-    let grid = CellGrid::build(x, 2.0 * r_max + skin);
-    // Positions and radii copied in cell order: a row of cells is then one contiguous
+    let reach_max = reach.iter().cloned().fold(0.0, Real::max);
+    let grid = CellGrid::build(x, 2.0 * reach_max);
+    // Positions and reaches copied in cell order: a row of cells is then one contiguous
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
     let xs: Vec<Vector<D>> = members.iter().map(|&j| x[j as usize]).collect();
-    let rs: Vec<Real> = members.iter().map(|&j| r[j as usize]).collect();
+    let rs: Vec<Real> = members.iter().map(|&j| reach[j as usize]).collect();
     const CHUNK: usize = 1024;
     // per chunk: the pairs taken from their lower end, and from their upper end
     type Found = (Vec<[u32; 2]>, Vec<[u32; 2]>);
@@ -232,7 +232,7 @@ fn search<const D: usize>(
             let mut down = Vec::new();
             let mut mine: Vec<u32> = Vec::new();
             for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| from(i)) {
-                let (xi, ri) = (x[i], r[i]);
+                let (xi, ri) = (x[i], reach[i]);
                 // Branch-free: every candidate is written to the next slot, and the
                 // count advances only for a partner above i within the cutoff (a
                 // branch there went either way and mispredicted).
@@ -247,7 +247,7 @@ fn search<const D: usize>(
                         .zip(&rs[run])
                     {
                         let ju = j as usize;
-                        let cut = ri + rj + skin;
+                        let cut = ri + rj;
                         let near = (xj - xi).norm_squared() < cut * cut;
                         mine[w] = j;
                         w += (near & (ju > i)) as usize;
@@ -289,11 +289,11 @@ fn search<const D: usize>(
 }
 
 /// The O(N^2) reference for [`neighbor_pairs`] (tests and oracles only).
-pub fn brute_force_pairs<const D: usize>(x: &[Vector<D>], r: &[Real], skin: Real) -> Vec<[u32; 2]> {
+pub fn brute_force_pairs<const D: usize>(x: &[Vector<D>], reach: &[Real]) -> Vec<[u32; 2]> {
     let mut out = Vec::new();
     for i in 0..x.len() {
         for j in i + 1..x.len() {
-            let cut = r[i] + r[j] + skin;
+            let cut = reach[i] + reach[j];
             if (x[j] - x[i]).norm_squared() < cut * cut {
                 out.push([i as u32, j as u32]);
             }
@@ -307,16 +307,26 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn cloud<const D: usize>(seed: u64, n: usize, ratio: f64) -> (Vec<Vector<D>>, Vec<Real>) {
+    /// n particles in the unit box with radii in 0.01 x [1, ratio], and their reaches:
+    /// the radius plus a half skin of its own in [0, skin / 2] (m).
+    fn cloud<const D: usize>(
+        seed: u64,
+        n: usize,
+        ratio: f64,
+        skin: f64,
+    ) -> (Vec<Vector<D>>, Vec<Real>) {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let x = (0..n)
             .map(|_| Vector::<D>::from_fn(|_, _| rng.random::<f64>()))
             .collect();
-        let r = (0..n)
-            .map(|_| 0.01 * (1.0 + (ratio - 1.0) * rng.random::<f64>()))
+        let reach = (0..n)
+            .map(|_| {
+                let r = 0.01 * (1.0 + (ratio - 1.0) * rng.random::<f64>());
+                r + 0.5 * skin * rng.random::<f64>()
+            })
             .collect();
-        (x, r)
+        (x, reach)
     }
 
     proptest! {
@@ -324,8 +334,8 @@ mod tests {
         #[test]
         fn grid_pairs_equal_brute_force_3d(seed in 0u64..10_000, n in 0usize..600,
                                            ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {
-            let (x, r) = cloud::<3>(seed, n, ratio);
-            prop_assert_eq!(neighbor_pairs(&x, &r, skin), brute_force_pairs(&x, &r, skin));
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
+            prop_assert_eq!(neighbor_pairs(&x, &reach), brute_force_pairs(&x, &reach));
         }
 
         /// The active-only search returns exactly the brute-force pairs that touch
@@ -334,20 +344,20 @@ mod tests {
         fn active_pairs_equal_filtered_brute_force(seed in 0u64..10_000, n in 0usize..400,
                                                    ratio in 1.0f64..4.0, skin in 0.0f64..0.01,
                                                    frac in 0.0f64..1.0) {
-            let (x, r) = cloud::<3>(seed, n, ratio);
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
             let active: Vec<bool> = (0..n).map(|k| ((k * 7919) % 100) as f64 >= 100.0 * frac).collect();
-            let expect: Vec<[u32; 2]> = brute_force_pairs(&x, &r, skin)
+            let expect: Vec<[u32; 2]> = brute_force_pairs(&x, &reach)
                 .into_iter()
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
-            prop_assert_eq!(neighbor_pairs_active(&x, &r, skin, |i| active[i]), expect);
+            prop_assert_eq!(neighbor_pairs_active(&x, &reach, |i| active[i]), expect);
         }
 
         #[test]
         fn grid_pairs_equal_brute_force_2d(seed in 0u64..10_000, n in 0usize..600,
                                            ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {
-            let (x, r) = cloud::<2>(seed, n, ratio);
-            prop_assert_eq!(neighbor_pairs(&x, &r, skin), brute_force_pairs(&x, &r, skin));
+            let (x, reach) = cloud::<2>(seed, n, ratio, skin);
+            prop_assert_eq!(neighbor_pairs(&x, &reach), brute_force_pairs(&x, &reach));
         }
     }
 
@@ -361,7 +371,7 @@ mod tests {
         let r = vec![0.01; 3];
         let g = CellGrid::build(&x, 0.02);
         assert!(g.start.len() < 200);
-        assert_eq!(neighbor_pairs(&x, &r, 0.0), vec![[1, 2]]);
+        assert_eq!(neighbor_pairs(&x, &r), vec![[1, 2]]);
     }
 }
 

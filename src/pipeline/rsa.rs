@@ -353,7 +353,7 @@ mod tests {
             layer: 0,
         };
         let (x, r) = place_layer(&spec, &mut rng).unwrap();
-        assert!(brute_force_pairs(&x, &r, 0.0).is_empty());
+        assert!(brute_force_pairs(&x, &r).is_empty());
         let phi: f64 = r.iter().map(|&r| particle_volume::<2>(r)).sum::<f64>() / 0.1;
         let one = particle_volume::<2>(0.01) / 0.1;
         assert!(phi >= 0.4 && phi < 0.4 + one, "{phi}");
