@@ -20,15 +20,21 @@ error.
     python benchmarks/fast_vs_full.py --presets 4.1 --packs 10 --out bench-out
     python benchmarks/fast_vs_full.py --presets 4.3 --variants full freeze fast
 
-Every pack's values go to `fast_vs_full_packs.csv` as well; `--reference` takes the
-full-fidelity packs from such a file instead of running them again (they are the
-expensive part: 10 packs of 4.3 take 10 min), for trying new fast settings.
+Every pack's values go to `fast_vs_full_packs.csv` as well, with Z in each fifth of the
+pack height (z_fifth_1 at the bottom): it shows where a variant changes the contacts.
+`--reference` takes the full-fidelity packs from such a file instead of running them
+again (they are the expensive part: 10 packs of 4.3 take 8 min), and `--set` changes a
+scene field in every faster variant, for trying new fast settings:
+
+    python benchmarks/fast_vs_full.py --presets 4.3 --variants fast \
+        --reference bench-out/fast_vs_full_packs.csv --set freeze_force=1.0
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -37,21 +43,50 @@ import polars as pl
 import granpack as gp
 from granpack.pack import atomic_write
 
+FIFTHS = [f"z_fifth_{k}" for k in range(1, 6)]
+QUANTITIES = ("time", "phi", "z", "a_r", "a_n", *FIFTHS)
 
-def variants(scene: gp.PackScene, dt_fraction: float) -> dict[str, gp.PackScene]:
+
+def variants(
+    scene: gp.PackScene, dt_fraction: float, changes: dict | None = None
+) -> dict[str, gp.PackScene]:
+    """The full-fidelity scene and the faster ones; `changes` (scene fields) apply to
+    every faster variant."""
     dt = dt_fraction * scene.material.critical_time_step(scene.r_min)
     fast = scene.fast()
-    return {
-        "full": scene,
+    faster = {
         "freeze": scene.replace(freeze_depth=fast.freeze_depth),
         "dt": scene.replace(dt=dt),
         "fast": scene.fast(),
         "fast+dt": scene.fast().replace(dt=dt),
     }
+    return {"full": scene} | {k: v.replace(**(changes or {})) for k, v in faster.items()}
+
+
+def parse_set(items: list[str]) -> dict:
+    """`key=value` pairs, each value read as TOML (1.0, true, "text")."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set {item!r}: expected key=value")
+        out[key.strip()] = tomllib.loads(f"v = {value}")["v"]
+    return out
+
+
+def z_by_fifth(pack: gp.Pack) -> list[float]:
+    """Mean particle-particle contacts per particle in each fifth of the pack height."""
+    c = pack.contacts
+    pp = c.j >= 0
+    count = np.bincount(c.i[pp], minlength=len(pack)) + np.bincount(c.j[pp], minlength=len(pack))
+    fifth = np.minimum((5.0 * pack.positions[:, -1] / pack.height).astype(int), 4)
+    return [
+        float(count[fifth == b].mean()) if np.any(fifth == b) else float("nan") for b in range(5)
+    ]
 
 
 def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]:
-    out: dict[str, list[float]] = {"time": [], "phi": [], "z": [], "a_r": [], "a_n": []}
+    out: dict[str, list[float]] = {q: [] for q in QUANTITIES}
     for k in range(packs):
         t0 = time.perf_counter()
         pack = gp.generate(scene.replace(seed=seed, stream=k))
@@ -61,6 +96,8 @@ def measure(scene: gp.PackScene, packs: int, seed: int) -> dict[str, np.ndarray]
         out["z"].append(m.z)
         out["a_r"].append(float(np.linalg.norm(m.a_r)))
         out["a_n"].append(float(np.linalg.norm(m.a_n)))
+        for q, z in zip(FIFTHS, z_by_fifth(pack), strict=True):
+            out[q].append(z)
     return {k: np.asarray(v) for k, v in out.items()}
 
 
@@ -118,7 +155,16 @@ def main(argv: list[str] | None = None) -> None:
         help="a fast_vs_full_packs.csv whose 'full' packs (same preset, seed and count) "
         "serve as the reference instead of running them",
     )
+    ap.add_argument(
+        "--set",
+        nargs="+",
+        default=[],
+        metavar="KEY=VALUE",
+        help="scene fields to change in every faster variant (its label gets them)",
+    )
     a = ap.parse_args(argv)
+    changes = parse_set(a.set)
+    suffix = "".join(f" {k}={v}" for k, v in changes.items())
     if a.replot:
         plot(pl.read_csv(a.out / "fast_vs_full.csv"), a.out)
         return
@@ -132,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
     for name in a.presets:
         base = gp.PackScene.preset(name)
         results = {}
-        all_variants = variants(base, a.dt_fraction)
+        all_variants = variants(base, a.dt_fraction, changes)
         for label in wanted:
             scene = all_variants[label]
             ref = None
@@ -144,19 +190,24 @@ def main(argv: list[str] | None = None) -> None:
                     & (pl.col("stream") < a.packs)
                 ).sort("stream")
             if ref is not None and ref.height == a.packs:
-                results[label] = {q: ref[q].to_numpy() for q in ("time", "phi", "z", "a_r", "a_n")}
+                # files written before the per-fifth Z have no such columns
+                results[label] = {
+                    q: ref[q].to_numpy() if q in ref.columns else np.full(a.packs, np.nan)
+                    for q in QUANTITIES
+                }
             else:
                 results[label] = measure(scene, a.packs, a.seed)
             r = results[label]
+            shown = label if label == "full" else label + suffix
             packs.extend(
-                {"preset": name, "variant": label, "seed": a.seed, "stream": k}
-                | {q: float(r[q][k]) for q in ("time", "phi", "z", "a_r", "a_n")}
+                {"preset": name, "variant": shown, "seed": a.seed, "stream": k}
+                | {q: float(r[q][k]) for q in QUANTITIES}
                 for k in range(a.packs)
             )
             full = results["full"]
             row = {
                 "preset": name,
-                "variant": label,
+                "variant": shown,
                 "packs": a.packs,
                 "seconds_per_pack": float(r["time"].mean()),
             }
