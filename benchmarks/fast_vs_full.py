@@ -110,18 +110,21 @@ def plot(df: pl.DataFrame, out: Path) -> None:
     from matplotlib.figure import Figure
     from matplotlib.ticker import NullFormatter
 
-    fig = Figure(figsize=(6, 4))
+    fig = Figure(figsize=(8.5, 4))
     ax = fig.add_subplot()
     cols = ["phi_shift_sd", "z_shift_sd", "a_r_shift_sd", "a_n_shift_sd"]
     markers = dict(zip(sorted(df["preset"].unique()), "osD^v<>", strict=False))
-    colors = {v: f"C{k}" for k, v in enumerate(["full", "freeze", "dt", "fast", "fast+dt"])}
+    # the standard variants keep their colours; variants run with --set get the next ones
+    known = ["full", "freeze", "dt", "fast", "fast+dt"]
+    extra = [v for v in df["variant"].unique(maintain_order=True) if v not in known]
+    colors = {v: f"C{k % 10}" for k, v in enumerate(known + extra)}
     for (preset, label), sub in df.group_by(["preset", "variant"], maintain_order=True):
         err = np.max(np.abs(sub.select(cols).to_numpy()), axis=1)
         ax.scatter(
             sub["seconds_per_pack"],
             err,
             marker=markers[preset],
-            color=colors.get(label, "k"),
+            color=colors[label],
             label=f"{preset} {label}",
         )
     ax.axhline(1.0, color="grey", lw=0.8, ls="--")
@@ -129,7 +132,7 @@ def plot(df: pl.DataFrame, out: Path) -> None:
     ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels overlap on short ranges
     ax.set_xlabel("wall time per pack (s)")
     ax.set_ylabel("largest |shift| of mean phi, Z, |a^r|, |a^n|\n(full-fidelity sd)")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.tight_layout()
     fig.savefig(out / "fast_vs_full.png", dpi=120)
 

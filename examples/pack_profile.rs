@@ -10,7 +10,8 @@ where
     Dim<D>: Spatial<D>,
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
-    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2
+    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2; engine settings: DT=1e-4 (s),
+    // SKIN=0.2 (largest skin over r_min)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -20,6 +21,8 @@ where
     let depth = env("DEPTH", 0.1);
     let mut sim = SimConfig::<D>::paper();
     sim.drag = 0.005;
+    sim.dt = env("DT", sim.dt);
+    sim.skin_ratio = env("SKIN", sim.skin_ratio);
     let cfg = PackConfig::<D> {
         sim,
         base: Vector::<D>::from_element(1.0),
