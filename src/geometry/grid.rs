@@ -1,10 +1,11 @@
 //! Cell lists.
 //!
-//! Cells are cubes of side `cell` >= the largest interaction distance
-//! (twice the largest reach, radius + half skin), so every pair closer than its cutoff lies in the same or
-//! an adjacent cell (3^D cells to visit, in 3^(D-1) runs of adjacent cells). Cells are
-//! filled by a counting sort, which is stable: inside a cell particles keep increasing
-//! index order. The pair list comes out sorted by (i, j) whatever the thread count.
+//! Cells are cubes of side `cell` >= the largest interaction distance (twice the
+//! largest reach, radius + half skin), so every pair closer than its cutoff lies in the
+//! same or an adjacent cell (3^D cells to visit, in 3^(D-1) runs of adjacent cells).
+//! Cells are filled by a counting sort, which is stable: inside a cell particles keep
+//! increasing index order. The pair list comes out sorted by (i, j) whatever the thread
+//! count.
 
 use crate::math::{Real, Vector};
 use rayon::prelude::*;

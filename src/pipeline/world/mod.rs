@@ -879,9 +879,8 @@ where
     ///
     /// With particles frozen only the pairs with an active particle are searched: the
     /// frozen run is kept as it is. Its pairs stay valid for good, because frozen
-    /// particles do not move and were within their half skins of the search that found them; a
-    /// thaw moves the thawed particle's pairs out of the frozen run (`partition_pairs`)
-    /// and asks for a rebuild, which searches them afresh.
+    /// particles do not move; a thaw moves the thawed particle's pairs out of the frozen
+    /// run (`partition_pairs`) and asks for a rebuild, which searches them afresh.
     fn rebuild_pairs(&mut self) {
         let start = std::time::Instant::now();
         let r_min = self.r_min();
@@ -1225,8 +1224,9 @@ mod tests {
     }
 
     /// The adaptive skin never loses a contact: a 2D gas whose speeds span three
-    /// orders of magnitude (so the skin changes from rebuild to rebuild) has, at every
-    /// check, exactly the overlapping pairs of a brute-force search.
+    /// orders of magnitude (so the particles' skins differ, and change from rebuild to
+    /// rebuild) has, at every check, exactly the overlapping pairs of a brute-force
+    /// search.
     #[test]
     fn adaptive_skin_keeps_every_contact() {
         use rand::{Rng, SeedableRng};
