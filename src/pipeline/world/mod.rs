@@ -31,6 +31,8 @@ mod forces;
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.
 const CHUNK: usize = 512;
+/// Pairs per parallel work item in the rebuild's merge (results do not depend on it).
+const PAIR_CHUNK: usize = 4096;
 
 /// Steps that a particle's adaptive skin lasts at its own speed (see
 /// [`SimConfig::skin_ratio`]). A rebuild of a dense pack costs about as much as two or
@@ -917,28 +919,37 @@ where
         } else {
             pr.sorted_order()
         };
-        // For each new pair, the old pair it continues (u32::MAX: a new contact).
+        // For each new pair, the old pair it continues (u32::MAX: a new contact): a
+        // merge of the two sorted lists, in parallel chunks of the new one, each
+        // starting where a binary search puts its first pair among the old ones.
         let mut src = vec![u32::MAX; ij.len()];
-        let mut a = 0usize;
-        for (k, pair) in ij.iter().enumerate() {
-            while a < old_order.len() && pr.ij[old_order[a] as usize] < *pair {
-                a += 1;
-            }
-            if a < old_order.len() && pr.ij[old_order[a] as usize] == *pair {
-                src[k] = old_order[a];
-            }
-        }
+        let old_ij = &pr.ij;
+        src.par_chunks_mut(PAIR_CHUNK)
+            .zip(ij.par_chunks(PAIR_CHUNK))
+            .for_each(|(src, new)| {
+                let mut a = old_order.partition_point(|&o| old_ij[o as usize] < new[0]);
+                for (s, pair) in src.iter_mut().zip(new) {
+                    while a < old_order.len() && old_ij[old_order[a] as usize] < *pair {
+                        a += 1;
+                    }
+                    if a < old_order.len() && old_ij[old_order[a] as usize] == *pair {
+                        *s = old_order[a];
+                    }
+                }
+            });
         drop(old_order);
         // One array at a time, so that the peak holds the old list plus one new array
         // rather than two whole lists. The kept frozen run stays in front.
-        fn carry<T: Copy>(v: &mut Vec<T>, keep: usize, src: &[u32], zero: T) {
-            let tail: Vec<T> = src
-                .iter()
-                .map(|&o| if o == u32::MAX { zero } else { v[o as usize] })
-                .collect();
-            v.truncate(keep);
-            v.extend_from_slice(&tail);
-            trim(v);
+        fn carry<T: Copy + Send + Sync>(v: &mut Vec<T>, keep: usize, src: &[u32], zero: T) {
+            // written once into the new array (kept run, then the carried state), which
+            // replaces the old one
+            let mut new = Vec::with_capacity(keep + src.len());
+            new.extend_from_slice(&v[..keep]);
+            new.par_extend(
+                src.par_iter()
+                    .map(|&o| if o == u32::MAX { zero } else { v[o as usize] }),
+            );
+            *v = new;
         }
         carry(&mut pr.hist, keep, &src, Vector::<D>::zeros());
         carry(&mut pr.out, keep, &src, PairOut::default());
@@ -947,20 +958,24 @@ where
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
-        let coefs = ij.iter().map(|&[i, j]| {
-            let (ri, rj) = (r[i as usize], r[j as usize]);
-            let (mi, mj) = (mass[i as usize], mass[j as usize]);
-            PairFactors::new(&PairParams {
-                r_eff: ri * rj / (ri + rj),
-                m_eff: mi * mj / (mi + mj),
-                e_star,
-                g_star,
-                damping: mat.damping,
-                friction: mat.friction,
-            })
-        });
+        // filled in place: no second array of coefficients at the peak
         pr.coefs.truncate(keep);
-        pr.coefs.extend(coefs);
+        pr.coefs.resize(keep + ij.len(), PairFactors::default());
+        pr.coefs[keep..]
+            .par_iter_mut()
+            .zip(ij.par_iter())
+            .for_each(|(c, &[i, j])| {
+                let (ri, rj) = (r[i as usize], r[j as usize]);
+                let (mi, mj) = (mass[i as usize], mass[j as usize]);
+                *c = PairFactors::new(&PairParams {
+                    r_eff: ri * rj / (ri + rj),
+                    m_eff: mi * mj / (mi + mj),
+                    e_star,
+                    g_star,
+                    damping: mat.damping,
+                    friction: mat.friction,
+                });
+            });
         trim(&mut pr.coefs);
         pr.ij.truncate(keep);
         pr.ij.extend_from_slice(&ij);
@@ -977,16 +992,19 @@ where
         // No particle moves more than its h before the next rebuild, so only walls
         // within r + h can be touched meanwhile (r + 2h for margin): the gather skips
         // the others.
-        for q in 0..self.p.x.len() {
-            let mut near = 0u8;
-            for (wi, wall) in self.walls.iter().enumerate() {
-                let s = wall.gap(&self.p.x[q]);
-                if s < self.p.r[q] + 2.0 * self.p.half_skin[q] {
-                    near |= 1 << wi;
+        let (p, walls) = (&mut self.p, &self.walls);
+        p.wall_near
+            .par_iter_mut()
+            .zip(p.x.par_iter())
+            .zip(p.r.par_iter().zip(p.half_skin.par_iter()))
+            .for_each(|((near, x), (r, h))| {
+                *near = 0;
+                for (wi, wall) in walls.iter().enumerate() {
+                    if wall.gap(x) < r + 2.0 * h {
+                        *near |= 1 << wi;
+                    }
                 }
-            }
-            self.p.wall_near[q] = near;
-        }
+            });
         self.list_valid = true;
         self.rebuilds += 1;
         self.rebuild_seconds += start.elapsed().as_secs_f64();
