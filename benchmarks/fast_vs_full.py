@@ -76,9 +76,8 @@ def parse_set(items: list[str]) -> dict:
 
 def z_by_fifth(pack: gp.Pack) -> list[float]:
     """Mean particle-particle contacts per particle in each fifth of the pack height."""
-    c = pack.contacts
-    pp = c.j >= 0
-    count = np.bincount(c.i[pp], minlength=len(pack)) + np.bincount(c.j[pp], minlength=len(pack))
+    pp = pack.contacts.particle_pairs()
+    count = np.bincount(pp.i, minlength=len(pack)) + np.bincount(pp.j, minlength=len(pack))
     fifth = np.minimum((5.0 * pack.positions[:, -1] / pack.height).astype(int), 4)
     return [
         float(count[fifth == b].mean()) if np.any(fifth == b) else float("nan") for b in range(5)

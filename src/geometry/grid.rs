@@ -85,8 +85,8 @@ impl<const D: usize> CellGrid<D> {
     }
 
     /// Calls `f(range)` for the 3^(D-1) runs of [`members`](Self::members) (as ranges of
-    /// positions in it) that cover the 3^D cells
-    /// around position `p` (its own included). Cells are numbered with the first axis
+    /// positions in it) that cover the 3^D cells around position `p` (its own
+    /// included). Cells are numbered with the first axis
     /// fastest, so the (up to) three cells of a row along that axis are adjacent in
     /// `members`: one contiguous run per row, no per-cell bookkeeping.
     #[inline]

@@ -1219,10 +1219,6 @@ mod tests {
         assert!(w.velocities()[0][0] < 0.3);
     }
 
-    /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
-    /// contact: after every few steps the contacts the world reports are exactly the
-    /// overlapping pairs of a brute-force search, while a second batch of spheres lands
-    /// on a frozen bed (which thaws part of it).
     /// The particle pairs `contacts()` reports are exactly the overlapping pairs of a
     /// brute-force search on the current positions (the pair list lost none).
     fn assert_contacts_are_the_overlaps<const D: usize>(w: &mut World<D>)
@@ -1292,6 +1288,10 @@ mod tests {
         );
     }
 
+    /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
+    /// contact: after every few steps the contacts the world reports are exactly the
+    /// overlapping pairs of a brute-force search, while a second batch of spheres lands
+    /// on a frozen bed (which thaws part of it).
     #[test]
     fn frozen_runs_keep_every_contact() {
         use rand::{Rng, SeedableRng};
