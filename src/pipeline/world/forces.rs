@@ -53,7 +53,7 @@ where
     /// Pair forces, then the per-particle gather with walls and body forces, for every
     /// particle (frozen ones included).
     pub(super) fn compute_forces(&mut self) -> Result<()> {
-        self.compute_forces_inner(true)
+        self.compute_forces_inner(true, false).map(|_| ())
     }
 
     /// Freezes settled particles below the freeze level and unfreezes pushed ones.
@@ -104,7 +104,13 @@ where
 
     /// Pair forces and the gather. With `all` false, pairs of two frozen particles
     /// keep their stored force and frozen particles are not gathered.
-    pub(super) fn compute_forces_inner(&mut self, all: bool) -> Result<()> {
+    ///
+    /// With `kick`, each particle that is not frozen also takes the step's second half
+    /// kick (v += f dt / 2m, w += t dt / 2I) as soon as its force is known, which saves a
+    /// pass over the particles. Returns whether any velocity after the kick is
+    /// non-finite or would carry its particle more than half its radius in one step (it
+    /// could tunnel through a neighbour); always false without `kick`.
+    pub(super) fn compute_forces_inner(&mut self, all: bool, kick: bool) -> Result<bool> {
         let skip_frozen = !all && self.n_frozen > 0;
         let dt = self.cfg.dt;
         let rot = self.cfg.rotations;
@@ -230,118 +236,167 @@ where
             });
         }
 
-        // 4. gather
+        // 4. gather, and 5. the second half kick
         let pr = &self.pairs;
         let walls = &self.walls;
         let gravity = self.cfg.gravity;
         let drag = self.cfg.drag;
+        let half = 0.5 * dt;
         let p = &mut self.p;
-        let (x, v, w, r, m, fz) = (&p.x, &p.v, &p.w, &p.r, &p.m, &p.frozen);
-        let bad_wall =
-            p.f.par_chunks_mut(CHUNK)
-                .zip(p.t.par_chunks_mut(CHUNK))
-                .zip(p.wall_hist.par_chunks_mut(CHUNK))
-                .zip(p.wall_force.par_chunks_mut(CHUNK))
-                .zip(p.wall_mask.par_chunks_mut(CHUNK))
-                .zip(p.wall_near.par_chunks(CHUNK))
-                .enumerate()
-                .filter_map(|(c, (((((f, t), wh), wf), wm), wn))| {
-                    let mut bad = None;
-                    for k in 0..f.len() {
-                        let q = c * CHUNK + k;
-                        if skip_frozen && fz[q] {
+        let (x, r, m, fz, inv_m, inv_i) = (&p.x, &p.r, &p.m, &p.frozen, &p.inv_m, &p.inv_i);
+        let (bad_wall, suspicious) = p
+            .f
+            .par_chunks_mut(CHUNK)
+            .zip(p.t.par_chunks_mut(CHUNK))
+            .zip(p.wall_hist.par_chunks_mut(CHUNK))
+            .zip(p.wall_force.par_chunks_mut(CHUNK))
+            .zip(p.wall_mask.par_chunks_mut(CHUNK))
+            .zip(p.wall_near.par_chunks(CHUNK))
+            .zip(p.v.par_chunks_mut(CHUNK))
+            .zip(p.w.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, (((((((f, t), wh), wf), wm), wn), v), w))| {
+                let mut bad = None;
+                let mut suspicious = false;
+                // This chunk's share of the whole-particle arrays, sliced once, so
+                // that the loop indexes every array by k under one length check.
+                let n = f.len();
+                let lo = c * CHUNK;
+                let (x, r, m, fz) = (
+                    &x[lo..lo + n],
+                    &r[lo..lo + n],
+                    &m[lo..lo + n],
+                    &fz[lo..lo + n],
+                );
+                let (inv_m, inv_i) = (&inv_m[lo..lo + n], &inv_i[lo..lo + n]);
+                let i_frozen = &pr.i_frozen[lo..=lo + n];
+                let i_active = &pr.i_active[lo..=lo + n];
+                let j_start = &pr.j_start[lo..=lo + n];
+                let (t, wh, wf, wm, wn) = (
+                    &mut t[..n],
+                    &mut wh[..n],
+                    &mut wf[..n],
+                    &mut wm[..n],
+                    &wn[..n],
+                );
+                let (v, w) = (&mut v[..n], &mut w[..n]);
+                let (gravity, drag, dt, half) = (gravity, drag, dt, half);
+                let (skip_frozen, kick, rot, friction_on) = (skip_frozen, kick, rot, friction_on);
+                for k in 0..n {
+                    let q = lo + k;
+                    if skip_frozen && fz[k] {
+                        continue;
+                    }
+                    let mut fq = gravity * m[k];
+                    if drag > 0.0 {
+                        fq -= v[k] * drag;
+                    }
+                    let mut tq = Ang::<D>::default();
+                    let pout = &pr.out[..];
+                    // The pairs q starts (force on q: -f), as two ranges of the list,
+                    // then those it ends (+f) through their index list. The torque of
+                    // the tangential force is -(r_q - d/2) n x f_t on either end.
+                    let own = [
+                        i_frozen[k] as usize..i_frozen[k + 1] as usize,
+                        i_active[k] as usize..i_active[k + 1] as usize,
+                    ];
+                    let ends = &pr.j_inc[j_start[k] as usize..j_start[k + 1] as usize];
+                    if rot && friction_on {
+                        let rq = r[k];
+                        for e in own.into_iter().flatten() {
+                            // SAFETY: the ranges and index lists stay below the pair
+                            // count (see `at`).
+                            let o = unsafe { at(pout, e) };
+                            fq -= o.f;
+                            tq += o.nxf * -(rq - 0.5 * o.d);
+                        }
+                        for &e in ends {
+                            // SAFETY: as above.
+                            let o = unsafe { at(pout, e as usize) };
+                            fq += o.f;
+                            tq += o.nxf * -(rq - 0.5 * o.d);
+                        }
+                    } else {
+                        for e in own.into_iter().flatten() {
+                            // SAFETY: as above.
+                            fq -= unsafe { at(pout, e) }.f;
+                        }
+                        for &e in ends {
+                            // SAFETY: as above.
+                            fq += unsafe { at(pout, e as usize) }.f;
+                        }
+                    }
+                    // visit only the walls that can touch (most particles: none)
+                    let mut candidates = wn[k] | wm[k];
+                    while candidates != 0 {
+                        let wi = candidates.trailing_zeros() as usize;
+                        candidates &= candidates - 1;
+                        let wall = &walls[wi];
+                        let s = wall.gap(&x[k]);
+                        let d = r[k] - s;
+                        if d <= 0.0 {
+                            // As for pairs: clear the wall's state only when the contact
+                            // just opened (the force is exactly zero otherwise).
+                            if wm[k] & (1 << wi) != 0 {
+                                wh[k][wi] = Vector::<D>::zeros();
+                                wf[k][wi] = Vector::<D>::zeros();
+                                wm[k] &= !(1 << wi);
+                            }
                             continue;
                         }
-                        let mut fq = gravity * m[q];
-                        if drag > 0.0 {
-                            fq -= v[q] * drag;
+                        if d > max_ratio * r[k] && bad.is_none() {
+                            bad = Some((q, wi, d));
                         }
-                        let mut tq = Ang::<D>::default();
-                        let pout = &pr.out[..];
-                        // The pairs q starts (force on q: -f), as two ranges of the list,
-                        // then those it ends (+f) through their index list. The torque of
-                        // the tangential force is -(r_q - d/2) n x f_t on either end.
-                        let own = [
-                            pr.i_frozen[q] as usize..pr.i_frozen[q + 1] as usize,
-                            pr.i_active[q] as usize..pr.i_active[q + 1] as usize,
-                        ];
-                        let ends = &pr.j_inc[pr.j_start[q] as usize..pr.j_start[q + 1] as usize];
+                        let n = wall.normal::<D>();
+                        let arm = r[k] - 0.5 * d;
+                        // wall at rest: relative velocity of the wall w.r.t. the particle
+                        let mut vrel = -v[k];
+                        if rot {
+                            vrel -= <Dim<D>>::cross_wv(w[k], &(n * arm));
+                        }
+                        let params = PairParams {
+                            r_eff: r[k],
+                            m_eff: m[k],
+                            e_star,
+                            g_star,
+                            damping: mat.damping,
+                            friction: mat.friction,
+                        };
+                        let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
+                        let on_wall = n * fc.normal + fc.tangential;
+                        wf[k][wi] = on_wall;
+                        wm[k] |= 1 << wi;
+                        fq -= on_wall;
                         if rot && friction_on {
-                            let rq = r[q];
-                            for k in own.into_iter().flatten() {
-                                // SAFETY: the ranges and index lists stay below the pair
-                                // count (see `at`).
-                                let o = unsafe { at(pout, k) };
-                                fq -= o.f;
-                                tq += o.nxf * -(rq - 0.5 * o.d);
-                            }
-                            for &k in ends {
-                                // SAFETY: as above.
-                                let o = unsafe { at(pout, k as usize) };
-                                fq += o.f;
-                                tq += o.nxf * -(rq - 0.5 * o.d);
-                            }
-                        } else {
-                            for k in own.into_iter().flatten() {
-                                // SAFETY: as above.
-                                fq -= unsafe { at(pout, k) }.f;
-                            }
-                            for &k in ends {
-                                // SAFETY: as above.
-                                fq += unsafe { at(pout, k as usize) }.f;
-                            }
+                            tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
                         }
-                        // visit only the walls that can touch (most particles: none)
-                        let mut candidates = wn[k] | wm[k];
-                        while candidates != 0 {
-                            let wi = candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            let wall = &walls[wi];
-                            let s = wall.gap(&x[q]);
-                            let d = r[q] - s;
-                            if d <= 0.0 {
-                                // As for pairs: clear the wall's state only when the contact
-                                // just opened (the force is exactly zero otherwise).
-                                if wm[k] & (1 << wi) != 0 {
-                                    wh[k][wi] = Vector::<D>::zeros();
-                                    wf[k][wi] = Vector::<D>::zeros();
-                                    wm[k] &= !(1 << wi);
-                                }
-                                continue;
-                            }
-                            if d > max_ratio * r[q] && bad.is_none() {
-                                bad = Some((q, wi, d));
-                            }
-                            let n = wall.normal::<D>();
-                            let arm = r[q] - 0.5 * d;
-                            // wall at rest: relative velocity of the wall w.r.t. the particle
-                            let mut vrel = -v[q];
-                            if rot {
-                                vrel -= <Dim<D>>::cross_wv(w[q], &(n * arm));
-                            }
-                            let params = PairParams {
-                                r_eff: r[q],
-                                m_eff: m[q],
-                                e_star,
-                                g_star,
-                                damping: mat.damping,
-                                friction: mat.friction,
-                            };
-                            let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[k][wi], dt);
-                            let on_wall = n * fc.normal + fc.tangential;
-                            wf[k][wi] = on_wall;
-                            wm[k] |= 1 << wi;
-                            fq -= on_wall;
-                            if rot && friction_on {
-                                tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
-                            }
-                        }
-                        f[k] = fq;
-                        t[k] = tq;
                     }
-                    bad
-                })
-                .min_by_key(|b| b.0);
+                    f[k] = fq;
+                    t[k] = tq;
+                    if kick && !fz[k] {
+                        v[k] += fq * (inv_m[k] * half);
+                        let lim = 0.5 * r[k] / dt;
+                        // written so that NaN also trips it
+                        let v2 = v[k].norm_squared();
+                        suspicious |= v2.is_nan() || v2 > lim * lim;
+                        if rot {
+                            w[k] += tq * (inv_i[k] * half);
+                        }
+                    }
+                }
+                (bad, suspicious)
+            })
+            .reduce(
+                || (None, false),
+                |a, b| {
+                    let bad = match (a.0, b.0) {
+                        (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
+                        (x, y) => x.or(y),
+                    };
+                    (bad, a.1 | b.1)
+                },
+            );
+
         if let Some((q, wi, d)) = bad_wall {
             return Err(Error::Blowup {
                 step: self.steps,
@@ -356,6 +411,6 @@ where
             });
         }
         self.forces_valid = true;
-        Ok(())
+        Ok(suspicious)
     }
 }

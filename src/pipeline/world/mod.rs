@@ -806,7 +806,14 @@ where
                 .zip(p.inv_i.par_chunks(CHUNK))
                 .map(|(((((((((x, v), f), im), xr), h), fz), w), t), ii)| {
                     let mut moved = false;
-                    for k in 0..x.len() {
+                    // Every chunk slice cut to one length, and the constants copied in:
+                    // the loop then runs without bounds checks or reloads.
+                    let n = x.len();
+                    let (v, f, im, xr, h, fz) =
+                        (&mut v[..n], &f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
+                    let (w, t, ii) = (&mut w[..n], &t[..n], &ii[..n]);
+                    let (dt, half, rot) = (dt, half, rot);
+                    for k in 0..n {
                         if fz[k] {
                             continue;
                         }
@@ -826,41 +833,12 @@ where
         if moved {
             self.rebuild_pairs();
         }
-        // 3-4. forces; on freeze-decision steps every particle's net force is needed
+        // 3-5. forces and the second half kick; on freeze-decision steps every
+        // particle's net force is needed.
         let decide = self
             .freeze
             .is_some_and(|f| (self.steps + 1) % f.interval == 0);
-        self.compute_forces_inner(decide)?;
-        // 5. second half kick; flag any velocity that is non-finite or moves a particle
-        // more than half its radius per step (it could tunnel through a neighbour).
-        let p = &mut self.p;
-        let suspicious =
-            p.v.par_chunks_mut(CHUNK)
-                .zip(p.f.par_chunks(CHUNK))
-                .zip(p.inv_m.par_chunks(CHUNK))
-                .zip(p.r.par_chunks(CHUNK))
-                .zip(p.frozen.par_chunks(CHUNK))
-                .zip(p.w.par_chunks_mut(CHUNK))
-                .zip(p.t.par_chunks(CHUNK))
-                .zip(p.inv_i.par_chunks(CHUNK))
-                .map(|(((((((v, f), im), r), fz), w), t), ii)| {
-                    let mut flag = false;
-                    for k in 0..v.len() {
-                        if fz[k] {
-                            continue;
-                        }
-                        v[k] += f[k] * (im[k] * half);
-                        let lim = 0.5 * r[k] / dt;
-                        // written so that NaN also trips it
-                        let v2 = v[k].norm_squared();
-                        flag |= v2.is_nan() || v2 > lim * lim;
-                        if rot {
-                            w[k] += t[k] * (ii[k] * half);
-                        }
-                    }
-                    flag
-                })
-                .reduce(|| false, |a, b| a | b);
+        let suspicious = self.compute_forces_inner(decide, true)?;
         if decide {
             self.update_frozen();
         }
