@@ -1,6 +1,7 @@
 //! Forces: the pair pass (geometry per pair, contacts compacted into batches for the
 //! vectorised law, results scattered back), the per-particle gather with walls and
-//! body forces, and the freezing decisions that need every particle's net force.
+//! body forces (and, during a step, the second half kick), and the freezing decisions
+//! that need every particle's net force.
 
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
