@@ -57,8 +57,8 @@ def variants(
     faster = {
         "freeze": scene.replace(freeze_depth=fast.freeze_depth),
         "dt": scene.replace(dt=dt),
-        "fast": scene.fast(),
-        "fast+dt": scene.fast().replace(dt=dt),
+        "fast": fast,
+        "fast+dt": fast.replace(dt=dt),
     }
     return {"full": scene} | {k: v.replace(**(changes or {})) for k, v in faster.items()}
 

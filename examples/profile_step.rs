@@ -33,7 +33,7 @@ where
         .positions()
         .iter()
         .chain(w.velocities())
-        .flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
+        .flat_map(|v| v.iter().map(|c| c.to_bits()))
         .chain(w.spins().iter().flat_map(|s| {
             (0..<<Dim<D> as Spatial<D>>::Ang as AngOps>::NCOMP).map(|k| s.comp(k).to_bits())
         }));

@@ -222,7 +222,7 @@ fn search<const D: usize>(
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
     let xs: Vec<Vector<D>> = members.iter().map(|&j| x[j as usize]).collect();
-    let rs: Vec<Real> = members.iter().map(|&j| reach[j as usize]).collect();
+    let reach_s: Vec<Real> = members.iter().map(|&j| reach[j as usize]).collect();
     const CHUNK: usize = 1024;
     // per chunk: the pairs taken from their lower end, and from their upper end
     type Found = (Vec<[u32; 2]>, Vec<[u32; 2]>);
@@ -233,7 +233,7 @@ fn search<const D: usize>(
             let mut down = Vec::new();
             let mut mine: Vec<u32> = Vec::new();
             for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| from(i)) {
-                let (xi, ri) = (x[i], reach[i]);
+                let (xi, reach_i) = (x[i], reach[i]);
                 // Branch-free: every candidate is written to the next slot, and the
                 // count advances only for a partner above i within the cutoff (a
                 // branch there went either way and mispredicted).
@@ -242,13 +242,13 @@ fn search<const D: usize>(
                     if mine.len() < w + run.len() {
                         mine.resize(w + run.len(), 0);
                     }
-                    for ((&j, xj), &rj) in members[run.clone()]
+                    for ((&j, xj), &reach_j) in members[run.clone()]
                         .iter()
                         .zip(&xs[run.clone()])
-                        .zip(&rs[run])
+                        .zip(&reach_s[run])
                     {
                         let ju = j as usize;
-                        let cut = ri + rj;
+                        let cut = reach_i + reach_j;
                         let near = (xj - xi).norm_squared() < cut * cut;
                         mine[w] = j;
                         w += (near & (ju > i)) as usize;

@@ -273,6 +273,7 @@ where
                 let i_frozen = &pr.i_frozen[lo..=lo + n];
                 let i_active = &pr.i_active[lo..=lo + n];
                 let j_start = &pr.j_start[lo..=lo + n];
+                let pout = &pr.out[..];
                 let (t, wh, wf, wm, wn) = (
                     &mut t[..n],
                     &mut wh[..n],
@@ -293,7 +294,6 @@ where
                         fq -= v[k] * drag;
                     }
                     let mut tq = Ang::<D>::default();
-                    let pout = &pr.out[..];
                     // The pairs q starts (force on q: -f), as two ranges of the list,
                     // then those it ends (+f) through their index list. The torque of
                     // the tangential force is -(r_q - d/2) n x f_t on either end.
@@ -389,12 +389,12 @@ where
             })
             .reduce(
                 || (None, false),
+                // the too-deep wall contact of the lowest particle index
                 |a, b| {
-                    let bad = match (a.0, b.0) {
-                        (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
-                        (x, y) => x.or(y),
-                    };
-                    (bad, a.1 | b.1)
+                    (
+                        [a.0, b.0].into_iter().flatten().min_by_key(|e| e.0),
+                        a.1 | b.1,
+                    )
                 },
             );
 
