@@ -1,6 +1,6 @@
 //! Particles, material, the contact law and the integrator state.
 
-pub mod batch;
+pub mod block;
 pub mod contact_law;
 pub mod material;
 

@@ -149,10 +149,11 @@ where
         let pr = &self.pairs;
         let mut e = 0.0;
         for k in 0..pr.ij.len() {
-            let d = pr.out[k].d;
-            if d > 0.0 {
-                let sr = pr.coefs[k].sr;
-                e += contact(c.kn * sr, c.kt * sr, d, pr.hist[k].norm_squared());
+            let rec = pr.get(k);
+            if rec.d > 0.0 {
+                let sr = rec.coefs.sr;
+                let h2 = Vector::<D>::from(rec.h).norm_squared();
+                e += contact(c.kn * sr, c.kt * sr, rec.d, h2);
             }
         }
         for q in 0..self.len() {

@@ -1,5 +1,5 @@
-//! Forces: the pair pass (geometry per pair, contacts compacted into batches for the
-//! vectorised law, results scattered back), the per-particle gather with walls and
+//! Forces: the pair pass (geometry per pair into a scratch block, then the vectorised
+//! law over the block, which writes each pair's state in place), the per-particle gather with walls and
 //! body forces (and, during a step, the second half kick), and the freezing decisions
 //! that need every particle's net force.
 
@@ -22,29 +22,25 @@ unsafe fn at<T: Copy>(s: &[T], i: usize) -> T {
     unsafe { *s.get_unchecked(i) }
 }
 
-/// Writes a batch's results back to its pairs: history, then total force on j,
-/// n x f_t (for the torques) and overlap.
-#[inline]
-fn scatter<const D: usize>(
-    b: &Batch<D>,
-    torques: bool,
-    hist: &mut [Vector<D>],
-    out: &mut [PairOut<D, Ang<D>>],
-) where
+/// Pair e's force on j, n x f_t and overlap, from its block's lanes.
+///
+/// # Safety
+/// `e >> BLOCK_SHIFT < blocks.len()` (see `at`).
+#[inline(always)]
+unsafe fn pair_out<const D: usize>(blocks: &[PairBlock<D>], e: usize) -> (Vector<D>, Ang<D>, Real)
+where
     Dim<D>: Spatial<D>,
 {
-    for m in 0..b.len {
-        let k = b.pair[m] as usize;
-        let n = Vector::<D>::from_fn(|a, _| b.n[a][m]);
-        let ft = Vector::<D>::from_fn(|a, _| b.ft[a][m]);
-        hist[k] = Vector::<D>::from_fn(|a, _| b.h[a][m]);
-        let o = &mut out[k];
-        o.f = n * b.fnorm[m] + ft;
-        if torques {
-            o.nxf = <Dim<D>>::cross_vv(&n, &ft);
-        }
-        o.d = b.d[m];
+    debug_assert!(e >> BLOCK_SHIFT < blocks.len());
+    // SAFETY: the caller guarantees the block exists; the lane is below BLOCK.
+    let b = unsafe { blocks.get_unchecked(e >> BLOCK_SHIFT) };
+    let l = e & (BLOCK - 1);
+    let f = Vector::<D>::from_fn(|a, _| b.f[a][l]);
+    let mut c = [0.0; 3];
+    for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
+        *x = b.nxf[a][l];
     }
+    (f, <Ang<D> as AngOps>::from_comps(&c), b.d[l])
 }
 
 impl<const D: usize> World<D>
@@ -126,95 +122,65 @@ where
         // changes; the frozen pairs keep their forces.
         let first = if skip_frozen { pr.n_frozen_pairs } else { 0 };
 
-        // 3. pair pass
-        let bad_pair = pr.ij[first..]
-            .par_chunks(CHUNK)
-            .zip(pr.coefs[first..].par_chunks(CHUNK))
-            .zip(pr.hist[first..].par_chunks_mut(CHUNK))
-            .zip(pr.out[first..].par_chunks_mut(CHUNK))
+        // 3. pair pass, over the blocks from the one holding the first active pair
+        let torques = rot && friction_on;
+        let ij = &pr.ij[..];
+        let len = ij.len();
+        let b0 = first >> BLOCK_SHIFT;
+        let bad_pair = pr.blocks[b0..]
+            .par_chunks_mut(CHUNK / BLOCK)
             .enumerate()
             .map_init(
-                // one batch buffer per rayon job, not per chunk: it is 16 KB in 3D
-                || Box::new(Batch::<D>::default()),
-                |b, (c, (((ij, coefs), hist), out))| {
-                    let b: &mut Batch<D> = b;
-                    b.len = 0;
-                    // Equal lengths, stated once, let the compiler drop the per-pair
-                    // bounds checks on these chunk slices.
-                    let m = ij.len();
-                    assert!(coefs.len() == m && hist.len() == m && out.len() == m);
+                // one geometry buffer per rayon job, not per chunk: it is 11 KB in 3D
+                || Box::new(Geometry::<D>::default()),
+                |g, (c, blocks)| {
+                    let g: &mut Geometry<D> = g;
                     let mut bad: Option<usize> = None;
-                    // Geometry per pair; contacts are compacted into a batch whose law
-                    // runs vectorised (see `dynamics::batch`), then scattered back.
-                    let flush = |b: &mut Batch<D>,
-                                 hist: &mut [Vector<D>],
-                                 out: &mut [PairOut<D, Ang<D>>]| {
-                        law_batch(b, &consts, dt);
-                        scatter::<D>(b, rot && friction_on, hist, out);
-                        b.len = 0;
-                    };
-                    for k in 0..ij.len() {
-                        let i = ij[k][0] as usize;
-                        let j = ij[k][1] as usize;
-                        // SAFETY: pair-list indices are below the particle count (see `at`).
-                        let (ri, rj, xi, xj, vi, vj) = unsafe {
-                            (
-                                at(&p.r, i),
-                                at(&p.r, j),
-                                at(&p.x, i),
-                                at(&p.x, j),
-                                at(&p.v, i),
-                                at(&p.v, j),
-                            )
-                        };
-                        let dx = xj - xi;
-                        let dist2 = dx.norm_squared();
-                        let cut = ri + rj;
-                        let contact = dist2 < cut * cut;
-                        // Zero the pair only when it just separated: most pairs inside the
-                        // skin stay apart for many steps, and rewriting them is pure traffic.
-                        // (`&`, not `&&`: one rarely taken branch instead of one per pair
-                        // that goes either way.)
-                        if !contact & (out[k].d != 0.0) {
-                            hist[k] = Vector::<D>::zeros();
-                            out[k] = PairOut::default();
+                    for (bi, blk) in blocks.iter_mut().enumerate() {
+                        let base = (b0 + c * (CHUNK / BLOCK) + bi) * BLOCK;
+                        // the lanes of this block in the active run
+                        let lo = first.saturating_sub(base);
+                        let hi = (len - base).min(BLOCK);
+                        // Geometry per pair, branch-free (pairs apart are masked by the
+                        // law). dist > 0 always: two centres never coincide within the
+                        // overlap limit.
+                        for (l, &[i, j]) in (lo..hi).zip(&ij[base + lo..base + hi]) {
+                            let (i, j) = (i as usize, j as usize);
+                            // SAFETY: pair-list indices are below the particle count (see `at`).
+                            let (ri, rj, xi, xj, vi, vj) = unsafe {
+                                (
+                                    at(&p.r, i),
+                                    at(&p.r, j),
+                                    at(&p.x, i),
+                                    at(&p.x, j),
+                                    at(&p.v, i),
+                                    at(&p.v, j),
+                                )
+                            };
+                            let dx = xj - xi;
+                            let dist = dx.norm_squared().sqrt();
+                            let d = ri + rj - dist;
+                            if (d > max_ratio * ri.min(rj)) && bad.is_none() {
+                                bad = Some(base + l);
+                            }
+                            let n = dx / dist;
+                            let mut vrel = vj - vi;
+                            if rot {
+                                // w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n)
+                                // SAFETY: as above.
+                                let (wi, wj) = unsafe { (at(&p.w, i), at(&p.w, j)) };
+                                let w = wi * (ri - 0.5 * d) + wj * (rj - 0.5 * d);
+                                vrel -= <Dim<D>>::cross_wv(w, &n);
+                            }
+                            // l < BLOCK; the mask says so to the compiler
+                            let l = l & (BLOCK - 1);
+                            for a in 0..D {
+                                g.n[a][l] = n[a];
+                                g.v[a][l] = vrel[a];
+                            }
+                            g.d[l] = d;
                         }
-                        // Every pair is written to the next batch slot, but only a contact
-                        // advances the count: compaction without a data-dependent branch.
-                        // dist > 0 always (two centres never coincide within the overlap
-                        // limit); a separated pair's values are overwritten unused.
-                        let dist = dist2.sqrt();
-                        let d = cut - dist;
-                        if contact & (d > max_ratio * ri.min(rj)) && bad.is_none() {
-                            bad = Some(first + c * CHUNK + k);
-                        }
-                        let n = dx / dist;
-                        let mut vrel = vj - vi;
-                        if rot {
-                            // w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n)
-                            // SAFETY: as above.
-                            let (wi, wj) = unsafe { (at(&p.w, i), at(&p.w, j)) };
-                            let w = wi * (ri - 0.5 * d) + wj * (rj - 0.5 * d);
-                            vrel -= <Dim<D>>::cross_wv(w, &n);
-                        }
-                        // b.len < BATCH always (a full batch is flushed at once); the mask
-                        // says so to the compiler, which then drops the bounds checks.
-                        let m = b.len & (BATCH - 1);
-                        b.pair[m] = k as u32;
-                        for a in 0..D {
-                            b.n[a][m] = n[a];
-                            b.v[a][m] = vrel[a];
-                            b.h[a][m] = hist[k][a];
-                        }
-                        b.d[m] = d;
-                        (b.sr[m], b.sm[m]) = (coefs[k].sr, coefs[k].sm);
-                        b.len += contact as usize;
-                        if b.len == BATCH {
-                            flush(b, hist, out);
-                        }
-                    }
-                    if b.len > 0 {
-                        flush(b, hist, out);
+                        law_block(blk, g, lo..hi, &consts, dt, torques);
                     }
                     bad
                 },
@@ -223,7 +189,7 @@ where
             .min();
         if let Some(k) = bad_pair {
             let [i, j] = pr.ij[k];
-            let d = pr.out[k].d;
+            let d = pr.get(k).d;
             let rmin = p.r[i as usize].min(p.r[j as usize]);
             return Err(Error::Blowup {
                 step: self.steps,
@@ -273,7 +239,7 @@ where
                 let i_frozen = &pr.i_frozen[lo..=lo + n];
                 let i_active = &pr.i_active[lo..=lo + n];
                 let j_start = &pr.j_start[lo..=lo + n];
-                let pout = &pr.out[..];
+                let blocks = &pr.blocks[..];
                 let (t, wh, wf, wm, wn) = (
                     &mut t[..n],
                     &mut wh[..n],
@@ -307,24 +273,24 @@ where
                         for e in own.into_iter().flatten() {
                             // SAFETY: the ranges and index lists stay below the pair
                             // count (see `at`).
-                            let o = unsafe { at(pout, e) };
-                            fq -= o.f;
-                            tq += o.nxf * -(rq - 0.5 * o.d);
+                            let (f, nxf, d) = unsafe { pair_out(blocks, e) };
+                            fq -= f;
+                            tq += nxf * -(rq - 0.5 * d);
                         }
                         for &e in ends {
                             // SAFETY: as above.
-                            let o = unsafe { at(pout, e as usize) };
-                            fq += o.f;
-                            tq += o.nxf * -(rq - 0.5 * o.d);
+                            let (f, nxf, d) = unsafe { pair_out(blocks, e as usize) };
+                            fq += f;
+                            tq += nxf * -(rq - 0.5 * d);
                         }
                     } else {
                         for e in own.into_iter().flatten() {
                             // SAFETY: as above.
-                            fq -= unsafe { at(pout, e) }.f;
+                            fq -= unsafe { pair_out(blocks, e) }.0;
                         }
                         for &e in ends {
                             // SAFETY: as above.
-                            fq += unsafe { at(pout, e as usize) }.f;
+                            fq += unsafe { pair_out(blocks, e as usize) }.0;
                         }
                     }
                     // visit only the walls that can touch (most particles: none)

@@ -5,7 +5,7 @@
 //! 1. half kick and drift (velocity Verlet),
 //! 2. rebuild the pair list if some particle has moved more than its half skin,
 //! 3. pair forces (one pass over the pair list, each pair independent; the law runs
-//!    on compacted batches of contacts, `dynamics::batch`),
+//!    over blocks of consecutive pairs, `dynamics::block`),
 //! 4. gather forces per particle (fixed order: no atomics, no order-dependent sums),
 //!    plus walls and body forces,
 //! 5. second half kick, with the blow-up guards.
@@ -17,7 +17,9 @@
 //! (max, min index) or per-chunk partial sums added in chunk order, so results are
 //! bit-identical on any number of threads.
 
-use crate::dynamics::batch::{law_batch, Batch, LawConsts, PairFactors, BATCH};
+use crate::dynamics::block::{
+    law_block, Geometry, LawConsts, PairBlock, PairFactors, PairRecord, BLOCK, BLOCK_SHIFT,
+};
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, Error, Result};
 use crate::geometry::grid::{bin_starts, counting_sort};
@@ -218,16 +220,14 @@ struct Particles<const D: usize, A> {
 /// freeze decisions and which a rebuild keeps without a search, then the pairs with at
 /// least one active particle.
 #[derive(Clone, Debug, Default)]
-struct Pairs<const D: usize, A> {
+struct Pairs<const D: usize> {
     ij: Vec<[u32; 2]>,
     /// Length of the first run (0 when nothing is frozen).
     n_frozen_pairs: usize,
-    /// The pair's share of the law coefficients (from R* and m*).
-    coefs: Vec<PairFactors>,
-    hist: Vec<Vector<D>>,
-    /// What the pair pass leaves for the gather: force, n x f_t and overlap of each
-    /// pair, side by side so that a gather visit touches one place.
-    out: Vec<PairOut<D, A>>,
+    /// Per-pair state (history, law factors, and what the pair pass leaves for the
+    /// gather: force, n x f_t, overlap), pair k in block `k >> BLOCK_SHIFT`, lane
+    /// `k & (BLOCK - 1)`; `ceil(len / BLOCK)` blocks.
+    blocks: Vec<PairBlock<D>>,
     /// Pairs whose first particle is p: `i_frozen[p]..i_frozen[p + 1]` in the frozen
     /// run and `i_active[p]..i_active[p + 1]` in the active one (both runs are sorted
     /// by i, so these are ranges: the gather reads them in order, with no index list).
@@ -239,16 +239,29 @@ struct Pairs<const D: usize, A> {
     j_inc: Vec<u32>,
 }
 
-impl<const D: usize, A: Copy> Pairs<D, A> {
+impl<const D: usize> Pairs<D> {
+    /// The state of pair k.
+    #[inline]
+    fn get(&self, k: usize) -> PairRecord<D> {
+        self.blocks[k >> BLOCK_SHIFT].get(k & (BLOCK - 1))
+    }
+
+    /// Blocks for `len` pairs, pair k set to `fill(k)`, built in parallel.
+    fn build_blocks(len: usize, fill: impl Fn(usize) -> PairRecord<D> + Sync) -> Vec<PairBlock<D>> {
+        let mut blocks = vec![PairBlock::<D>::default(); len.div_ceil(BLOCK)];
+        blocks.par_iter_mut().enumerate().for_each(|(b, blk)| {
+            let base = b * BLOCK;
+            for l in 0..BLOCK.min(len - base) {
+                blk.set(l, &fill(base + l));
+            }
+        });
+        blocks
+    }
+
     /// Reorders every per-pair array: entry k takes the old entry `order[k]`.
     fn permute(&mut self, order: &[u32]) {
-        fn by<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
-            *v = order.iter().map(|&k| v[k as usize]).collect();
-        }
-        by(&mut self.ij, order);
-        by(&mut self.coefs, order);
-        by(&mut self.hist, order);
-        by(&mut self.out, order);
+        self.ij = order.iter().map(|&k| self.ij[k as usize]).collect();
+        self.blocks = Self::build_blocks(order.len(), |k| self.get(order[k] as usize));
     }
 
     /// Checks the invariant that the unchecked indexing of the force loops relies on:
@@ -267,7 +280,7 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
         assert!(self.i_frozen[n] as usize == self.n_frozen_pairs && self.i_active[n] as usize == m);
         assert!(self.i_frozen.windows(2).all(|w| w[0] <= w[1]));
         assert!(self.i_active.windows(2).all(|w| w[0] <= w[1]));
-        assert!(self.coefs.len() == m && self.hist.len() == m && self.out.len() == m);
+        assert!(self.blocks.len() == m.div_ceil(BLOCK));
     }
 
     /// Pair indices in (i, j) order: the merge of the two sorted runs.
@@ -293,28 +306,6 @@ impl<const D: usize, A: Copy> Pairs<D, A> {
 fn trim<T>(v: &mut Vec<T>) {
     if v.capacity() > v.len() + v.len() / 4 {
         v.shrink_to_fit();
-    }
-}
-
-/// The pair pass's result for one pair (zero when the pair is apart).
-#[derive(Clone, Copy, Debug)]
-struct PairOut<const D: usize, A> {
-    /// Total force on j (N).
-    f: Vector<D>,
-    /// n x f_t (N): the torque of the tangential force on particle q is
-    /// -(r_q - d/2) n x f_t for both particles, so one vector serves both.
-    nxf: A,
-    /// Overlap d (m), 0 when apart.
-    d: Real,
-}
-
-impl<const D: usize, A: Default> Default for PairOut<D, A> {
-    fn default() -> Self {
-        PairOut {
-            f: Vector::<D>::zeros(),
-            nxf: A::default(),
-            d: 0.0,
-        }
     }
 }
 
@@ -376,7 +367,7 @@ where
 {
     cfg: SimConfig<D>,
     p: Particles<D, <Dim<D> as Spatial<D>>::Ang>,
-    pairs: Pairs<D, <Dim<D> as Spatial<D>>::Ang>,
+    pairs: Pairs<D>,
     walls: Vec<Wall>,
     e_star: Real,
     g_star: Real,
@@ -487,9 +478,7 @@ where
             + b(&p.wall_mask)
             + b(&p.wall_near)
             + b(&pr.ij)
-            + b(&pr.coefs)
-            + b(&pr.hist)
-            + b(&pr.out)
+            + b(&pr.blocks)
             + b(&pr.i_frozen)
             + b(&pr.i_active)
             + b(&pr.j_start)
@@ -916,45 +905,38 @@ where
                 }
             });
         drop(old_order);
-        // One array at a time, so that the peak holds the old list plus one new array
-        // rather than two whole lists. The kept frozen run stays in front.
-        fn carry<T: Copy + Send + Sync>(v: &mut Vec<T>, keep: usize, src: &[u32], zero: T) {
-            // written once into the new array (kept run, then the carried state), which
-            // replaces the old one
-            let mut new = Vec::with_capacity(keep + src.len());
-            new.extend_from_slice(&v[..keep]);
-            new.par_extend(
-                src.par_iter()
-                    .map(|&o| if o == u32::MAX { zero } else { v[o as usize] }),
-            );
-            *v = new;
-        }
-        carry(&mut pr.hist, keep, &src, Vector::<D>::zeros());
-        carry(&mut pr.out, keep, &src, PairOut::default());
-        drop(src);
+        // The kept frozen run stays in front; the other pairs carry their state over
+        // (or start from zero) and take fresh law factors.
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
-        // filled in place: no second array of coefficients at the peak
-        pr.coefs.truncate(keep);
-        pr.coefs.resize(keep + ij.len(), PairFactors::default());
-        pr.coefs[keep..]
-            .par_iter_mut()
-            .zip(ij.par_iter())
-            .for_each(|(c, &[i, j])| {
-                let (ri, rj) = (r[i as usize], r[j as usize]);
-                let (mi, mj) = (mass[i as usize], mass[j as usize]);
-                *c = PairFactors::new(&PairParams {
-                    r_eff: ri * rj / (ri + rj),
-                    m_eff: mi * mj / (mi + mj),
-                    e_star,
-                    g_star,
-                    damping: mat.damping,
-                    friction: mat.friction,
-                });
+        let old = &pr;
+        let blocks = Pairs::<D>::build_blocks(keep + ij.len(), |k| {
+            if k < keep {
+                return old.get(k);
+            }
+            let o = src[k - keep];
+            let mut rec = if o == u32::MAX {
+                PairRecord::default()
+            } else {
+                old.get(o as usize)
+            };
+            let [i, j] = ij[k - keep];
+            let (ri, rj) = (r[i as usize], r[j as usize]);
+            let (mi, mj) = (mass[i as usize], mass[j as usize]);
+            rec.coefs = PairFactors::new(&PairParams {
+                r_eff: ri * rj / (ri + rj),
+                m_eff: mi * mj / (mi + mj),
+                e_star,
+                g_star,
+                damping: mat.damping,
+                friction: mat.friction,
             });
-        trim(&mut pr.coefs);
+            rec
+        });
+        pr.blocks = blocks;
+        drop(src);
         pr.ij.truncate(keep);
         pr.ij.extend_from_slice(&ij);
         trim(&mut pr.ij);
@@ -1039,18 +1021,19 @@ where
         let pr = &self.pairs;
         for k in pr.sorted_order() {
             let k = k as usize;
-            if pr.out[k].d <= 0.0 {
+            let rec = pr.get(k);
+            if rec.d <= 0.0 {
                 continue;
             }
             let [i, j] = pr.ij[k];
             let dx = self.p.x[j as usize] - self.p.x[i as usize];
             let n = dx / dx.norm();
-            let fv = pr.out[k].f;
+            let fv = Vector::<D>::from(rec.f);
             let fn_ = fv.dot(&n);
             out.i.push(i as i64);
             out.j.push(j as i64);
             out.normal.push(n);
-            out.overlap.push(pr.out[k].d);
+            out.overlap.push(rec.d);
             out.force_normal.push(fn_.max(0.0));
             out.force_tangential.push(fv - n * fn_);
             out.branch.push(dx);

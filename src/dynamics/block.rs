@@ -1,0 +1,443 @@
+//! The contact law over blocks of consecutive pairs, structure of arrays and
+//! branch-free.
+//!
+//! A per-contact loop is bound by latency: each contact is one dependent chain of
+//! square roots and divisions. Here the pair list keeps its per-pair state in
+//! [`PairBlock`]s of [`BLOCK`] consecutive pairs, one array per component. The pair
+//! pass writes each pair's geometry and relative velocity into a [`Geometry`] scratch
+//! block, then [`law_block`] runs the same Hertz-Mindlin law as
+//! [`hertz_mindlin_coefs`](super::hertz_mindlin_coefs) over the whole block with
+//! selects instead of branches: pairs apart (overlap <= 0) are masked to zero rather
+//! than compacted out. The compiler vectorises the loops, the chains of different
+//! pairs overlap, and the results land in the pairs' own lanes with no scatter.
+
+use crate::dynamics::PairParams;
+use crate::math::Real;
+
+/// The material's share of the law coefficients; a pair's own share is two numbers,
+/// sqrt(R*) and sqrt(m* sqrt(R*)), so that the pair list stores 16 bytes of constants
+/// per pair instead of 32 (see [`PairFactors`]).
+///
+/// For a pair: k_n = kn sqrt(R*) sqrt(d), c_n = cn sqrt(m* sqrt(R*)) d^{1/4}, and the
+/// same with kt and ct, which equals [`LawCoefs`](super::LawCoefs) term by term.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LawConsts {
+    /// 2 E* (Pa).
+    pub kn: Real,
+    /// 2 xi sqrt(2 E*) (Pa^{1/2}).
+    pub cn: Real,
+    /// 8 G* (Pa).
+    pub kt: Real,
+    /// 2 xi sqrt(8 G*) (Pa^{1/2}).
+    pub ct: Real,
+    /// Friction coefficient mu (-).
+    pub mu: Real,
+}
+
+impl LawConsts {
+    /// From the effective moduli E*, G* (Pa), damping ratio xi and friction mu.
+    pub fn new(e_star: Real, g_star: Real, damping: Real, friction: Real) -> Self {
+        LawConsts {
+            kn: 2.0 * e_star,
+            cn: 2.0 * damping * (2.0 * e_star).sqrt(),
+            kt: 8.0 * g_star,
+            ct: 2.0 * damping * (8.0 * g_star).sqrt(),
+            mu: friction,
+        }
+    }
+}
+
+/// A pair's share of the law coefficients (see [`LawConsts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairFactors {
+    /// sqrt(R*) (m^{1/2}).
+    pub sr: Real,
+    /// sqrt(m* sqrt(R*)) (kg^{1/2} m^{1/4}).
+    pub sm: Real,
+}
+
+impl PairFactors {
+    /// From the effective radius R* (m) and mass m* (kg) of `p`.
+    #[inline]
+    pub fn new(p: &PairParams) -> Self {
+        let sr = p.r_eff.sqrt();
+        PairFactors {
+            sr,
+            sm: (p.m_eff * sr).sqrt(),
+        }
+    }
+}
+
+/// Pairs per block. A power of two: a pair index k lives in block `k >> BLOCK_SHIFT`,
+/// lane `k & (BLOCK - 1)`.
+pub const BLOCK: usize = 128;
+/// log2 of [`BLOCK`].
+pub const BLOCK_SHIFT: u32 = BLOCK.trailing_zeros();
+const _: () = assert!(BLOCK.is_power_of_two());
+
+/// One pair's state, as [`PairBlock`] stores it lane by lane (SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairRecord<const D: usize> {
+    /// Tangential spring stretch (m).
+    pub h: [Real; D],
+    /// Total contact force on j (N).
+    pub f: [Real; D],
+    /// n x f_t (N); in 2D only the first component is used.
+    pub nxf: [Real; D],
+    /// Overlap (m), 0 when apart.
+    pub d: Real,
+    /// The pair's law factors (see [`PairFactors`]).
+    pub coefs: PairFactors,
+}
+
+impl<const D: usize> Default for PairRecord<D> {
+    fn default() -> Self {
+        PairRecord {
+            h: [0.0; D],
+            f: [0.0; D],
+            nxf: [0.0; D],
+            d: 0.0,
+            coefs: PairFactors::default(),
+        }
+    }
+}
+
+/// The state of [`BLOCK`] consecutive pairs of the list, one array per component, so
+/// that [`law_block`] reads and writes whole vectors of lanes. Lanes past the end of
+/// the list stay zero. Everything but the factors is zero for a pair apart.
+#[derive(Clone, Debug)]
+pub struct PairBlock<const D: usize> {
+    /// Tangential spring stretch (m), by component.
+    pub h: [[Real; BLOCK]; D],
+    /// Total contact force on j (N), by component; the force on i is its opposite.
+    pub f: [[Real; BLOCK]; D],
+    /// n x f_t (N): the torque of the tangential force on either particle q is
+    /// -(r_q - d/2) n x f_t. Three components in 3D; in 2D the first holds the
+    /// out-of-plane one and the second stays zero.
+    pub nxf: [[Real; BLOCK]; D],
+    /// Overlap d (m), 0 when apart.
+    pub d: [Real; BLOCK],
+    /// sqrt(R*) (see [`PairFactors`]).
+    pub sr: [Real; BLOCK],
+    /// sqrt(m* sqrt(R*)).
+    pub sm: [Real; BLOCK],
+}
+
+impl<const D: usize> Default for PairBlock<D> {
+    fn default() -> Self {
+        PairBlock {
+            h: [[0.0; BLOCK]; D],
+            f: [[0.0; BLOCK]; D],
+            nxf: [[0.0; BLOCK]; D],
+            d: [0.0; BLOCK],
+            sr: [0.0; BLOCK],
+            sm: [0.0; BLOCK],
+        }
+    }
+}
+
+impl<const D: usize> PairBlock<D> {
+    /// The state of lane `l` (`l < BLOCK`).
+    #[inline]
+    pub fn get(&self, l: usize) -> PairRecord<D> {
+        PairRecord {
+            h: std::array::from_fn(|a| self.h[a][l]),
+            f: std::array::from_fn(|a| self.f[a][l]),
+            nxf: std::array::from_fn(|a| self.nxf[a][l]),
+            d: self.d[l],
+            coefs: PairFactors {
+                sr: self.sr[l],
+                sm: self.sm[l],
+            },
+        }
+    }
+
+    /// Sets the state of lane `l` (`l < BLOCK`).
+    #[inline]
+    pub fn set(&mut self, l: usize, r: &PairRecord<D>) {
+        for a in 0..D {
+            self.h[a][l] = r.h[a];
+            self.f[a][l] = r.f[a];
+            self.nxf[a][l] = r.nxf[a];
+        }
+        self.d[l] = r.d;
+        self.sr[l] = r.coefs.sr;
+        self.sm[l] = r.coefs.sm;
+    }
+}
+
+/// What the pair pass computes for a block's pairs before the law (SI units), lane
+/// for lane with the [`PairBlock`].
+#[derive(Clone, Debug)]
+pub struct Geometry<const D: usize> {
+    /// Unit normal from i to j, by component.
+    pub n: [[Real; BLOCK]; D],
+    /// Relative velocity of j's surface w.r.t. i's at the contact, by component.
+    pub v: [[Real; BLOCK]; D],
+    /// Overlap r_i + r_j - |x_j - x_i|: > 0 in contact, <= 0 apart.
+    pub d: [Real; BLOCK],
+    /// Scratch: sqrt(d), d^{1/4}, the normal relative velocity and the normal force,
+    /// from the normal pass to the tangential one (cheaper to keep than to recompute).
+    scratch: [[Real; BLOCK]; 4],
+}
+
+impl<const D: usize> Default for Geometry<D> {
+    fn default() -> Self {
+        Geometry {
+            n: [[0.0; BLOCK]; D],
+            v: [[0.0; BLOCK]; D],
+            d: [0.0; BLOCK],
+            scratch: [[0.0; BLOCK]; 4],
+        }
+    }
+}
+
+/// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
+/// advances the history and writes the total force on j, n x f_t (when `torques`, else
+/// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
+/// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
+#[inline(never)]
+pub fn law_block<const D: usize>(
+    b: &mut PairBlock<D>,
+    g: &mut Geometry<D>,
+    lanes: std::ops::Range<usize>,
+    c: &LawConsts,
+    dt: Real,
+    torques: bool,
+) {
+    let (lo, hi) = (lanes.start, lanes.end.min(BLOCK));
+    let mu = c.mu;
+    for m in lo..hi {
+        // Apart: d <= 0; the law then runs on d = 0 (no NaN) and the result is masked.
+        let d = g.d[m].max(0.0);
+        let s = d.sqrt();
+        let q = s.sqrt();
+        let mut vn = 0.0;
+        for a in 0..D {
+            vn += g.v[a][m] * g.n[a][m];
+        }
+        let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
+        g.scratch[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
+        g.scratch[0][m] = s;
+        g.scratch[1][m] = q;
+        g.scratch[2][m] = vn;
+    }
+    if mu <= 0.0 {
+        // No friction: no tangential force, and no history to advance. (`+ 0.0` as with
+        // friction, where it is the tangential force: the same bits either way.)
+        for m in lo..hi {
+            let contact = g.d[m] > 0.0;
+            let fnorm = g.scratch[3][m];
+            for a in 0..D {
+                b.f[a][m] = if contact {
+                    g.n[a][m] * fnorm + 0.0
+                } else {
+                    0.0
+                };
+                b.nxf[a][m] = 0.0;
+                // the history stays as it is (zero in the engine, where mu = 0 holds
+                // for the whole run)
+                b.h[a][m] = if contact { b.h[a][m] } else { 0.0 };
+            }
+            b.d[m] = if contact { g.d[m] } else { 0.0 };
+        }
+        return;
+    }
+    for m in lo..hi {
+        let contact = g.d[m] > 0.0;
+        let (s, q, vn, fnorm) = (
+            g.scratch[0][m],
+            g.scratch[1][m],
+            g.scratch[2][m],
+            g.scratch[3][m],
+        );
+        let mut hn = 0.0;
+        let mut h_old2 = 0.0;
+        for a in 0..D {
+            hn += b.h[a][m] * g.n[a][m];
+            h_old2 += b.h[a][m] * b.h[a][m];
+        }
+        let mut hp = [0.0; D];
+        let mut h_new2 = 0.0;
+        for (a, x) in hp.iter_mut().enumerate() {
+            *x = b.h[a][m] - g.n[a][m] * hn;
+            h_new2 += *x * *x;
+        }
+        // Keep the stored elastic displacement's magnitude when projecting it.
+        let rescale = if h_new2 > 0.0 {
+            (h_old2 / h_new2).sqrt()
+        } else {
+            1.0
+        };
+        let k_t = (c.kt * b.sr[m]) * s;
+        let c_t = (c.ct * b.sm[m]) * q;
+        let mut vt = [0.0; D];
+        let mut ft = [0.0; D];
+        let mut ft2 = 0.0;
+        for a in 0..D {
+            vt[a] = g.v[a][m] - g.n[a][m] * vn;
+            hp[a] = hp[a] * rescale + vt[a] * dt;
+            ft[a] = -(hp[a] * k_t) - vt[a] * c_t;
+            ft2 += ft[a] * ft[a];
+        }
+        let f_max = mu * fnorm;
+        let slide = ft2 > f_max * f_max;
+        // slide implies ft2 > 0
+        let scale = if slide { f_max / ft2.sqrt() } else { 1.0 };
+        // n and f_t padded to three components (zeros in 2D) for n x f_t
+        let mut n3 = [0.0; 3];
+        let mut f3 = [0.0; 3];
+        for a in 0..D {
+            let f = ft[a] * scale;
+            n3[a] = g.n[a][m];
+            f3[a] = f;
+            // sliding: the spring stretch consistent with the capped force
+            let h = if slide {
+                -(f + vt[a] * c_t) / k_t
+            } else {
+                hp[a]
+            };
+            b.h[a][m] = if contact { h } else { 0.0 };
+            b.f[a][m] = if contact { n3[a] * fnorm + f } else { 0.0 };
+        }
+        // the component order of nalgebra's cross product (bit for bit)
+        let nxf = [
+            n3[1] * f3[2] - n3[2] * f3[1],
+            n3[2] * f3[0] - n3[0] * f3[2],
+            n3[0] * f3[1] - n3[1] * f3[0],
+        ];
+        let on = contact && torques;
+        if D == 3 {
+            for (col, &x) in b.nxf.iter_mut().zip(&nxf) {
+                col[m] = if on { x } else { 0.0 };
+            }
+        } else {
+            // 2D: the out-of-plane component only
+            b.nxf[0][m] = if on { nxf[2] } else { 0.0 };
+        }
+        b.d[m] = if contact { g.d[m] } else { 0.0 };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dynamics::{hertz_mindlin_coefs, LawCoefs, PairParams};
+    use crate::math::Vector;
+    use rand::{Rng, SeedableRng};
+
+    /// The block law agrees with the scalar law pair by pair, sticking and sliding,
+    /// with and without friction; pairs apart come out zero whatever history they held,
+    /// and lanes outside the range are left alone.
+    #[test]
+    fn block_law_matches_the_scalar_law() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let (lo, hi) = (3, BLOCK - 5);
+        for mu in [0.0, 0.2, 1.0] {
+            let mut b = PairBlock::<3>::default();
+            let mut g = Geometry::<3>::default();
+            let consts = LawConsts::new(5.3e7, 1.1e7, 0.1, mu);
+            let mut expect = Vec::new();
+            for m in 0..BLOCK {
+                let p = PairParams {
+                    r_eff: 0.005 + 0.01 * rng.random::<f64>(),
+                    m_eff: 1e-3 + 1e-2 * rng.random::<f64>(),
+                    e_star: 5.3e7,
+                    g_star: 1.1e7,
+                    damping: 0.1,
+                    friction: mu,
+                };
+                let c = LawCoefs::new(&p);
+                let n = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5).normalize();
+                let v = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5);
+                let h = Vector::<3>::from_fn(|_, _| 1e-5 * (rng.random::<f64>() - 0.5));
+                // one pair in five apart (overlap <= 0, the exact zero included)
+                let apart = m % 5 == 0;
+                let d = if apart {
+                    -1e-5 * rng.random::<f64>()
+                } else {
+                    1e-5 * rng.random::<f64>() + 1e-9
+                };
+                let mut h_scalar = h;
+                let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4);
+                expect.push((apart, f, h_scalar, n));
+                g.d[m] = d;
+                let pf = PairFactors::new(&p);
+                b.sr[m] = pf.sr;
+                b.sm[m] = pf.sm;
+                b.d[m] = 7.0; // stale values: overwritten in range, kept outside
+                for a in 0..3 {
+                    g.n[a][m] = n[a];
+                    g.v[a][m] = v[a];
+                    b.h[a][m] = h[a];
+                    b.f[a][m] = 7.0;
+                    b.nxf[a][m] = 7.0;
+                }
+            }
+            let h_before = b.h;
+            law_block(&mut b, &mut g, lo..hi, &consts, 1e-4, true);
+            for (m, (apart, f, h, n)) in expect.iter().enumerate() {
+                if !(lo..hi).contains(&m) {
+                    assert_eq!(b.d[m], 7.0);
+                    for (a, h0) in h_before.iter().enumerate() {
+                        assert_eq!((b.f[a][m], b.nxf[a][m]), (7.0, 7.0));
+                        assert_eq!(b.h[a][m], h0[m]);
+                    }
+                    continue;
+                }
+                if *apart {
+                    assert_eq!(b.d[m], 0.0);
+                    for a in 0..3 {
+                        assert_eq!((b.f[a][m], b.nxf[a][m], b.h[a][m]), (0.0, 0.0, 0.0));
+                    }
+                    continue;
+                }
+                assert_eq!(b.d[m], g.d[m]);
+                let tol = 1e-12 * (1.0 + f.normal.abs());
+                let total = n * f.normal + f.tangential;
+                let nxf = n.cross(&f.tangential);
+                for a in 0..3 {
+                    assert!((b.f[a][m] - total[a]).abs() <= tol, "mu {mu} m {m}");
+                    assert!((b.nxf[a][m] - nxf[a]).abs() <= tol, "mu {mu} m {m}");
+                    assert!(
+                        (b.h[a][m] - h[a]).abs() <= 1e-12 * (1e-5 + h.norm()),
+                        "mu {mu} m {m} a {a}: {} vs {}",
+                        b.h[a][m],
+                        h[a]
+                    );
+                }
+            }
+        }
+    }
+
+    /// In 2D the block law's n x f_t is the out-of-plane component, in the first
+    /// column, and matches the scalar law's tangential force.
+    #[test]
+    fn block_law_2d_torque_component() {
+        let consts = LawConsts::new(5.3e7, 1.1e7, 0.1, 0.5);
+        let p = PairParams {
+            r_eff: 0.005,
+            m_eff: 2e-3,
+            e_star: 5.3e7,
+            g_star: 1.1e7,
+            damping: 0.1,
+            friction: 0.5,
+        };
+        let n = Vector::<2>::new(0.6, 0.8);
+        // approaching (v.n < 0) and sliding sideways
+        let v = Vector::<2>::new(-0.3, 0.1);
+        let mut h = Vector::<2>::new(2e-7, -1e-7);
+        let (mut b, mut g) = (PairBlock::<2>::default(), Geometry::<2>::default());
+        let pf = PairFactors::new(&p);
+        (b.sr[0], b.sm[0], g.d[0]) = (pf.sr, pf.sm, 2e-6);
+        for a in 0..2 {
+            (g.n[a][0], g.v[a][0], b.h[a][0]) = (n[a], v[a], h[a]);
+        }
+        law_block(&mut b, &mut g, 0..1, &consts, 1e-4, true);
+        let f = hertz_mindlin_coefs(&LawCoefs::new(&p), 2e-6, &n, &v, &mut h, 1e-4);
+        let nxf = n[0] * f.tangential[1] - n[1] * f.tangential[0];
+        assert!(f.tangential.norm() > 0.0);
+        assert!((b.nxf[0][0] - nxf).abs() <= 1e-12 * f.normal);
+        assert_eq!(b.nxf[1][0], 0.0);
+    }
+}
