@@ -166,8 +166,10 @@ impl<const D: usize> PairBlock<D> {
     }
 }
 
-/// What the pair pass computes for a block's pairs before the law (SI units), lane
-/// for lane with the [`PairBlock`].
+/// A block's pairs on their way to the law (SI units), lane for lane with the
+/// [`PairBlock`]. The pair pass fills `n` with x_j - x_i, `v` with v_j - v_i, `r` with
+/// the radii and (with rotations) `tmp` with the spins; [`geometry_block`] turns
+/// them into the unit normal, the relative velocity at the contact and the overlap.
 #[derive(Clone, Debug)]
 pub struct Geometry<const D: usize> {
     /// Unit normal from i to j, by component.
@@ -176,9 +178,13 @@ pub struct Geometry<const D: usize> {
     pub v: [[Real; BLOCK]; D],
     /// Overlap r_i + r_j - |x_j - x_i|: > 0 in contact, <= 0 apart.
     pub d: [Real; BLOCK],
-    /// Scratch: sqrt(d), d^{1/4}, the normal relative velocity and the normal force,
-    /// from the normal pass to the tangential one (cheaper to keep than to recompute).
-    scratch: [[Real; BLOCK]; 4],
+    /// Radii r_i, r_j (m).
+    pub r: [[Real; BLOCK]; 2],
+    /// Scratch: the spins of i (columns 0-2) and j (3-5) for [`geometry_block`]
+    /// (rad/s; one component each in 2D); then sqrt(d), d^{1/4}, the normal relative
+    /// velocity and the normal force, from the law's normal pass to its tangential one
+    /// (cheaper to keep than to recompute).
+    pub tmp: [[Real; BLOCK]; 6],
 }
 
 impl<const D: usize> Default for Geometry<D> {
@@ -187,9 +193,66 @@ impl<const D: usize> Default for Geometry<D> {
             n: [[0.0; BLOCK]; D],
             v: [[0.0; BLOCK]; D],
             d: [0.0; BLOCK],
-            scratch: [[0.0; BLOCK]; 4],
+            r: [[0.0; BLOCK]; 2],
+            tmp: [[0.0; BLOCK]; 6],
         }
     }
+}
+
+/// Turns what the pair pass gathered for lanes `lanes` (see [`Geometry`]) into the
+/// unit normal, the overlap and the relative velocity of j's surface w.r.t. i's at the
+/// contact point, w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n) included when `rot`.
+/// Same arithmetic, in the same order, as the nalgebra expressions it replaces (bit
+/// for bit). Returns whether some lane's overlap exceeds `max_ratio` (> 0) times its
+/// smaller radius.
+#[inline(never)]
+pub fn geometry_block<const D: usize>(
+    g: &mut Geometry<D>,
+    lanes: std::ops::Range<usize>,
+    rot: bool,
+    max_ratio: Real,
+) -> bool {
+    let (lo, hi) = (lanes.start, lanes.end.min(BLOCK));
+    let mut bad = false;
+    for m in lo..hi {
+        let (ri, rj) = (g.r[0][m], g.r[1][m]);
+        // nalgebra's dot of a 2- or 3-vector: (x0 x0 + x1 x1) + x2 x2
+        let mut dist2 = g.n[0][m] * g.n[0][m] + g.n[1][m] * g.n[1][m];
+        if D == 3 {
+            dist2 += g.n[D - 1][m] * g.n[D - 1][m];
+        }
+        // dist > 0 always: two centres never coincide within the overlap limit
+        let dist = dist2.sqrt();
+        let d = ri + rj - dist;
+        bad |= d > max_ratio * ri.min(rj);
+        g.d[m] = d;
+        let mut n = [0.0; 3];
+        for (a, x) in n.iter_mut().enumerate().take(D) {
+            *x = g.n[a][m] / dist;
+            g.n[a][m] = *x;
+        }
+        if rot {
+            let (ai, aj) = (ri - 0.5 * d, rj - 0.5 * d);
+            if D == 3 {
+                let w: [Real; 3] = std::array::from_fn(|c| g.tmp[c][m] * ai + g.tmp[3 + c][m] * aj);
+                // w x n, in nalgebra's order
+                let wxn = [
+                    w[1] * n[2] - w[2] * n[1],
+                    w[2] * n[0] - w[0] * n[2],
+                    w[0] * n[1] - w[1] * n[0],
+                ];
+                for (a, x) in wxn.iter().enumerate().take(D) {
+                    g.v[a][m] -= x;
+                }
+            } else {
+                // (0, 0, w) x (n0, n1, 0) = (-w n1, w n0)
+                let w = g.tmp[0][m] * ai + g.tmp[3][m] * aj;
+                g.v[0][m] -= -w * n[1];
+                g.v[1][m] -= w * n[0];
+            }
+        }
+    }
+    bad
 }
 
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
@@ -217,17 +280,17 @@ pub fn law_block<const D: usize>(
             vn += g.v[a][m] * g.n[a][m];
         }
         let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
-        g.scratch[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
-        g.scratch[0][m] = s;
-        g.scratch[1][m] = q;
-        g.scratch[2][m] = vn;
+        g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
+        g.tmp[0][m] = s;
+        g.tmp[1][m] = q;
+        g.tmp[2][m] = vn;
     }
     if mu <= 0.0 {
         // No friction: no tangential force, and no history to advance. (`+ 0.0` as with
         // friction, where it is the tangential force: the same bits either way.)
         for m in lo..hi {
             let contact = g.d[m] > 0.0;
-            let fnorm = g.scratch[3][m];
+            let fnorm = g.tmp[3][m];
             for a in 0..D {
                 b.f[a][m] = if contact {
                     g.n[a][m] * fnorm + 0.0
@@ -245,12 +308,7 @@ pub fn law_block<const D: usize>(
     }
     for m in lo..hi {
         let contact = g.d[m] > 0.0;
-        let (s, q, vn, fnorm) = (
-            g.scratch[0][m],
-            g.scratch[1][m],
-            g.scratch[2][m],
-            g.scratch[3][m],
-        );
+        let (s, q, vn, fnorm) = (g.tmp[0][m], g.tmp[1][m], g.tmp[2][m], g.tmp[3][m]);
         let mut hn = 0.0;
         let mut h_old2 = 0.0;
         for a in 0..D {
@@ -439,5 +497,77 @@ mod tests {
         assert!(f.tangential.norm() > 0.0);
         assert!((b.nxf[0][0] - nxf).abs() <= 1e-12 * f.normal);
         assert_eq!(b.nxf[1][0], 0.0);
+    }
+
+    /// The block geometry equals the nalgebra expressions of a per-pair loop bit for
+    /// bit (2D and 3D, with and without rotations), and flags a lane too deep.
+    fn geometry_matches_nalgebra<const D: usize>()
+    where
+        crate::math::Dim<D>: crate::math::Spatial<D>,
+    {
+        use crate::math::{AngOps, Dim, Spatial};
+        type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let nc = <Ang<D> as AngOps>::NCOMP;
+        for rot in [false, true] {
+            let mut g = Geometry::<D>::default();
+            let mut expect = Vec::new();
+            for m in 0..BLOCK {
+                let (ri, rj) = (
+                    0.01 + 0.01 * rng.random::<f64>(),
+                    0.01 + 0.01 * rng.random::<f64>(),
+                );
+                let dx = Vector::<D>::from_fn(|_, _| rng.random::<f64>() - 0.5).normalize()
+                    * (ri + rj)
+                    * (0.9 + 0.2 * rng.random::<f64>());
+                let dv = Vector::<D>::from_fn(|_, _| rng.random::<f64>() - 0.5);
+                let wc: Vec<f64> = (0..2 * nc)
+                    .map(|_| 10.0 * rng.random::<f64>() - 5.0)
+                    .collect();
+                let (wi, wj) = (
+                    Ang::<D>::from_comps(&wc[..nc]),
+                    Ang::<D>::from_comps(&wc[nc..]),
+                );
+                // the per-pair loop this replaces
+                let dist = dx.norm_squared().sqrt();
+                let d = ri + rj - dist;
+                let n = dx / dist;
+                let mut vrel = dv;
+                if rot {
+                    let w = wi * (ri - 0.5 * d) + wj * (rj - 0.5 * d);
+                    vrel -= <Dim<D>>::cross_wv(w, &n);
+                }
+                expect.push((d, n, vrel));
+                (g.r[0][m], g.r[1][m]) = (ri, rj);
+                for a in 0..D {
+                    (g.n[a][m], g.v[a][m]) = (dx[a], dv[a]);
+                }
+                for c in 0..nc {
+                    (g.tmp[c][m], g.tmp[3 + c][m]) = (wc[c], wc[nc + c]);
+                }
+            }
+            // overlaps here reach 10 % of r_i + r_j: a limit of 0.5 r_min never trips,
+            // one of 1e-3 r_min does
+            let lanes = 0..BLOCK;
+            assert!(!geometry_block(&mut g.clone(), lanes.clone(), rot, 0.5));
+            assert!(geometry_block(&mut g, lanes, rot, 1e-3));
+            for (m, (d, n, v)) in expect.iter().enumerate() {
+                assert_eq!(g.d[m].to_bits(), d.to_bits());
+                for a in 0..D {
+                    assert_eq!(g.n[a][m].to_bits(), n[a].to_bits());
+                    assert_eq!(g.v[a][m].to_bits(), v[a].to_bits(), "rot {rot} m {m} a {a}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn geometry_block_matches_nalgebra_3d() {
+        geometry_matches_nalgebra::<3>();
+    }
+
+    #[test]
+    fn geometry_block_matches_nalgebra_2d() {
+        geometry_matches_nalgebra::<2>();
     }
 }

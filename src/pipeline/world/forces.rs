@@ -141,9 +141,8 @@ where
                         // the lanes of this block in the active run
                         let lo = first.saturating_sub(base);
                         let hi = (len - base).min(BLOCK);
-                        // Geometry per pair, branch-free (pairs apart are masked by the
-                        // law). dist > 0 always: two centres never coincide within the
-                        // overlap limit.
+                        // What each pair's geometry needs, gathered from the two
+                        // particles; the arithmetic runs vectorised over the block.
                         for (l, &[i, j]) in (lo..hi).zip(&ij[base + lo..base + hi]) {
                             let (i, j) = (i as usize, j as usize);
                             // SAFETY: pair-list indices are below the particle count (see `at`).
@@ -157,28 +156,27 @@ where
                                     at(&p.v, j),
                                 )
                             };
-                            let dx = xj - xi;
-                            let dist = dx.norm_squared().sqrt();
-                            let d = ri + rj - dist;
-                            if (d > max_ratio * ri.min(rj)) && bad.is_none() {
-                                bad = Some(base + l);
-                            }
-                            let n = dx / dist;
-                            let mut vrel = vj - vi;
-                            if rot {
-                                // w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n)
-                                // SAFETY: as above.
-                                let (wi, wj) = unsafe { (at(&p.w, i), at(&p.w, j)) };
-                                let w = wi * (ri - 0.5 * d) + wj * (rj - 0.5 * d);
-                                vrel -= <Dim<D>>::cross_wv(w, &n);
-                            }
                             // l < BLOCK; the mask says so to the compiler
                             let l = l & (BLOCK - 1);
+                            let (dx, dv) = (xj - xi, vj - vi);
                             for a in 0..D {
-                                g.n[a][l] = n[a];
-                                g.v[a][l] = vrel[a];
+                                g.n[a][l] = dx[a];
+                                g.v[a][l] = dv[a];
                             }
-                            g.d[l] = d;
+                            (g.r[0][l], g.r[1][l]) = (ri, rj);
+                            if rot {
+                                // SAFETY: as above.
+                                let (wi, wj) = unsafe { (at(&p.w, i), at(&p.w, j)) };
+                                for c in 0..<Ang<D> as AngOps>::NCOMP {
+                                    g.tmp[c][l] = wi.comp(c);
+                                    g.tmp[3 + c][l] = wj.comp(c);
+                                }
+                            }
+                        }
+                        if geometry_block(g, lo..hi, rot, max_ratio) && bad.is_none() {
+                            // the first pair too deep (rare: the step is then refused)
+                            let ratio = |l: usize| max_ratio * g.r[0][l].min(g.r[1][l]);
+                            bad = (lo..hi).find(|&l| g.d[l] > ratio(l)).map(|l| base + l);
                         }
                         law_block(blk, g, lo..hi, &consts, dt, torques);
                     }
