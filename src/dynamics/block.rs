@@ -82,8 +82,11 @@ pub struct PairRecord<const D: usize> {
     pub h: [Real; D],
     /// Total contact force on j (N).
     pub f: [Real; D],
-    /// n x f_t (N); in 2D only the first component is used.
-    pub nxf: [Real; D],
+    /// Torque of the tangential force on i (N m); in 2D only the first component is
+    /// used.
+    pub ti: [Real; D],
+    /// Torque of the tangential force on j (N m), likewise.
+    pub tj: [Real; D],
     /// Overlap (m), 0 when apart.
     pub d: Real,
     /// The pair's law factors (see [`PairFactors`]).
@@ -95,7 +98,8 @@ impl<const D: usize> Default for PairRecord<D> {
         PairRecord {
             h: [0.0; D],
             f: [0.0; D],
-            nxf: [0.0; D],
+            ti: [0.0; D],
+            tj: [0.0; D],
             d: 0.0,
             coefs: PairFactors::default(),
         }
@@ -111,10 +115,12 @@ pub struct PairBlock<const D: usize> {
     pub h: [[Real; BLOCK]; D],
     /// Total contact force on j (N), by component; the force on i is its opposite.
     pub f: [[Real; BLOCK]; D],
-    /// n x f_t (N): the torque of the tangential force on either particle q is
-    /// -(r_q - d/2) n x f_t. Three components in 3D; in 2D the first holds the
-    /// out-of-plane one and the second stays zero.
-    pub nxf: [[Real; BLOCK]; D],
+    /// Torque of the tangential force on i (N m), -(r_i - d/2) n x f_t, by component:
+    /// three in 3D; in 2D the first holds the out-of-plane one and the second stays
+    /// zero. Zero unless the law runs with torques.
+    pub ti: [[Real; BLOCK]; D],
+    /// Torque of the tangential force on j (N m), -(r_j - d/2) n x f_t, likewise.
+    pub tj: [[Real; BLOCK]; D],
     /// Overlap d (m), 0 when apart.
     pub d: [Real; BLOCK],
     /// sqrt(R*) (see [`PairFactors`]).
@@ -128,7 +134,8 @@ impl<const D: usize> Default for PairBlock<D> {
         PairBlock {
             h: [[0.0; BLOCK]; D],
             f: [[0.0; BLOCK]; D],
-            nxf: [[0.0; BLOCK]; D],
+            ti: [[0.0; BLOCK]; D],
+            tj: [[0.0; BLOCK]; D],
             d: [0.0; BLOCK],
             sr: [0.0; BLOCK],
             sm: [0.0; BLOCK],
@@ -143,7 +150,8 @@ impl<const D: usize> PairBlock<D> {
         PairRecord {
             h: std::array::from_fn(|a| self.h[a][l]),
             f: std::array::from_fn(|a| self.f[a][l]),
-            nxf: std::array::from_fn(|a| self.nxf[a][l]),
+            ti: std::array::from_fn(|a| self.ti[a][l]),
+            tj: std::array::from_fn(|a| self.tj[a][l]),
             d: self.d[l],
             coefs: PairFactors {
                 sr: self.sr[l],
@@ -158,7 +166,8 @@ impl<const D: usize> PairBlock<D> {
         for a in 0..D {
             self.h[a][l] = r.h[a];
             self.f[a][l] = r.f[a];
-            self.nxf[a][l] = r.nxf[a];
+            self.ti[a][l] = r.ti[a];
+            self.tj[a][l] = r.tj[a];
         }
         self.d[l] = r.d;
         self.sr[l] = r.coefs.sr;
@@ -256,9 +265,12 @@ pub fn geometry_block<const D: usize>(
 }
 
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
-/// advances the history and writes the total force on j, n x f_t (when `torques`, else
-/// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
+/// advances the history and writes the total force on j, the tangential force's torque
+/// on either particle (when `torques`, else zero; from the radii in `g.r`) and the
+/// overlap; a pair apart gets all four zero. The lanes outside `lanes`
 /// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
+// A lane index addresses a dozen columns at once: index loops read best.
+#[allow(clippy::needless_range_loop)]
 #[inline(never)]
 pub fn law_block<const D: usize>(
     b: &mut PairBlock<D>,
@@ -286,95 +298,164 @@ pub fn law_block<const D: usize>(
         g.tmp[2][m] = vn;
     }
     if mu <= 0.0 {
-        // No friction: no tangential force, and no history to advance. (`+ 0.0` as with
-        // friction, where it is the tangential force: the same bits either way.)
+        // No friction: no tangential force (a zero f_t, added as with friction: the
+        // same bits), no torques, and the history stays as it is (zero in the engine,
+        // where mu = 0 holds for the whole run).
         for m in lo..hi {
-            let contact = g.d[m] > 0.0;
-            let fnorm = g.tmp[3][m];
-            for a in 0..D {
-                b.f[a][m] = if contact {
-                    g.n[a][m] * fnorm + 0.0
-                } else {
-                    0.0
-                };
-                b.nxf[a][m] = 0.0;
-                // the history stays as it is (zero in the engine, where mu = 0 holds
-                // for the whole run)
-                b.h[a][m] = if contact { b.h[a][m] } else { 0.0 };
-            }
-            b.d[m] = if contact { g.d[m] } else { 0.0 };
+            let h: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
+            write_lane(b, g, m, false, &[0.0; D], &h);
         }
         return;
     }
+    // Sticking trial for every lane, vectorised. A sliding lane needs a square root
+    // and 1 + D divisions more; sliding is rare in a jammed pack, so those lanes keep
+    // their old history here, are flagged and are finished one by one below.
+    let mut any_slide = false;
+    // a local array, which the compiler knows aliases none of the block's columns
+    let mut slides = [0u8; BLOCK];
     for m in lo..hi {
         let contact = g.d[m] > 0.0;
-        let (s, q, vn, fnorm) = (g.tmp[0][m], g.tmp[1][m], g.tmp[2][m], g.tmp[3][m]);
-        let mut hn = 0.0;
-        let mut h_old2 = 0.0;
-        for a in 0..D {
-            hn += b.h[a][m] * g.n[a][m];
-            h_old2 += b.h[a][m] * b.h[a][m];
-        }
-        let mut hp = [0.0; D];
-        let mut h_new2 = 0.0;
-        for (a, x) in hp.iter_mut().enumerate() {
-            *x = b.h[a][m] - g.n[a][m] * hn;
-            h_new2 += *x * *x;
-        }
-        // Keep the stored elastic displacement's magnitude when projecting it.
-        let rescale = if h_new2 > 0.0 {
-            (h_old2 / h_new2).sqrt()
-        } else {
-            1.0
-        };
-        let k_t = (c.kt * b.sr[m]) * s;
-        let c_t = (c.ct * b.sm[m]) * q;
-        let mut vt = [0.0; D];
-        let mut ft = [0.0; D];
-        let mut ft2 = 0.0;
-        for a in 0..D {
-            vt[a] = g.v[a][m] - g.n[a][m] * vn;
-            hp[a] = hp[a] * rescale + vt[a] * dt;
-            ft[a] = -(hp[a] * k_t) - vt[a] * c_t;
-            ft2 += ft[a] * ft[a];
-        }
-        let f_max = mu * fnorm;
-        let slide = ft2 > f_max * f_max;
-        // slide implies ft2 > 0
-        let scale = if slide { f_max / ft2.sqrt() } else { 1.0 };
-        // n and f_t padded to three components (zeros in 2D) for n x f_t
-        let mut n3 = [0.0; 3];
-        let mut f3 = [0.0; 3];
-        for a in 0..D {
-            let f = ft[a] * scale;
-            n3[a] = g.n[a][m];
-            f3[a] = f;
-            // sliding: the spring stretch consistent with the capped force
-            let h = if slide {
-                -(f + vt[a] * c_t) / k_t
-            } else {
-                hp[a]
-            };
-            b.h[a][m] = if contact { h } else { 0.0 };
-            b.f[a][m] = if contact { n3[a] * fnorm + f } else { 0.0 };
-        }
-        // the component order of nalgebra's cross product (bit for bit)
-        let nxf = [
-            n3[1] * f3[2] - n3[2] * f3[1],
-            n3[2] * f3[0] - n3[0] * f3[2],
-            n3[0] * f3[1] - n3[1] * f3[0],
-        ];
-        let on = contact && torques;
-        if D == 3 {
-            for (col, &x) in b.nxf.iter_mut().zip(&nxf) {
-                col[m] = if on { x } else { 0.0 };
-            }
-        } else {
-            // 2D: the out-of-plane component only
-            b.nxf[0][m] = if on { nxf[2] } else { 0.0 };
-        }
-        b.d[m] = if contact { g.d[m] } else { 0.0 };
+        let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
+        let t = trial(b, g, m, &h_old, c, dt);
+        let f_max = mu * g.tmp[3][m];
+        let slide = contact & (t.ft2 > f_max * f_max);
+        any_slide |= slide;
+        slides[m] = slide as u8;
+        // (sticking: f_t * 1, as the scalar law scales it: the same bits)
+        let h = if slide { h_old } else { t.hp };
+        write_lane(b, g, m, contact && torques, &t.ft, &h);
     }
+    if !any_slide {
+        return;
+    }
+    // The flags eight lanes at a time (zero outside lo..hi).
+    for (w, bytes) in slides.chunks_exact(8).enumerate() {
+        let mut word = u64::from_le_bytes(bytes.try_into().unwrap_or_default());
+        while word != 0 {
+            let m = 8 * w + (word.trailing_zeros() / 8) as usize;
+            word &= word - 1;
+            let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
+            let t = trial(b, g, m, &h_old, c, dt);
+            // slide implies ft2 > 0
+            let scale = (mu * g.tmp[3][m]) / t.ft2.sqrt();
+            let ft: [Real; D] = std::array::from_fn(|a| t.ft[a] * scale);
+            // the spring stretch consistent with the capped force
+            let h: [Real; D] = std::array::from_fn(|a| -(ft[a] + t.vt[a] * t.c_t) / t.k_t);
+            write_lane(b, g, m, torques, &ft, &h);
+        }
+    }
+}
+
+/// The sticking trial of the tangential law for lane m (see [`trial`]).
+struct Trial<const D: usize> {
+    /// Tangential relative velocity (m/s).
+    vt: [Real; D],
+    /// Projected, rescaled and advanced spring stretch (m).
+    hp: [Real; D],
+    /// Trial tangential force on j (N) and its squared magnitude.
+    ft: [Real; D],
+    ft2: Real,
+    /// Tangential stiffness (N/m) and damping (N s/m).
+    k_t: Real,
+    c_t: Real,
+}
+
+/// The tangential law's trial for lane m, from the history `h` and the normal pass's
+/// scratch (sqrt(d), d^{1/4}, v_n in `g.tmp[0..3]`): the stretch projected onto the
+/// tangent plane with its magnitude kept, advanced by v_t dt, and the force it gives.
+/// Same formulas, in the same order, as `hertz_mindlin_coefs`.
+#[inline(always)]
+fn trial<const D: usize>(
+    b: &PairBlock<D>,
+    g: &Geometry<D>,
+    m: usize,
+    h: &[Real; D],
+    c: &LawConsts,
+    dt: Real,
+) -> Trial<D> {
+    let (s, q, vn) = (g.tmp[0][m], g.tmp[1][m], g.tmp[2][m]);
+    let mut hn = 0.0;
+    let mut h_old2 = 0.0;
+    for a in 0..D {
+        hn += h[a] * g.n[a][m];
+        h_old2 += h[a] * h[a];
+    }
+    let mut hp = [0.0; D];
+    let mut h_new2 = 0.0;
+    for (a, x) in hp.iter_mut().enumerate() {
+        *x = h[a] - g.n[a][m] * hn;
+        h_new2 += *x * *x;
+    }
+    // Keep the stored elastic displacement's magnitude when projecting it.
+    let rescale = if h_new2 > 0.0 {
+        (h_old2 / h_new2).sqrt()
+    } else {
+        1.0
+    };
+    let k_t = (c.kt * b.sr[m]) * s;
+    let c_t = (c.ct * b.sm[m]) * q;
+    let mut vt = [0.0; D];
+    let mut ft = [0.0; D];
+    let mut ft2 = 0.0;
+    for a in 0..D {
+        vt[a] = g.v[a][m] - g.n[a][m] * vn;
+        hp[a] = hp[a] * rescale + vt[a] * dt;
+        ft[a] = -(hp[a] * k_t) - vt[a] * c_t;
+        ft2 += ft[a] * ft[a];
+    }
+    Trial {
+        vt,
+        hp,
+        ft,
+        ft2,
+        k_t,
+        c_t,
+    }
+}
+
+/// Writes lane m's results from its tangential force `ft` and new history `h`: the
+/// total force on j, the torques on either end (when `torques`, else zero), the
+/// history and the overlap; all zero for a pair apart.
+// A lane index addresses a dozen columns at once: index loops read best.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn write_lane<const D: usize>(
+    b: &mut PairBlock<D>,
+    g: &Geometry<D>,
+    m: usize,
+    torques: bool,
+    ft: &[Real; D],
+    h: &[Real; D],
+) {
+    let contact = g.d[m] > 0.0;
+    let fnorm = g.tmp[3][m];
+    // n and f_t padded to three components (zeros in 2D) for n x f_t
+    let mut n3 = [0.0; 3];
+    let mut f3 = [0.0; 3];
+    for a in 0..D {
+        n3[a] = g.n[a][m];
+        f3[a] = ft[a];
+        b.h[a][m] = if contact { h[a] } else { 0.0 };
+        b.f[a][m] = if contact { n3[a] * fnorm + ft[a] } else { 0.0 };
+    }
+    // the component order of nalgebra's cross product (bit for bit)
+    let nxf = [
+        n3[1] * f3[2] - n3[2] * f3[1],
+        n3[2] * f3[0] - n3[0] * f3[2],
+        n3[0] * f3[1] - n3[1] * f3[0],
+    ];
+    // Each end's torque -(r_q - d/2) n x f_t, as the gather used to form it.
+    let on = contact && torques;
+    let d = g.d[m];
+    let (arm_i, arm_j) = (-(g.r[0][m] - 0.5 * d), -(g.r[1][m] - 0.5 * d));
+    // 3D: the three components; 2D: the out-of-plane one
+    let (first, count) = if D == 3 { (0, 3) } else { (2, 1) };
+    for k in 0..count {
+        let x = nxf[first + k];
+        b.ti[k][m] = if on { x * arm_i } else { 0.0 };
+        b.tj[k][m] = if on { x * arm_j } else { 0.0 };
+    }
+    b.d[m] = if contact { d } else { 0.0 };
 }
 
 #[cfg(test)]
@@ -420,6 +501,7 @@ mod tests {
                 let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4);
                 expect.push((apart, f, h_scalar, n));
                 g.d[m] = d;
+                (g.r[0][m], g.r[1][m]) = (0.01 + 0.01 * rng.random::<f64>(), 0.02);
                 let pf = PairFactors::new(&p);
                 b.sr[m] = pf.sr;
                 b.sm[m] = pf.sm;
@@ -429,7 +511,8 @@ mod tests {
                     g.v[a][m] = v[a];
                     b.h[a][m] = h[a];
                     b.f[a][m] = 7.0;
-                    b.nxf[a][m] = 7.0;
+                    b.ti[a][m] = 7.0;
+                    b.tj[a][m] = 7.0;
                 }
             }
             let h_before = b.h;
@@ -438,7 +521,7 @@ mod tests {
                 if !(lo..hi).contains(&m) {
                     assert_eq!(b.d[m], 7.0);
                     for (a, h0) in h_before.iter().enumerate() {
-                        assert_eq!((b.f[a][m], b.nxf[a][m]), (7.0, 7.0));
+                        assert_eq!((b.f[a][m], b.ti[a][m], b.tj[a][m]), (7.0, 7.0, 7.0));
                         assert_eq!(b.h[a][m], h0[m]);
                     }
                     continue;
@@ -446,17 +529,22 @@ mod tests {
                 if *apart {
                     assert_eq!(b.d[m], 0.0);
                     for a in 0..3 {
-                        assert_eq!((b.f[a][m], b.nxf[a][m], b.h[a][m]), (0.0, 0.0, 0.0));
+                        let got = (b.f[a][m], b.ti[a][m], b.tj[a][m], b.h[a][m]);
+                        assert_eq!(got, (0.0, 0.0, 0.0, 0.0));
                     }
                     continue;
                 }
                 assert_eq!(b.d[m], g.d[m]);
                 let tol = 1e-12 * (1.0 + f.normal.abs());
                 let total = n * f.normal + f.tangential;
+                // torque of f_t at the contact point, arm -(r_q - d/2) n on either end
                 let nxf = n.cross(&f.tangential);
+                let ti = nxf * -(g.r[0][m] - 0.5 * g.d[m]);
+                let tj = nxf * -(g.r[1][m] - 0.5 * g.d[m]);
                 for a in 0..3 {
                     assert!((b.f[a][m] - total[a]).abs() <= tol, "mu {mu} m {m}");
-                    assert!((b.nxf[a][m] - nxf[a]).abs() <= tol, "mu {mu} m {m}");
+                    assert!((b.ti[a][m] - ti[a]).abs() <= 0.02 * tol, "mu {mu} m {m}");
+                    assert!((b.tj[a][m] - tj[a]).abs() <= 0.02 * tol, "mu {mu} m {m}");
                     assert!(
                         (b.h[a][m] - h[a]).abs() <= 1e-12 * (1e-5 + h.norm()),
                         "mu {mu} m {m} a {a}: {} vs {}",
@@ -468,8 +556,8 @@ mod tests {
         }
     }
 
-    /// In 2D the block law's n x f_t is the out-of-plane component, in the first
-    /// column, and matches the scalar law's tangential force.
+    /// In 2D the block law's torques are the out-of-plane component, in the first
+    /// column, and match the scalar law's tangential force.
     #[test]
     fn block_law_2d_torque_component() {
         let consts = LawConsts::new(5.3e7, 1.1e7, 0.1, 0.5);
@@ -488,6 +576,7 @@ mod tests {
         let (mut b, mut g) = (PairBlock::<2>::default(), Geometry::<2>::default());
         let pf = PairFactors::new(&p);
         (b.sr[0], b.sm[0], g.d[0]) = (pf.sr, pf.sm, 2e-6);
+        (g.r[0][0], g.r[1][0]) = (0.01, 0.02);
         for a in 0..2 {
             (g.n[a][0], g.v[a][0], b.h[a][0]) = (n[a], v[a], h[a]);
         }
@@ -495,8 +584,10 @@ mod tests {
         let f = hertz_mindlin_coefs(&LawCoefs::new(&p), 2e-6, &n, &v, &mut h, 1e-4);
         let nxf = n[0] * f.tangential[1] - n[1] * f.tangential[0];
         assert!(f.tangential.norm() > 0.0);
-        assert!((b.nxf[0][0] - nxf).abs() <= 1e-12 * f.normal);
-        assert_eq!(b.nxf[1][0], 0.0);
+        let tol = 1e-14 * f.normal;
+        assert!((b.ti[0][0] - nxf * -(0.01 - 1e-6)).abs() <= tol);
+        assert!((b.tj[0][0] - nxf * -(0.02 - 1e-6)).abs() <= tol);
+        assert_eq!((b.ti[1][0], b.tj[1][0]), (0.0, 0.0));
     }
 
     /// The block geometry equals the nalgebra expressions of a per-pair loop bit for

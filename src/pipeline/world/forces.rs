@@ -22,25 +22,62 @@ unsafe fn at<T: Copy>(s: &[T], i: usize) -> T {
     unsafe { *s.get_unchecked(i) }
 }
 
-/// Pair e's force on j, n x f_t and overlap, from its block's lanes.
+/// `&s[i]` without the bounds check, as [`at`].
+///
+/// # Safety
+/// `i < s.len()`, as for [`at`].
+#[inline(always)]
+unsafe fn at_ref<T>(s: &[T], i: usize) -> &T {
+    debug_assert!(i < s.len());
+    // SAFETY: the caller guarantees i < s.len().
+    unsafe { s.get_unchecked(i) }
+}
+
+/// Lane `l` of a block: the pair's force on j and its tangential force's torque on
+/// the j end (`J`) or the i end.
+#[inline(always)]
+fn lane<const D: usize, const J: bool>(b: &PairBlock<D>, l: usize) -> (Vector<D>, Ang<D>)
+where
+    Dim<D>: Spatial<D>,
+{
+    let l = l & (BLOCK - 1);
+    let f = Vector::<D>::from_fn(|a, _| b.f[a][l]);
+    let t = if J { &b.tj } else { &b.ti };
+    let mut c = [0.0; 3];
+    for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
+        *x = t[a][l];
+    }
+    (f, <Ang<D> as AngOps>::from_comps(&c))
+}
+
+/// Calls `visit(block, lane)` for the pairs `range` of the list, in order, a block
+/// at a time (no index arithmetic per pair).
+#[inline(always)]
+fn for_lanes<const D: usize>(
+    blocks: &[PairBlock<D>],
+    range: std::ops::Range<usize>,
+    mut visit: impl FnMut(&PairBlock<D>, usize),
+) {
+    let (mut e, end) = (range.start, range.end);
+    while e < end {
+        let b = &blocks[e >> BLOCK_SHIFT];
+        let l0 = e & (BLOCK - 1);
+        let l1 = (l0 + (end - e)).min(BLOCK);
+        for l in l0..l1 {
+            visit(b, l);
+        }
+        e += l1 - l0;
+    }
+}
+
+/// Block of pair e.
 ///
 /// # Safety
 /// `e >> BLOCK_SHIFT < blocks.len()` (see `at`).
 #[inline(always)]
-unsafe fn pair_out<const D: usize>(blocks: &[PairBlock<D>], e: usize) -> (Vector<D>, Ang<D>, Real)
-where
-    Dim<D>: Spatial<D>,
-{
-    debug_assert!(e >> BLOCK_SHIFT < blocks.len());
-    // SAFETY: the caller guarantees the block exists; the lane is below BLOCK.
-    let b = unsafe { blocks.get_unchecked(e >> BLOCK_SHIFT) };
-    let l = e & (BLOCK - 1);
-    let f = Vector::<D>::from_fn(|a, _| b.f[a][l]);
-    let mut c = [0.0; 3];
-    for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
-        *x = b.nxf[a][l];
-    }
-    (f, <Ang<D> as AngOps>::from_comps(&c), b.d[l])
+unsafe fn block_of<const D: usize>(blocks: &[PairBlock<D>], e: usize) -> &PairBlock<D> {
+    // SAFETY: the caller guarantees the block exists.
+    unsafe { at_ref(blocks, e >> BLOCK_SHIFT) }
 }
 
 impl<const D: usize> World<D>
@@ -267,28 +304,29 @@ where
                     ];
                     let ends = &pr.j_inc[j_start[k] as usize..j_start[k + 1] as usize];
                     if rot && friction_on {
-                        let rq = r[k];
-                        for e in own.into_iter().flatten() {
-                            // SAFETY: the ranges and index lists stay below the pair
-                            // count (see `at`).
-                            let (f, nxf, d) = unsafe { pair_out(blocks, e) };
-                            fq -= f;
-                            tq += nxf * -(rq - 0.5 * d);
+                        for range in own {
+                            for_lanes(blocks, range, |b, l| {
+                                let (f, t) = lane::<D, false>(b, l);
+                                fq -= f;
+                                tq += t;
+                            });
                         }
                         for &e in ends {
-                            // SAFETY: as above.
-                            let (f, nxf, d) = unsafe { pair_out(blocks, e as usize) };
+                            let e = e as usize;
+                            // SAFETY: the index lists stay below the pair count (see
+                            // `at`).
+                            let (f, t) = lane::<D, true>(unsafe { block_of(blocks, e) }, e);
                             fq += f;
-                            tq += nxf * -(rq - 0.5 * d);
+                            tq += t;
                         }
                     } else {
-                        for e in own.into_iter().flatten() {
-                            // SAFETY: as above.
-                            fq -= unsafe { pair_out(blocks, e) }.0;
+                        for range in own {
+                            for_lanes(blocks, range, |b, l| fq -= lane::<D, false>(b, l).0);
                         }
                         for &e in ends {
+                            let e = e as usize;
                             // SAFETY: as above.
-                            fq += unsafe { pair_out(blocks, e as usize) }.0;
+                            fq += lane::<D, true>(unsafe { block_of(blocks, e) }, e).0;
                         }
                     }
                     // visit only the walls that can touch (most particles: none)
