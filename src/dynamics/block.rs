@@ -376,9 +376,9 @@ fn trial<const D: usize>(
     let (s, q, vn) = (g.tmp[0][m], g.tmp[1][m], g.tmp[2][m]);
     let mut hn = 0.0;
     let mut h_old2 = 0.0;
-    for a in 0..D {
-        hn += h[a] * g.n[a][m];
-        h_old2 += h[a] * h[a];
+    for (a, &x) in h.iter().enumerate() {
+        hn += x * g.n[a][m];
+        h_old2 += x * x;
     }
     let mut hp = [0.0; D];
     let mut h_new2 = 0.0;
