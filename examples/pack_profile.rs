@@ -11,7 +11,8 @@ where
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
     // (m/s), FORCE=0.1 (of the weight), TOL=1e-2; engine settings: DT=1e-4 (s),
-    // SKIN=0.2 (largest skin over r_min)
+    // SKIN=0.2 (largest skin over r_min); SETTLE=1.0 (s per layer; short ones profile
+    // the falling phase, e.g. under callgrind)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -30,7 +31,7 @@ where
         radii: RadiusLaw::Constant(r),
         h_layer: 0.1,
         phi_layer,
-        settle_time: 1.0,
+        settle_time: env("SETTLE", 1.0),
         seed: 1,
         stream: 0,
         max_attempts: 100_000,

@@ -212,17 +212,18 @@ impl<const D: usize> Default for Geometry<D> {
 /// unit normal, the overlap and the relative velocity of j's surface w.r.t. i's at the
 /// contact point, w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n) included when `rot`.
 /// Same arithmetic, in the same order, as the nalgebra expressions it replaces (bit
-/// for bit). Returns whether some lane's overlap exceeds `max_ratio` (> 0) times its
-/// smaller radius.
+/// for bit). Returns whether some lane is in contact (overlap > 0), and whether some
+/// lane's overlap exceeds `max_ratio` (> 0) times its smaller radius.
 #[inline(never)]
 pub fn geometry_block<const D: usize>(
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
     rot: bool,
     max_ratio: Real,
-) -> bool {
+) -> (bool, bool) {
     let (lo, hi) = (lanes.start, lanes.end.min(BLOCK));
     let mut bad = false;
+    let mut contact = false;
     for m in lo..hi {
         let (ri, rj) = (g.r[0][m], g.r[1][m]);
         // nalgebra's dot of a 2- or 3-vector: (x0 x0 + x1 x1) + x2 x2
@@ -234,6 +235,7 @@ pub fn geometry_block<const D: usize>(
         let dist = dist2.sqrt();
         let d = ri + rj - dist;
         bad |= d > max_ratio * ri.min(rj);
+        contact |= d > 0.0;
         g.d[m] = d;
         let mut n = [0.0; 3];
         for (a, x) in n.iter_mut().enumerate().take(D) {
@@ -261,7 +263,25 @@ pub fn geometry_block<const D: usize>(
             }
         }
     }
-    bad
+    (contact, bad)
+}
+
+/// What [`law_block`] writes for lanes `lanes` when none of them is in contact:
+/// zero history, force, torques and overlap. Cheap when they are zero already (the
+/// pairs of a falling layer, which the list holds side by side, for many steps).
+pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<usize>) {
+    let lanes = lanes.start..lanes.end.min(BLOCK);
+    // a pair apart has d = 0 and all its state zero; one that just separated has not
+    if b.d[lanes.clone()].iter().all(|&d| d == 0.0) {
+        return;
+    }
+    for a in 0..D {
+        b.h[a][lanes.clone()].fill(0.0);
+        b.f[a][lanes.clone()].fill(0.0);
+        b.ti[a][lanes.clone()].fill(0.0);
+        b.tj[a][lanes.clone()].fill(0.0);
+    }
+    b.d[lanes].fill(0.0);
 }
 
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
@@ -307,46 +327,30 @@ pub fn law_block<const D: usize>(
         }
         return;
     }
-    // Sticking trial for every lane, vectorised. A sliding lane needs a square root
-    // and 1 + D divisions more; sliding is rare in a jammed pack, so those lanes keep
-    // their old history here, are flagged and are finished one by one below.
-    let mut any_slide = false;
-    // a local array, which the compiler knows aliases none of the block's columns
-    let mut slides = [0u8; BLOCK];
     for m in lo..hi {
         let contact = g.d[m] > 0.0;
         let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
         let t = trial(b, g, m, &h_old, c, dt);
         let f_max = mu * g.tmp[3][m];
-        let slide = contact & (t.ft2 > f_max * f_max);
-        any_slide |= slide;
-        slides[m] = slide as u8;
-        // (sticking: f_t * 1, as the scalar law scales it: the same bits)
-        let h = if slide { h_old } else { t.hp };
-        write_lane(b, g, m, contact && torques, &t.ft, &h);
-    }
-    if !any_slide {
-        return;
-    }
-    // The flags eight lanes at a time (zero outside lo..hi).
-    for (w, bytes) in slides.chunks_exact(8).enumerate() {
-        let mut word = u64::from_le_bytes(bytes.try_into().unwrap_or_default());
-        while word != 0 {
-            let m = 8 * w + (word.trailing_zeros() / 8) as usize;
-            word &= word - 1;
-            let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
-            let t = trial(b, g, m, &h_old, c, dt);
-            // slide implies ft2 > 0
-            let scale = (mu * g.tmp[3][m]) / t.ft2.sqrt();
-            let ft: [Real; D] = std::array::from_fn(|a| t.ft[a] * scale);
-            // the spring stretch consistent with the capped force
-            let h: [Real; D] = std::array::from_fn(|a| -(ft[a] + t.vt[a] * t.c_t) / t.k_t);
-            write_lane(b, g, m, torques, &ft, &h);
-        }
+        let slide = t.ft2 > f_max * f_max;
+        // Sliding caps the force at mu f_n (slide implies ft2 > 0). Both branches run
+        // on every lane, selected by the flag: sliding contacts are common while a
+        // layer falls, and a separate pass for them cost more than it saved.
+        let scale = if slide { f_max / t.ft2.sqrt() } else { 1.0 };
+        let ft: [Real; D] = std::array::from_fn(|a| t.ft[a] * scale);
+        // sliding: the spring stretch consistent with the capped force
+        let h: [Real; D] = std::array::from_fn(|a| {
+            if slide {
+                -(ft[a] + t.vt[a] * t.c_t) / t.k_t
+            } else {
+                t.hp[a]
+            }
+        });
+        write_lane(b, g, m, contact && torques, &ft, &h);
     }
 }
 
-/// The sticking trial of the tangential law for lane m (see [`trial`]).
+/// The sticking trial of the tangential law for one lane (see [`trial`]).
 struct Trial<const D: usize> {
     /// Tangential relative velocity (m/s).
     vt: [Real; D],
@@ -637,11 +641,22 @@ mod tests {
                     (g.tmp[c][m], g.tmp[3 + c][m]) = (wc[c], wc[nc + c]);
                 }
             }
-            // overlaps here reach 10 % of r_i + r_j: a limit of 0.5 r_min never trips,
-            // one of 1e-3 r_min does
+            // Centre distances are 0.9-1.1 (r_i + r_j): about half the lanes touch,
+            // with overlaps up to 10 % of r_i + r_j. A limit of 0.5 r_min never trips,
+            // one of 1e-3 r_min does.
             let lanes = 0..BLOCK;
-            assert!(!geometry_block(&mut g.clone(), lanes.clone(), rot, 0.5));
-            assert!(geometry_block(&mut g, lanes, rot, 1e-3));
+            let (contact, bad) = geometry_block(&mut g.clone(), lanes.clone(), rot, 0.5);
+            assert!(contact && !bad);
+            // all lanes twice as far apart: no contact
+            let mut apart = g.clone();
+            for col in apart.n.iter_mut() {
+                col.iter_mut().for_each(|x| *x *= 2.0);
+            }
+            assert_eq!(
+                geometry_block(&mut apart, lanes.clone(), rot, 1e-3),
+                (false, false)
+            );
+            assert_eq!(geometry_block(&mut g, lanes, rot, 1e-3), (true, true));
             for (m, (d, n, v)) in expect.iter().enumerate() {
                 assert_eq!(g.d[m].to_bits(), d.to_bits());
                 for a in 0..D {

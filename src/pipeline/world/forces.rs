@@ -210,12 +210,17 @@ where
                                 }
                             }
                         }
-                        if geometry_block(g, lo..hi, rot, max_ratio) && bad.is_none() {
+                        let (contact, too_deep) = geometry_block(g, lo..hi, rot, max_ratio);
+                        if too_deep && bad.is_none() {
                             // the first pair too deep (rare: the step is then refused)
                             let ratio = |l: usize| max_ratio * g.r[0][l].min(g.r[1][l]);
                             bad = (lo..hi).find(|&l| g.d[l] > ratio(l)).map(|l| base + l);
                         }
-                        law_block(blk, g, lo..hi, &consts, dt, torques);
+                        if contact {
+                            law_block(blk, g, lo..hi, &consts, dt, torques);
+                        } else {
+                            clear_lanes(blk, lo..hi);
+                        }
                     }
                     bad
                 },

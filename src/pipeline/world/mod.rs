@@ -18,8 +18,8 @@
 //! bit-identical on any number of threads.
 
 use crate::dynamics::block::{
-    geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors, PairRecord, BLOCK,
-    BLOCK_SHIFT,
+    clear_lanes, geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors,
+    PairRecord, BLOCK, BLOCK_SHIFT,
 };
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, Error, Result};
