@@ -1,7 +1,7 @@
-//! Forces: the pair pass (geometry per pair into a scratch block, then the vectorised
-//! law over the block, which writes each pair's state in place), the per-particle gather with walls and
-//! body forces (and, during a step, the second half kick), and the freezing decisions
-//! that need every particle's net force.
+//! Forces: the pair pass (each pair's particle data gathered into a scratch block, then
+//! the geometry and the law vectorised over the block, which write each pair's state in
+//! place), the per-particle gather with walls and body forces (and, during a step, the
+//! second half kick), and the freezing decisions that need every particle's net force.
 
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -33,8 +33,8 @@ unsafe fn at_ref<T>(s: &[T], i: usize) -> &T {
     unsafe { s.get_unchecked(i) }
 }
 
-/// Lane `l` of a block: the pair's force on j and its tangential force's torque on
-/// the j end (`J`) or the i end.
+/// Lane `l` of a block (`l` taken modulo [`BLOCK`], so a pair index serves): the
+/// pair's force on j and its tangential force's torque on the j end (`J`) or the i end.
 #[inline(always)]
 fn lane<const D: usize, const J: bool>(b: &PairBlock<D>, l: usize) -> (Vector<D>, Ang<D>)
 where
@@ -168,7 +168,7 @@ where
             .par_chunks_mut(CHUNK / BLOCK)
             .enumerate()
             .map_init(
-                // one geometry buffer per rayon job, not per chunk: it is 11 KB in 3D
+                // one geometry buffer per rayon job, not per chunk: it is 15 KB in 3D
                 || Box::new(Geometry::<D>::default()),
                 |g, (c, blocks)| {
                     let g: &mut Geometry<D> = g;
