@@ -1,9 +1,10 @@
 //! Quick, interference-robust timing of one DEM step: the minimum (and median) over
 //! repeated batches of steps, in ns per particle-step. Used for before/after
 //! comparisons on a shared machine, where criterion's means drift with background load.
-//! `cargo bench --bench step_min [-- THREADS] [sizes]`: `sizes` adds the tiled packs
-//! (3D: 8 952, 80 568 and 572 928 spheres; 2D: 1 397 and 100 584 discs), to check that
-//! the cost per particle-step stays flat with size.
+//! `cargo bench --bench step_min [-- THREADS] [sizes | tiles3]`: `sizes` adds the tiled
+//! packs (3D: 8 952, 80 568 and 572 928 spheres; 2D: 1 397 and 100 584 discs), to check
+//! that the cost per particle-step stays flat with size; `tiles3` runs the 80 568-sphere
+//! pack alone.
 
 mod common;
 
@@ -58,6 +59,11 @@ fn main() {
         .skip(1)
         .find_map(|a| a.parse().ok())
         .unwrap_or(1);
+    // `tiles3` measures the 80 568-sphere pack alone (a memory-bound case, quickly)
+    if std::env::args().any(|a| a == "tiles3") {
+        measure::<3>("3d 3x3 tiles", 3, threads);
+        return;
+    }
     measure::<3>("3d peer pack (4.3)", 1, threads);
     measure::<2>("2d peer pack (4.1)", 1, threads);
     if std::env::args().any(|a| a == "sizes") {

@@ -10,7 +10,7 @@ where
     Dim<D>: Spatial<D>,
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
-    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2; engine settings: DT=1e-4 (s),
+    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time); engine settings: DT=1e-4 (s),
     // SKIN=0.2 (largest skin over r_min); SETTLE=1.0 (s per layer; short ones profile
     // the falling phase, e.g. under callgrind)
     let env = |k: &str, d: f64| {
@@ -36,7 +36,8 @@ where
         stream: 0,
         max_attempts: 100_000,
         max_layers: layers,
-        adaptive_settle: fast.then_some(env("TOL", 1e-2)),
+        // TOL=0 keeps the fixed settle time with freezing on
+        adaptive_settle: (fast && env("TOL", 1e-2) > 0.0).then(|| env("TOL", 1e-2)),
         freeze_depth: fast.then_some(depth),
         freeze_speed: env("SPEED", 1e-3),
         freeze_force: env("FORCE", 0.1),
