@@ -10,9 +10,10 @@ where
     Dim<D>: Spatial<D>,
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
-    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time); engine settings: DT=1e-4 (s),
-    // SKIN=0.2 (largest skin over r_min); SETTLE=1.0 (s per layer; short ones profile
-    // the falling phase, e.g. under callgrind)
+    // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time, with
+    // freezing); engine settings: DT=1e-4 (s), SKIN=0.2 (largest skin over r_min);
+    // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
+    // callgrind)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -20,6 +21,7 @@ where
             .unwrap_or(d)
     };
     let depth = env("DEPTH", 0.1);
+    let tol = env("TOL", 1e-2);
     let mut sim = SimConfig::<D>::paper();
     sim.drag = 0.005;
     sim.dt = env("DT", sim.dt);
@@ -36,8 +38,7 @@ where
         stream: 0,
         max_attempts: 100_000,
         max_layers: layers,
-        // TOL=0 keeps the fixed settle time with freezing on
-        adaptive_settle: (fast && env("TOL", 1e-2) > 0.0).then(|| env("TOL", 1e-2)),
+        adaptive_settle: (fast && tol > 0.0).then_some(tol),
         freeze_depth: fast.then_some(depth),
         freeze_speed: env("SPEED", 1e-3),
         freeze_force: env("FORCE", 0.1),
