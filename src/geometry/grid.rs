@@ -86,9 +86,9 @@ impl<const D: usize> CellGrid<D> {
 
     /// Calls `f(range)` for the 3^(D-1) runs of [`members`](Self::members) (as ranges of
     /// positions in it) that cover the 3^D cells around position `p` (its own
-    /// included). Cells are numbered with the first axis
-    /// fastest, so the (up to) three cells of a row along that axis are adjacent in
-    /// `members`: one contiguous run per row, no per-cell bookkeeping.
+    /// included). Cells are numbered with the first axis fastest, so the (up to) three
+    /// cells of a row along that axis are adjacent in `members`: one contiguous run per
+    /// row, no per-cell bookkeeping.
     #[inline]
     pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
         let c = cell_coords(p, &self.lo, self.cell, &self.dims);
