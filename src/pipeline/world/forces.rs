@@ -243,7 +243,58 @@ where
             });
         }
 
-        // 4. gather, and 5. the second half kick
+        // 4. gather, and 5. the second half kick: the loop compiled once per
+        // combination of what is switched on, so that the common cases carry no tests
+        // of switches that are off, nor the frozen run's bookkeeping when nothing is
+        // frozen.
+        let frozen = self.n_frozen > 0 || self.pairs.n_frozen_pairs > 0;
+        let (bad_wall, suspicious) = match (rot && friction_on, kick, frozen) {
+            (false, false, false) => self.gather::<false, false, false>(skip_frozen),
+            (false, false, true) => self.gather::<false, false, true>(skip_frozen),
+            (false, true, false) => self.gather::<false, true, false>(skip_frozen),
+            (false, true, true) => self.gather::<false, true, true>(skip_frozen),
+            (true, false, false) => self.gather::<true, false, false>(skip_frozen),
+            (true, false, true) => self.gather::<true, false, true>(skip_frozen),
+            (true, true, false) => self.gather::<true, true, false>(skip_frozen),
+            (true, true, true) => self.gather::<true, true, true>(skip_frozen),
+        };
+
+        if let Some((q, wi, d)) = bad_wall {
+            return Err(Error::Blowup {
+                step: self.steps,
+                time: self.time,
+                particle: q,
+                what: format!(
+                    "overlap with wall {} is {d:e} m = {:.3} of its radius \
+                     (limit max_overlap_ratio = {max_ratio})",
+                    -(wi as i64) - 1,
+                    d / self.p.r[q]
+                ),
+            });
+        }
+        self.forces_valid = true;
+        Ok(suspicious)
+    }
+
+    /// The per-particle gather of [`compute_forces_inner`](Self::compute_forces_inner):
+    /// each particle's pair forces, walls and body forces, and with `KICK` the second
+    /// half kick. `TORQUE`: rotations and friction both on (tangential torques to
+    /// gather, spins to kick); `FROZEN`: some particles are frozen or the pair list
+    /// has a frozen run (with it false, no particle is frozen and the list is one
+    /// run). Frozen particles are not gathered when `skip_frozen`. Returns the first too-deep wall contact
+    /// and whether a kicked velocity looks unsafe.
+    #[allow(clippy::type_complexity)]
+    fn gather<const TORQUE: bool, const KICK: bool, const FROZEN: bool>(
+        &mut self,
+        skip_frozen: bool,
+    ) -> (Option<(usize, usize, Real)>, bool) {
+        let dt = self.cfg.dt;
+        let rot = self.cfg.rotations;
+        let mat = self.cfg.material;
+        let (e_star, g_star) = (self.e_star, self.g_star);
+        let max_ratio = self.cfg.max_overlap_ratio;
+        // the tunnelling guard: |v| > r / (2 dt), as v^2 > r^2 / (4 dt^2)
+        let guard = 0.25 / (dt * dt);
         let pr = &self.pairs;
         let walls = &self.walls;
         let gravity = self.cfg.gravity;
@@ -251,9 +302,7 @@ where
         let half = 0.5 * dt;
         let p = &mut self.p;
         let (x, r, m, fz, inv_m, inv_i) = (&p.x, &p.r, &p.m, &p.frozen, &p.inv_m, &p.inv_i);
-        let (bad_wall, suspicious) = p
-            .f
-            .par_chunks_mut(CHUNK)
+        p.f.par_chunks_mut(CHUNK)
             .zip(p.t.par_chunks_mut(CHUNK))
             .zip(p.wall_hist.par_chunks_mut(CHUNK))
             .zip(p.wall_force.par_chunks_mut(CHUNK))
@@ -288,11 +337,11 @@ where
                     &wn[..n],
                 );
                 let (v, w) = (&mut v[..n], &mut w[..n]);
-                let (gravity, drag, dt, half) = (gravity, drag, dt, half);
-                let (skip_frozen, kick, rot, friction_on) = (skip_frozen, kick, rot, friction_on);
+                let (gravity, drag, dt, half, guard) = (gravity, drag, dt, half, guard);
+                let (skip_frozen, rot) = (skip_frozen, rot);
                 for k in 0..n {
                     let q = lo + k;
-                    if skip_frozen && fz[k] {
+                    if FROZEN && skip_frozen && fz[k] {
                         continue;
                     }
                     let mut fq = gravity * m[k];
@@ -303,19 +352,19 @@ where
                     // The pairs q starts (force on q: -f), as two ranges of the list,
                     // then those it ends (+f) through their index list. The torque of
                     // the tangential force is -(r_q - d/2) n x f_t on either end.
-                    let own = [
-                        i_frozen[k] as usize..i_frozen[k + 1] as usize,
-                        i_active[k] as usize..i_active[k + 1] as usize,
-                    ];
+                    let active = i_active[k] as usize..i_active[k + 1] as usize;
+                    let own_frozen = i_frozen[k] as usize..i_frozen[k + 1] as usize;
                     let ends = &pr.j_inc[j_start[k] as usize..j_start[k + 1] as usize];
-                    if rot && friction_on {
-                        for range in own {
-                            for_lanes(blocks, range, |b, l| {
-                                let (f, t) = lane::<D, false>(b, l);
-                                fq -= f;
-                                tq += t;
-                            });
+                    if TORQUE {
+                        let mut visit = |b: &PairBlock<D>, l| {
+                            let (f, t) = lane::<D, false>(b, l);
+                            fq -= f;
+                            tq += t;
+                        };
+                        if FROZEN {
+                            for_lanes(blocks, own_frozen, &mut visit);
                         }
+                        for_lanes(blocks, active, visit);
                         for &e in ends {
                             let e = e as usize;
                             // SAFETY: the index lists stay below the pair count (see
@@ -325,9 +374,11 @@ where
                             tq += t;
                         }
                     } else {
-                        for range in own {
-                            for_lanes(blocks, range, |b, l| fq -= lane::<D, false>(b, l).0);
+                        let mut visit = |b: &PairBlock<D>, l| fq -= lane::<D, false>(b, l).0;
+                        if FROZEN {
+                            for_lanes(blocks, own_frozen, &mut visit);
                         }
+                        for_lanes(blocks, active, visit);
                         for &e in ends {
                             let e = e as usize;
                             // SAFETY: as above.
@@ -375,19 +426,19 @@ where
                         wf[k][wi] = on_wall;
                         wm[k] |= 1 << wi;
                         fq -= on_wall;
-                        if rot && friction_on {
+                        if TORQUE {
                             tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
                         }
                     }
                     f[k] = fq;
                     t[k] = tq;
-                    if kick && !fz[k] {
+                    if KICK && !(FROZEN && fz[k]) {
                         v[k] += fq * (inv_m[k] * half);
-                        let lim = 0.5 * r[k] / dt;
                         // written so that NaN also trips it
                         let v2 = v[k].norm_squared();
-                        suspicious |= v2.is_nan() || v2 > lim * lim;
-                        if rot {
+                        suspicious |= v2.is_nan() || v2 > r[k] * r[k] * guard;
+                        // no torque without friction: the spin keeps its value
+                        if TORQUE {
                             w[k] += tq * (inv_i[k] * half);
                         }
                     }
@@ -403,22 +454,6 @@ where
                         a.1 | b.1,
                     )
                 },
-            );
-
-        if let Some((q, wi, d)) = bad_wall {
-            return Err(Error::Blowup {
-                step: self.steps,
-                time: self.time,
-                particle: q,
-                what: format!(
-                    "overlap with wall {} is {d:e} m = {:.3} of its radius \
-                     (limit max_overlap_ratio = {max_ratio})",
-                    -(wi as i64) - 1,
-                    d / self.p.r[q]
-                ),
-            });
-        }
-        self.forces_valid = true;
-        Ok(suspicious)
+            )
     }
 }

@@ -778,47 +778,15 @@ where
             self.check_energy()?;
         }
         let dt = self.cfg.dt;
-        let half = 0.5 * dt;
-        let rot = self.cfg.rotations;
-        // 1. half kick + drift; flag a particle that has moved more than its half skin
-        // since the last rebuild.
-        let p = &mut self.p;
-        let moved =
-            p.x.par_chunks_mut(CHUNK)
-                .zip(p.v.par_chunks_mut(CHUNK))
-                .zip(p.f.par_chunks(CHUNK))
-                .zip(p.inv_m.par_chunks(CHUNK))
-                .zip(p.x_ref.par_chunks(CHUNK))
-                .zip(p.half_skin.par_chunks(CHUNK))
-                .zip(p.frozen.par_chunks(CHUNK))
-                .zip(p.w.par_chunks_mut(CHUNK))
-                .zip(p.t.par_chunks(CHUNK))
-                .zip(p.inv_i.par_chunks(CHUNK))
-                .map(|(((((((((x, v), f), im), xr), h), fz), w), t), ii)| {
-                    let mut moved = false;
-                    // Every chunk slice cut to one length, and the constants copied in:
-                    // the loop then runs without bounds checks or reloads.
-                    let n = x.len();
-                    let (v, f, im, xr, h, fz) =
-                        (&mut v[..n], &f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
-                    let (w, t, ii) = (&mut w[..n], &t[..n], &ii[..n]);
-                    let (dt, half, rot) = (dt, half, rot);
-                    for k in 0..n {
-                        if fz[k] {
-                            continue;
-                        }
-                        v[k] += f[k] * (im[k] * half);
-                        x[k] += v[k] * dt;
-                        // written so that NaN also trips it
-                        let d2 = (x[k] - xr[k]).norm_squared();
-                        moved |= d2.is_nan() | (d2 > h[k] * h[k]);
-                        if rot {
-                            w[k] += t[k] * (ii[k] * half);
-                        }
-                    }
-                    moved
-                })
-                .reduce(|| false, |a, b| a | b);
+        // 1. half kick + drift, compiled once per combination of spin kicks (only with
+        // rotations and friction: otherwise no torque acts) and frozen particles to skip.
+        let torques = self.cfg.rotations && self.cfg.material.friction > 0.0;
+        let moved = match (torques, self.n_frozen > 0) {
+            (false, false) => self.kick_drift::<false, false>(),
+            (false, true) => self.kick_drift::<false, true>(),
+            (true, false) => self.kick_drift::<true, false>(),
+            (true, true) => self.kick_drift::<true, true>(),
+        };
         // 2. pair list
         if moved {
             self.rebuild_pairs();
@@ -842,6 +810,51 @@ where
             self.check_energy()?;
         }
         Ok(())
+    }
+
+    /// Step part 1: the first half kick and the drift of every particle that is not
+    /// frozen (`FROZEN`: some are), and of the spins with `TORQUE` (rotations and
+    /// friction on). Returns whether a particle has moved more than its half skin since
+    /// the last rebuild (or turned non-finite).
+    fn kick_drift<const TORQUE: bool, const FROZEN: bool>(&mut self) -> bool {
+        let dt = self.cfg.dt;
+        let half = 0.5 * dt;
+        let p = &mut self.p;
+        p.x.par_chunks_mut(CHUNK)
+            .zip(p.v.par_chunks_mut(CHUNK))
+            .zip(p.f.par_chunks(CHUNK))
+            .zip(p.inv_m.par_chunks(CHUNK))
+            .zip(p.x_ref.par_chunks(CHUNK))
+            .zip(p.half_skin.par_chunks(CHUNK))
+            .zip(p.frozen.par_chunks(CHUNK))
+            .zip(p.w.par_chunks_mut(CHUNK))
+            .zip(p.t.par_chunks(CHUNK))
+            .zip(p.inv_i.par_chunks(CHUNK))
+            .map(|(((((((((x, v), f), im), xr), h), fz), w), t), ii)| {
+                let mut moved = false;
+                // Every chunk slice cut to one length, and the constants copied in:
+                // the loop then runs without bounds checks or reloads.
+                let n = x.len();
+                let (v, f, im, xr, h, fz) =
+                    (&mut v[..n], &f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
+                let (w, t, ii) = (&mut w[..n], &t[..n], &ii[..n]);
+                let (dt, half) = (dt, half);
+                for k in 0..n {
+                    if FROZEN && fz[k] {
+                        continue;
+                    }
+                    v[k] += f[k] * (im[k] * half);
+                    x[k] += v[k] * dt;
+                    // written so that NaN also trips it
+                    let d2 = (x[k] - xr[k]).norm_squared();
+                    moved |= d2.is_nan() | (d2 > h[k] * h[k]);
+                    if TORQUE {
+                        w[k] += t[k] * (ii[k] * half);
+                    }
+                }
+                moved
+            })
+            .reduce(|| false, |a, b| a | b)
     }
 
     /// Rebuilds the Verlet list and carries the tangential history of surviving pairs
