@@ -237,9 +237,11 @@ pub fn geometry_block<const D: usize>(
         bad |= d > max_ratio * ri.min(rj);
         contact |= d > 0.0;
         g.d[m] = d;
+        // one division per lane, not D: the divider is the law's scarcest unit
+        let inv = 1.0 / dist;
         let mut n = [0.0; 3];
         for (a, x) in n.iter_mut().enumerate().take(D) {
-            *x = g.n[a][m] / dist;
+            *x = g.n[a][m] * inv;
             g.n[a][m] = *x;
         }
         if rot {
@@ -338,10 +340,12 @@ pub fn law_block<const D: usize>(
         // layer falls, and a separate pass for them cost more than it saved.
         let scale = if slide { f_max / t.ft2.sqrt() } else { 1.0 };
         let ft: [Real; D] = std::array::from_fn(|a| t.ft[a] * scale);
-        // sliding: the spring stretch consistent with the capped force
+        // sliding: the spring stretch consistent with the capped force (one division,
+        // as in the scalar law)
+        let inv_kt = 1.0 / t.k_t;
         let h: [Real; D] = std::array::from_fn(|a| {
             if slide {
-                -(ft[a] + t.vt[a] * t.c_t) / t.k_t
+                -(ft[a] + t.vt[a] * t.c_t) * inv_kt
             } else {
                 t.hp[a]
             }
@@ -626,7 +630,7 @@ mod tests {
                 // the per-pair loop this replaces
                 let dist = dx.norm_squared().sqrt();
                 let d = ri + rj - dist;
-                let n = dx / dist;
+                let n = dx * (1.0 / dist);
                 let mut vrel = dv;
                 if rot {
                     let w = wi * (ri - 0.5 * d) + wj * (rj - 0.5 * d);

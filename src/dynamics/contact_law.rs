@@ -138,7 +138,7 @@ pub fn hertz_mindlin_coefs<const D: usize>(
         let scale = if ft2 > 0.0 { f_max / ft2.sqrt() } else { 0.0 };
         f_t *= scale;
         h = if k_t > 0.0 {
-            -(f_t + v_t * c_t) / k_t
+            -(f_t + v_t * c_t) * (1.0 / k_t)
         } else {
             Vector::<D>::zeros()
         };

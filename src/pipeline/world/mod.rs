@@ -1041,7 +1041,8 @@ where
             }
             let [i, j] = pr.ij[k];
             let dx = self.p.x[j as usize] - self.p.x[i as usize];
-            let n = dx / dx.norm();
+            // the engine's normal, to the bit (see `geometry_block`)
+            let n = dx * (1.0 / dx.norm());
             let fv = Vector::<D>::from(rec.f);
             let fn_ = fv.dot(&n);
             out.i.push(i as i64);
