@@ -249,7 +249,7 @@ impl<const D: usize> Pairs<D> {
 
     /// Blocks for `len` pairs, pair k set to `fill(k)`, built in parallel.
     fn build_blocks(len: usize, fill: impl Fn(usize) -> PairRecord<D> + Sync) -> Vec<PairBlock<D>> {
-        let mut blocks = vec![PairBlock::<D>::default(); len.div_ceil(BLOCK)];
+        let mut blocks = PairBlock::<D>::zeroed(len.div_ceil(BLOCK));
         blocks.par_iter_mut().enumerate().for_each(|(b, blk)| {
             let base = b * BLOCK;
             for l in 0..BLOCK.min(len - base) {
@@ -919,8 +919,8 @@ where
                 }
             });
         drop(old_order);
-        // The kept frozen run stays in front; the other pairs carry their state over
-        // (or start from zero) and take fresh law factors.
+        // The kept frozen run stays in front; the other pairs carry their state over,
+        // or start from zero with fresh law factors.
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
@@ -931,11 +931,12 @@ where
                 return old.get(k);
             }
             let o = src[k - keep];
-            let mut rec = if o == u32::MAX {
-                PairRecord::default()
-            } else {
-                old.get(o as usize)
-            };
+            if o != u32::MAX {
+                // a surviving pair: its history, and its factors (radii and masses
+                // never change)
+                return old.get(o as usize);
+            }
+            let mut rec = PairRecord::default();
             let [i, j] = ij[k - keep];
             let (ri, rj) = (r[i as usize], r[j as usize]);
             let (mi, mj) = (mass[i as usize], mass[j as usize]);
