@@ -140,8 +140,9 @@ where
     /// keep their stored force and frozen particles are not gathered.
     ///
     /// With `kick`, each particle that is not frozen also takes the step's second half
-    /// kick (v += f dt / 2m, w += t dt / 2I) as soon as its force is known, which saves a
-    /// pass over the particles. Returns whether any velocity after the kick is
+    /// kick (v += f dt / 2m, and w += t dt / 2I when rotations and friction are on: no
+    /// torque acts otherwise) as soon as its force is known, which saves a pass over the
+    /// particles. Returns whether any velocity after the kick is
     /// non-finite or would carry its particle more than half its radius in one step (it
     /// could tunnel through a neighbour); always false without `kick`.
     pub(super) fn compute_forces_inner(&mut self, all: bool, kick: bool) -> Result<bool> {
