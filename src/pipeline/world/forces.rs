@@ -150,7 +150,7 @@ where
         let dt = self.cfg.dt;
         let rot = self.cfg.rotations;
         let mat = self.cfg.material;
-        let friction_on = mat.friction > 0.0;
+        let torques = self.torques_on();
         let (e_star, g_star) = (self.e_star, self.g_star);
         let consts = LawConsts::new(e_star, g_star, mat.damping, mat.friction);
         let max_ratio = self.cfg.max_overlap_ratio;
@@ -161,7 +161,6 @@ where
         let first = if skip_frozen { pr.n_frozen_pairs } else { 0 };
 
         // 3. pair pass, over the blocks from the one holding the first active pair
-        let torques = rot && friction_on;
         let ij = &pr.ij[..];
         let len = ij.len();
         let b0 = first >> BLOCK_SHIFT;
@@ -249,7 +248,7 @@ where
         // of switches that are off, nor the frozen run's bookkeeping when nothing is
         // frozen.
         let frozen = self.n_frozen > 0 || self.pairs.n_frozen_pairs > 0;
-        let (bad_wall, suspicious) = match (rot && friction_on, kick, frozen) {
+        let (bad_wall, suspicious) = match (torques, kick, frozen) {
             (false, false, false) => self.gather::<false, false, false>(skip_frozen),
             (false, false, true) => self.gather::<false, false, true>(skip_frozen),
             (false, true, false) => self.gather::<false, true, false>(skip_frozen),

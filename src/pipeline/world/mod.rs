@@ -780,8 +780,7 @@ where
         let dt = self.cfg.dt;
         // 1. half kick + drift, compiled once per combination of spin kicks (only with
         // rotations and friction: otherwise no torque acts) and frozen particles to skip.
-        let torques = self.cfg.rotations && self.cfg.material.friction > 0.0;
-        let moved = match (torques, self.n_frozen > 0) {
+        let moved = match (self.torques_on(), self.n_frozen > 0) {
             (false, false) => self.kick_drift::<false, false>(),
             (false, true) => self.kick_drift::<false, true>(),
             (true, false) => self.kick_drift::<true, false>(),
@@ -810,6 +809,12 @@ where
             self.check_energy()?;
         }
         Ok(())
+    }
+
+    /// Whether contacts exert torques: rotations and friction both on. Without them no
+    /// torque acts, and the steps neither gather torques nor kick spins.
+    fn torques_on(&self) -> bool {
+        self.cfg.rotations && self.cfg.material.friction > 0.0
     }
 
     /// Step part 1: the first half kick and the drift of every particle that is not
