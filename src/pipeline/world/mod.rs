@@ -386,6 +386,9 @@ where
     /// Kinetic plus potential energy when the state was last set by the user (J): with
     /// gravity the only source, the total may not rise above it (see `check_energy`).
     energy_ref: Option<Real>,
+    /// Pair state (bytes) from which the force pass runs as one sweep (see
+    /// `forces::SWEEP_MIN_BYTES`; the tests lower it to check that both ways agree).
+    sweep_min_bytes: usize,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -420,6 +423,7 @@ where
             freeze: None,
             n_frozen: 0,
             energy_ref: None,
+            sweep_min_bytes: forces::SWEEP_MIN_BYTES,
         })
     }
 
@@ -1334,5 +1338,81 @@ mod tests {
             "the impact thawed part of the bed"
         );
         assert!(w.rebuilds() > 10);
+    }
+
+    /// The one-sweep force pass gives the same bits as the two passes, on one and on
+    /// three threads (three pieces, so particles with pairs in two pieces are gathered
+    /// after the sweep), with a frozen bed that a second batch lands on and thaws.
+    #[test]
+    fn force_sweep_equals_two_passes() {
+        use rand::{Rng, SeedableRng};
+        let mut cfg = SimConfig::<3>::paper();
+        cfg.walls = Some((
+            Vector::<3>::zeros(),
+            Vector::<3>::new(0.4, 0.4, f64::INFINITY),
+        ));
+        cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+        cfg.drag = 0.05;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut batch = |z0: f64| -> (Vec<Vector<3>>, Vec<Real>) {
+            let mut x = Vec::new();
+            for a in 0..12 {
+                for b in 0..12 {
+                    for c in 0..4 {
+                        x.push(Vector::<3>::new(
+                            0.02 + 0.032 * a as f64 + 0.004 * rng.random::<f64>(),
+                            0.02 + 0.032 * b as f64 + 0.004 * rng.random::<f64>(),
+                            z0 + 0.032 * c as f64,
+                        ));
+                    }
+                }
+            }
+            let r = (0..x.len())
+                .map(|_| 0.008 + 0.004 * rng.random::<f64>())
+                .collect();
+            (x, r)
+        };
+        let (x1, r1) = batch(0.015);
+        let (x2, r2) = batch(0.2);
+        let run = |sweep: bool, threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut w = World::new(cfg.clone()).unwrap();
+                if sweep {
+                    w.sweep_min_bytes = 0;
+                }
+                w.add_particles(&x1, &r1, None, None).unwrap();
+                w.set_freeze(Some(FreezeConfig {
+                    below: 0.15,
+                    speed: 1e-2,
+                    force_ratio: 0.3,
+                    interval: 10,
+                }))
+                .unwrap();
+                w.step_n(6000).unwrap();
+                let frozen = w.n_frozen();
+                w.add_particles(&x2, &r2, None, None).unwrap();
+                w.step_n(1500).unwrap();
+                let bits = |v: &[Vector<3>]| -> Vec<u64> {
+                    v.iter()
+                        .flat_map(|a| a.iter().map(|c| c.to_bits()))
+                        .collect()
+                };
+                let state = [bits(w.positions()), bits(w.velocities()), bits(w.spins())];
+                (frozen, w.pairs.ij.len(), state)
+            })
+        };
+        let two = run(false, 1);
+        assert!(two.0 > 100, "the bed froze: {}", two.0);
+        assert!(
+            two.1 > 8 * BLOCK,
+            "pairs enough for three pieces: {}",
+            two.1
+        );
+        assert!(run(true, 1) == two, "sweep, one thread");
+        assert!(run(true, 3) == two, "sweep, three threads");
     }
 }
