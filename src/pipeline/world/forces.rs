@@ -2,7 +2,8 @@
 //! the geometry and the law vectorised over the block, which write each pair's state in
 //! place), the per-particle gather with walls and body forces (and, during a step, the
 //! second half kick), and the freezing decisions that need every particle's net force.
-
+//! Small scenes run the pair pass and the gather as two passes; large ones as one sweep
+//! that gathers each particle as soon as its pairs are done (`SWEEP_MIN_BYTES`).
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -374,17 +375,26 @@ where
                     let mut s = Sweep::default();
                     let mut q = q_cut[k];
                     let q_end = q_cut[k + 1];
-                    for bi in 0..own.len() {
-                        let base = (b0 + bi) * BLOCK;
-                        let lanes = plo.saturating_sub(base)..(phi - base).min(BLOCK);
-                        let done = base + lanes.end;
-                        if !lanes.is_empty() {
-                            // SAFETY: the pairs of this piece involve no particle
-                            // gathered before the sweep has passed them (below).
-                            let b =
-                                unsafe { pair_block(&mut own[bi], g, base, lanes, ij, &pin, &law) };
-                            s.bad_pair = s.bad_pair.or(b);
-                        }
+                    // After block bi, the particles whose pairs all lie before the
+                    // sweep's position; a piece without blocks takes its particles
+                    // (none with pairs) in one go.
+                    for bi in 0..own.len().max(1) {
+                        let done = if bi < own.len() {
+                            let base = (b0 + bi) * BLOCK;
+                            let lanes = plo.saturating_sub(base)..(phi - base).min(BLOCK);
+                            let done = base + lanes.end;
+                            if !lanes.is_empty() {
+                                // SAFETY: the pairs of this piece involve no particle
+                                // gathered before the sweep has passed them (below).
+                                let b = unsafe {
+                                    pair_block(&mut own[bi], g, base, lanes, ij, &pin, &law)
+                                };
+                                s.bad_pair = s.bad_pair.or(b);
+                            }
+                            done
+                        } else {
+                            phi
+                        };
                         // SAFETY (at): q < q_end <= n, and i_active has n + 1 entries.
                         while q < q_end && unsafe { at(gin.i_active, q + 1) } as usize <= done {
                             // SAFETY: q's pairs up to the sweep's position are computed.
@@ -403,26 +413,8 @@ where
                             q += 1;
                         }
                     }
-                    for q in q..q_end {
-                        if gin.i_active[q + 1] as usize <= phi {
-                            // SAFETY: as above.
-                            unsafe {
-                                visit::<D, TORQUE, KICK, FROZEN>(
-                                    &gin,
-                                    out,
-                                    own,
-                                    b0,
-                                    (a0, plo),
-                                    skip_frozen,
-                                    q,
-                                    &mut s,
-                                )
-                            };
-                        } else {
-                            // its pairs go on into the next piece
-                            s.deferred.push(q as u32);
-                        }
-                    }
+                    // the last block ends at phi: these have pairs in the next piece
+                    s.deferred.extend(q as u32..q_end as u32);
                     s
                 },
             )

@@ -1274,13 +1274,40 @@ mod tests {
         );
     }
 
+    /// A loose side x side x high lattice of spheres from height z0 (m), pitch 32 mm,
+    /// with horizontal jitter and radii 8-12 mm.
+    fn lattice(
+        rng: &mut rand_chacha::ChaCha8Rng,
+        side: usize,
+        high: usize,
+        z0: f64,
+    ) -> (Vec<Vector<3>>, Vec<Real>) {
+        use rand::Rng;
+        let mut x = Vec::new();
+        for a in 0..side {
+            for b in 0..side {
+                for c in 0..high {
+                    x.push(Vector::<3>::new(
+                        0.02 + 0.032 * a as f64 + 0.004 * rng.random::<f64>(),
+                        0.02 + 0.032 * b as f64 + 0.004 * rng.random::<f64>(),
+                        z0 + 0.032 * c as f64,
+                    ));
+                }
+            }
+        }
+        let r = (0..x.len())
+            .map(|_| 0.008 + 0.004 * rng.random::<f64>())
+            .collect();
+        (x, r)
+    }
+
     /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
     /// contact: after every few steps the contacts the world reports are exactly the
     /// overlapping pairs of a brute-force search, while a second batch of spheres lands
     /// on a frozen bed (which thaws part of it).
     #[test]
     fn frozen_runs_keep_every_contact() {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let mut cfg = SimConfig::<3>::paper();
         cfg.walls = Some((
             Vector::<3>::zeros(),
@@ -1291,25 +1318,7 @@ mod tests {
         cfg.drag = 0.05;
         let mut w = World::new(cfg).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-        let mut batch = |z0: f64| -> (Vec<Vector<3>>, Vec<Real>) {
-            // a loose 6 x 6 x 3 lattice with jitter, radii 8-12 mm
-            let mut x = Vec::new();
-            for a in 0..6 {
-                for b in 0..6 {
-                    for c in 0..3 {
-                        x.push(Vector::<3>::new(
-                            0.02 + 0.032 * a as f64 + 0.004 * rng.random::<f64>(),
-                            0.02 + 0.032 * b as f64 + 0.004 * rng.random::<f64>(),
-                            z0 + 0.032 * c as f64,
-                        ));
-                    }
-                }
-            }
-            let r = (0..x.len())
-                .map(|_| 0.008 + 0.004 * rng.random::<f64>())
-                .collect();
-            (x, r)
-        };
+        let mut batch = |z0: f64| lattice(&mut rng, 6, 3, z0);
         let (x, r) = batch(0.015);
         w.add_particles(&x, &r, None, None).unwrap();
         w.set_freeze(Some(FreezeConfig {
@@ -1345,7 +1354,7 @@ mod tests {
     /// after the sweep), with a frozen bed that a second batch lands on and thaws.
     #[test]
     fn force_sweep_equals_two_passes() {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let mut cfg = SimConfig::<3>::paper();
         cfg.walls = Some((
             Vector::<3>::zeros(),
@@ -1354,26 +1363,8 @@ mod tests {
         cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
         cfg.drag = 0.05;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let mut batch = |z0: f64| -> (Vec<Vector<3>>, Vec<Real>) {
-            let mut x = Vec::new();
-            for a in 0..12 {
-                for b in 0..12 {
-                    for c in 0..4 {
-                        x.push(Vector::<3>::new(
-                            0.02 + 0.032 * a as f64 + 0.004 * rng.random::<f64>(),
-                            0.02 + 0.032 * b as f64 + 0.004 * rng.random::<f64>(),
-                            z0 + 0.032 * c as f64,
-                        ));
-                    }
-                }
-            }
-            let r = (0..x.len())
-                .map(|_| 0.008 + 0.004 * rng.random::<f64>())
-                .collect();
-            (x, r)
-        };
-        let (x1, r1) = batch(0.015);
-        let (x2, r2) = batch(0.2);
+        let (x1, r1) = lattice(&mut rng, 12, 4, 0.015);
+        let (x2, r2) = lattice(&mut rng, 12, 4, 0.2);
         let run = |sweep: bool, threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
