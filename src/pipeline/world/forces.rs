@@ -4,6 +4,7 @@
 //! second half kick), and the freezing decisions that need every particle's net force.
 //! Small scenes run the pair pass and the gather as two passes; large ones as one sweep
 //! that gathers each particle as soon as its pairs are done (`SWEEP_MIN_BYTES`).
+
 use super::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
