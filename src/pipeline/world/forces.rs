@@ -220,6 +220,7 @@ where
         &mut self,
         all: bool,
     ) -> (Option<usize>, Option<(usize, usize, Real)>, bool) {
+        debug_assert_eq!(self.torques_on(), TORQUE);
         let skip_frozen = !all && self.n_frozen > 0;
         let mat = self.cfg.material;
         let dt = self.cfg.dt;
@@ -230,7 +231,6 @@ where
             torques: TORQUE,
             max_ratio: self.cfg.max_overlap_ratio,
         };
-        let torques = self.torques_on();
         let p = &mut self.p;
         let n = p.x.len();
         // Velocities and spins are read by the pair pass (of other particles) while
@@ -290,7 +290,6 @@ where
             max_ratio: law.max_ratio,
             rot: law.rot,
         };
-        debug_assert_eq!(torques, TORQUE);
 
         // Two passes (all pairs, then all particles) while the pair state fits in
         // the caches; one sweep that gathers each particle as soon as its pairs are
