@@ -144,27 +144,6 @@ impl<const D: usize> Default for PairBlock<D> {
 }
 
 impl<const D: usize> PairBlock<D> {
-    /// `n` blocks of zeros, from zeroed memory. Fresh pages from the system then need
-    /// no filling, where `vec![PairBlock::default(); n]` writes every byte on one
-    /// thread (a rebuild's blocks are megabytes).
-    pub fn zeroed(n: usize) -> Vec<Self> {
-        if n == 0 {
-            return Vec::new();
-        }
-        let layout = std::alloc::Layout::array::<Self>(n).expect("pair blocks fit in memory");
-        // SAFETY: a PairBlock is arrays of f64 only (no padding, no pointers), and the
-        // all-zero bit pattern is 0.0; the memory comes from the global allocator with
-        // the layout of n blocks, as `Vec::from_raw_parts` requires for length and
-        // capacity n.
-        unsafe {
-            let p = std::alloc::alloc_zeroed(layout).cast::<Self>();
-            if p.is_null() {
-                std::alloc::handle_alloc_error(layout);
-            }
-            Vec::from_raw_parts(p, n, n)
-        }
-    }
-
     /// The state of lane `l` (`l < BLOCK`).
     #[inline]
     pub fn get(&self, l: usize) -> PairRecord<D> {
