@@ -1,5 +1,7 @@
 //! Peak memory of the engine for a large 3D scene: the peers' 4.3 pack tiled
-//! `tiles` x `tiles` times (8952 spheres each), one pair-list build and a few steps.
+//! `tiles` x `tiles` times (8952 spheres each), one pair-list build and a few steps,
+//! then one more sphere dropped in, which forces a rebuild with the full list in place
+//! (a rebuild holds the old and the new pair state at once: that is the peak).
 //! Prints bytes per particle from the process's peak resident set (VmHWM).
 #[path = "../benches/common/mod.rs"]
 mod common;
@@ -19,17 +21,33 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(11);
     let before = vm_hwm_kib();
-    let w = common::settled_world::<3>(tiles, 5, 1);
+    let mut w = common::settled_world::<3>(tiles, 5, 1);
+    let first = vm_hwm_kib();
+    // a sphere above the pack, inside the box: the next step rebuilds the whole list
+    let top = w.positions().iter().map(|p| p[2]).fold(0.0, f64::max);
+    let r = w.radii()[0];
+    w.add_particles(
+        &[_core::Vector::<3>::new(0.5, 0.5, top + 0.2)],
+        &[r],
+        None,
+        None,
+    )
+    .expect("one more sphere");
+    let rebuilds = w.rebuilds();
+    w.step_n(1).expect("a step after the rebuild");
+    assert!(w.rebuilds() > rebuilds, "the list was rebuilt");
     let peak = vm_hwm_kib();
     let (pairs, _) = w.pair_counts();
+    let per = |kib: u64| (kib - before) as f64 * 1024.0 / w.len() as f64;
     println!(
         "{} spheres, {} pairs: engine state {:.0} bytes per particle; peak RSS {:.1} MiB \
-         (baseline {:.1} MiB) = {:.0} bytes per particle",
+         (baseline {:.1} MiB) = {:.0} bytes per particle ({:.0} after the first build)",
         w.len(),
         pairs,
         w.state_bytes() as f64 / w.len() as f64,
         peak as f64 / 1024.0,
         before as f64 / 1024.0,
-        (peak - before) as f64 * 1024.0 / w.len() as f64
+        per(peak),
+        per(first)
     );
 }
