@@ -1318,6 +1318,19 @@ mod tests {
         (x, r)
     }
 
+    /// The paper's material in an open-topped side x side box (m) under 9.81 m/s^2, with
+    /// drag (time constant about 0.2 s) so that a bed comes to rest quickly.
+    fn falling_box(side: f64) -> SimConfig<3> {
+        let mut cfg = SimConfig::<3>::paper();
+        cfg.walls = Some((
+            Vector::<3>::zeros(),
+            Vector::<3>::new(side, side, f64::INFINITY),
+        ));
+        cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+        cfg.drag = 0.05;
+        cfg
+    }
+
     /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
     /// contact: after every few steps the contacts the world reports are exactly the
     /// overlapping pairs of a brute-force search, while a second batch of spheres lands
@@ -1325,15 +1338,7 @@ mod tests {
     #[test]
     fn frozen_runs_keep_every_contact() {
         use rand::SeedableRng;
-        let mut cfg = SimConfig::<3>::paper();
-        cfg.walls = Some((
-            Vector::<3>::zeros(),
-            Vector::<3>::new(0.2, 0.2, f64::INFINITY),
-        ));
-        cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
-        // drag (time constant about 0.2 s) so that the bed comes to rest quickly
-        cfg.drag = 0.05;
-        let mut w = World::new(cfg).unwrap();
+        let mut w = World::new(falling_box(0.2)).unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let mut batch = |z0: f64| lattice(&mut rng, 6, 3, z0);
         let (x, r) = batch(0.015);
@@ -1372,13 +1377,7 @@ mod tests {
     #[test]
     fn force_sweep_equals_two_passes() {
         use rand::SeedableRng;
-        let mut cfg = SimConfig::<3>::paper();
-        cfg.walls = Some((
-            Vector::<3>::zeros(),
-            Vector::<3>::new(0.4, 0.4, f64::INFINITY),
-        ));
-        cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
-        cfg.drag = 0.05;
+        let cfg = falling_box(0.4);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let (x1, r1) = lattice(&mut rng, 12, 4, 0.015);
         let (x2, r2) = lattice(&mut rng, 12, 4, 0.2);
