@@ -82,11 +82,9 @@ pub struct PairRecord<const D: usize> {
     pub h: [Real; D],
     /// Total contact force on j (N).
     pub f: [Real; D],
-    /// Torque of the tangential force on i (N m); in 2D only the first component is
-    /// used.
-    pub ti: [Real; D],
-    /// Torque of the tangential force on j (N m), likewise.
-    pub tj: [Real; D],
+    /// n x f_t (N), whose product with -(r_q - d/2) is the tangential force's
+    /// torque on either end q; in 2D only the first component (out of plane) is used.
+    pub t: [Real; D],
     /// Overlap (m), 0 when apart.
     pub d: Real,
     /// The pair's law factors (see [`PairFactors`]).
@@ -98,8 +96,7 @@ impl<const D: usize> Default for PairRecord<D> {
         PairRecord {
             h: [0.0; D],
             f: [0.0; D],
-            ti: [0.0; D],
-            tj: [0.0; D],
+            t: [0.0; D],
             d: 0.0,
             coefs: PairFactors::default(),
         }
@@ -115,12 +112,12 @@ pub struct PairBlock<const D: usize> {
     pub h: [[Real; BLOCK]; D],
     /// Total contact force on j (N), by component; the force on i is its opposite.
     pub f: [[Real; BLOCK]; D],
-    /// Torque of the tangential force on i (N m), -(r_i - d/2) n x f_t, by component:
-    /// three in 3D; in 2D the first holds the out-of-plane one and the second stays
-    /// zero. Zero unless the law runs with torques.
-    pub ti: [[Real; BLOCK]; D],
-    /// Torque of the tangential force on j (N m), -(r_j - d/2) n x f_t, likewise.
-    pub tj: [[Real; BLOCK]; D],
+    /// n x f_t (N), by component: three in 3D; in 2D the first holds the
+    /// out-of-plane one and the second stays zero. Zero unless the law runs with
+    /// torques. The tangential force's torque on end q is -(r_q - d/2) n x f_t: the
+    /// gather forms it from its own radius and `d`, which costs three products per
+    /// pair end and saves storing both ends' torques (24 bytes per pair in 3D).
+    pub t: [[Real; BLOCK]; D],
     /// Overlap d (m), 0 when apart.
     pub d: [Real; BLOCK],
     /// sqrt(R*) (see [`PairFactors`]).
@@ -134,8 +131,7 @@ impl<const D: usize> Default for PairBlock<D> {
         PairBlock {
             h: [[0.0; BLOCK]; D],
             f: [[0.0; BLOCK]; D],
-            ti: [[0.0; BLOCK]; D],
-            tj: [[0.0; BLOCK]; D],
+            t: [[0.0; BLOCK]; D],
             d: [0.0; BLOCK],
             sr: [0.0; BLOCK],
             sm: [0.0; BLOCK],
@@ -150,8 +146,7 @@ impl<const D: usize> PairBlock<D> {
         PairRecord {
             h: std::array::from_fn(|a| self.h[a][l]),
             f: std::array::from_fn(|a| self.f[a][l]),
-            ti: std::array::from_fn(|a| self.ti[a][l]),
-            tj: std::array::from_fn(|a| self.tj[a][l]),
+            t: std::array::from_fn(|a| self.t[a][l]),
             d: self.d[l],
             coefs: PairFactors {
                 sr: self.sr[l],
@@ -166,8 +161,7 @@ impl<const D: usize> PairBlock<D> {
         for a in 0..D {
             self.h[a][l] = r.h[a];
             self.f[a][l] = r.f[a];
-            self.ti[a][l] = r.ti[a];
-            self.tj[a][l] = r.tj[a];
+            self.t[a][l] = r.t[a];
         }
         self.d[l] = r.d;
         self.sr[l] = r.coefs.sr;
@@ -269,7 +263,7 @@ pub fn geometry_block<const D: usize>(
 }
 
 /// What [`law_block`] writes for lanes `lanes` when none of them is in contact:
-/// zero history, force, torques and overlap. Cheap when they are zero already (the
+/// zero history, force, n x f_t and overlap. Cheap when they are zero already (the
 /// pairs of a falling layer, which the list holds side by side, for many steps).
 pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<usize>) {
     let lanes = lanes.start..lanes.end.min(BLOCK);
@@ -280,16 +274,14 @@ pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<
     for a in 0..D {
         b.h[a][lanes.clone()].fill(0.0);
         b.f[a][lanes.clone()].fill(0.0);
-        b.ti[a][lanes.clone()].fill(0.0);
-        b.tj[a][lanes.clone()].fill(0.0);
+        b.t[a][lanes.clone()].fill(0.0);
     }
     b.d[lanes].fill(0.0);
 }
 
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
-/// advances the history and writes the total force on j, the tangential force's torque
-/// on either particle (when `torques`, else zero; from the radii in `g.r`) and the
-/// overlap; a pair apart gets all four zero. The lanes outside `lanes`
+/// advances the history and writes the total force on j, n x f_t (when `torques`, else
+/// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
 /// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
@@ -422,8 +414,8 @@ fn trial<const D: usize>(
 }
 
 /// Writes lane m's results from its tangential force `ft` and new history `h`: the
-/// total force on j, the torques on either end (when `torques`, else zero), the
-/// history and the overlap; all zero for a pair apart.
+/// total force on j, n x f_t (when `torques`, else zero), the history and the overlap;
+/// all zero for a pair apart.
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
@@ -452,18 +444,13 @@ fn write_lane<const D: usize>(
         n3[2] * f3[0] - n3[0] * f3[2],
         n3[0] * f3[1] - n3[1] * f3[0],
     ];
-    // Each end's torque -(r_q - d/2) n x f_t, as the gather used to form it.
     let on = contact && torques;
-    let d = g.d[m];
-    let (arm_i, arm_j) = (-(g.r[0][m] - 0.5 * d), -(g.r[1][m] - 0.5 * d));
     // 3D: the three components; 2D: the out-of-plane one
     let (first, count) = if D == 3 { (0, 3) } else { (2, 1) };
     for k in 0..count {
-        let x = nxf[first + k];
-        b.ti[k][m] = if on { x * arm_i } else { 0.0 };
-        b.tj[k][m] = if on { x * arm_j } else { 0.0 };
+        b.t[k][m] = if on { nxf[first + k] } else { 0.0 };
     }
-    b.d[m] = if contact { d } else { 0.0 };
+    b.d[m] = if contact { g.d[m] } else { 0.0 };
 }
 
 #[cfg(test)]
@@ -519,8 +506,7 @@ mod tests {
                     g.v[a][m] = v[a];
                     b.h[a][m] = h[a];
                     b.f[a][m] = 7.0;
-                    b.ti[a][m] = 7.0;
-                    b.tj[a][m] = 7.0;
+                    b.t[a][m] = 7.0;
                 }
             }
             let h_before = b.h;
@@ -529,7 +515,7 @@ mod tests {
                 if !(lo..hi).contains(&m) {
                     assert_eq!(b.d[m], 7.0);
                     for (a, h0) in h_before.iter().enumerate() {
-                        assert_eq!((b.f[a][m], b.ti[a][m], b.tj[a][m]), (7.0, 7.0, 7.0));
+                        assert_eq!((b.f[a][m], b.t[a][m]), (7.0, 7.0));
                         assert_eq!(b.h[a][m], h0[m]);
                     }
                     continue;
@@ -537,22 +523,19 @@ mod tests {
                 if *apart {
                     assert_eq!(b.d[m], 0.0);
                     for a in 0..3 {
-                        let got = (b.f[a][m], b.ti[a][m], b.tj[a][m], b.h[a][m]);
-                        assert_eq!(got, (0.0, 0.0, 0.0, 0.0));
+                        let got = (b.f[a][m], b.t[a][m], b.h[a][m]);
+                        assert_eq!(got, (0.0, 0.0, 0.0));
                     }
                     continue;
                 }
                 assert_eq!(b.d[m], g.d[m]);
                 let tol = 1e-12 * (1.0 + f.normal.abs());
                 let total = n * f.normal + f.tangential;
-                // torque of f_t at the contact point, arm -(r_q - d/2) n on either end
+                // n x f_t, from which the gather forms either end's torque
                 let nxf = n.cross(&f.tangential);
-                let ti = nxf * -(g.r[0][m] - 0.5 * g.d[m]);
-                let tj = nxf * -(g.r[1][m] - 0.5 * g.d[m]);
                 for a in 0..3 {
                     assert!((b.f[a][m] - total[a]).abs() <= tol, "mu {mu} m {m}");
-                    assert!((b.ti[a][m] - ti[a]).abs() <= 0.02 * tol, "mu {mu} m {m}");
-                    assert!((b.tj[a][m] - tj[a]).abs() <= 0.02 * tol, "mu {mu} m {m}");
+                    assert!((b.t[a][m] - nxf[a]).abs() <= tol, "mu {mu} m {m}");
                     assert!(
                         (b.h[a][m] - h[a]).abs() <= 1e-12 * (1e-5 + h.norm()),
                         "mu {mu} m {m} a {a}: {} vs {}",
@@ -564,8 +547,8 @@ mod tests {
         }
     }
 
-    /// In 2D the block law's torques are the out-of-plane component, in the first
-    /// column, and match the scalar law's tangential force.
+    /// In 2D the block law's n x f_t is the out-of-plane component, in the first
+    /// column, and matches the scalar law's tangential force.
     #[test]
     fn block_law_2d_torque_component() {
         let consts = LawConsts::new(5.3e7, 1.1e7, 0.1, 0.5);
@@ -593,9 +576,8 @@ mod tests {
         let nxf = n[0] * f.tangential[1] - n[1] * f.tangential[0];
         assert!(f.tangential.norm() > 0.0);
         let tol = 1e-14 * f.normal;
-        assert!((b.ti[0][0] - nxf * -(0.01 - 1e-6)).abs() <= tol);
-        assert!((b.tj[0][0] - nxf * -(0.02 - 1e-6)).abs() <= tol);
-        assert_eq!((b.ti[1][0], b.tj[1][0]), (0.0, 0.0));
+        assert!((b.t[0][0] - nxf).abs() <= tol);
+        assert_eq!(b.t[1][0], 0.0);
     }
 
     /// The block geometry equals the nalgebra expressions of a per-pair loop bit for

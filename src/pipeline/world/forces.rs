@@ -36,18 +36,30 @@ unsafe fn at_ref<T>(s: &[T], i: usize) -> &T {
 }
 
 /// Lane `l` of a block (`l` taken modulo [`BLOCK`], so a pair index serves): the
-/// pair's force on j and its tangential force's torque on the j end (`J`) or the i end.
+/// pair's force on j.
 #[inline(always)]
-fn lane<const D: usize, const J: bool>(b: &PairBlock<D>, l: usize) -> (Vector<D>, Ang<D>)
+fn lane_force<const D: usize>(b: &PairBlock<D>, l: usize) -> Vector<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    let l = l & (BLOCK - 1);
+    Vector::<D>::from_fn(|a, _| b.f[a][l])
+}
+
+/// Lane `l` of a block, as [`lane_force`], with the torque of the pair's tangential
+/// force on the end of radius `r` (m): -(r - d/2) n x f_t, the same product, with the
+/// same bits, as the law formed when it stored each end's torque.
+#[inline(always)]
+fn lane<const D: usize>(b: &PairBlock<D>, l: usize, r: Real) -> (Vector<D>, Ang<D>)
 where
     Dim<D>: Spatial<D>,
 {
     let l = l & (BLOCK - 1);
     let f = Vector::<D>::from_fn(|a, _| b.f[a][l]);
-    let t = if J { &b.tj } else { &b.ti };
+    let arm = -(r - 0.5 * b.d[l]);
     let mut c = [0.0; 3];
     for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
-        *x = t[a][l];
+        *x = b.t[a][l] * arm;
     }
     (f, <Ang<D> as AngOps>::from_comps(&c))
 }
@@ -797,7 +809,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
     let ends = &c.j_inc[e_lo..e_hi];
     if TORQUE {
         let mut visit = |b: &PairBlock<D>, l| {
-            let (f, t) = lane::<D, false>(b, l);
+            let (f, t) = lane::<D>(b, l, r);
             fq -= f;
             tq += t;
         };
@@ -809,12 +821,12 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             let e = e as usize - pair_base;
             // SAFETY: the index lists stay below the pair count (see `at`), and q's
             // pairs lie in `blocks` (caller).
-            let (f, t) = lane::<D, true>(unsafe { block_of(blocks, e) }, e);
+            let (f, t) = lane::<D>(unsafe { block_of(blocks, e) }, e, r);
             fq += f;
             tq += t;
         }
     } else {
-        let mut visit = |b: &PairBlock<D>, l| fq -= lane::<D, false>(b, l).0;
+        let mut visit = |b: &PairBlock<D>, l| fq -= lane_force::<D>(b, l);
         if frozen_q {
             for_lanes(blocks, own_frozen, &mut visit);
         }
@@ -822,7 +834,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
         for &e in ends {
             let e = e as usize - pair_base;
             // SAFETY: as above.
-            fq += lane::<D, true>(unsafe { block_of(blocks, e) }, e).0;
+            fq += lane_force::<D>(unsafe { block_of(blocks, e) }, e);
         }
     }
     // visit only the walls that can touch (most particles: none)
