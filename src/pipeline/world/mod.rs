@@ -226,7 +226,7 @@ struct Pairs<const D: usize> {
     /// Length of the first run (0 when nothing is frozen).
     n_frozen_pairs: usize,
     /// Per-pair state (history, law factors, and what the pair pass leaves for the
-    /// gather: force on j, each end's tangential torque, overlap), pair k in block
+    /// gather: force on j, n x f_t, overlap), pair k in block
     /// `k >> BLOCK_SHIFT`, lane `k & (BLOCK - 1)`; `ceil(len / BLOCK)` blocks.
     blocks: Vec<PairBlock<D>>,
     /// Pairs whose first particle is p: `i_frozen[p]..i_frozen[p + 1]` in the frozen
