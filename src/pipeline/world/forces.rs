@@ -49,7 +49,7 @@ where
 /// Lane `l` of a block, as [`lane_force`], with the torque of the pair's tangential
 /// force on the end of radius `r` (m): -(r - d/2) n x f_t. Up to session 11 the law
 /// stored this product for both ends; the gather now forms it from the same factors in
-/// the same order, so the sums keep their bits and the pair record 24 bytes less.
+/// the same order, so the sums keep their bits; the pair record is 24 bytes smaller.
 #[inline(always)]
 fn lane<const D: usize>(b: &PairBlock<D>, l: usize, r: Real) -> (Vector<D>, Ang<D>)
 where
