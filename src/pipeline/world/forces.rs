@@ -51,12 +51,12 @@ where
 /// stored this product for both ends; the gather now forms it from the same factors in
 /// the same order, so the sums keep their bits; the pair record is 24 bytes smaller.
 #[inline(always)]
-fn lane<const D: usize>(b: &PairBlock<D>, l: usize, r: Real) -> (Vector<D>, Ang<D>)
+fn lane_force_torque<const D: usize>(b: &PairBlock<D>, l: usize, r: Real) -> (Vector<D>, Ang<D>)
 where
     Dim<D>: Spatial<D>,
 {
+    let f = lane_force(b, l);
     let l = l & (BLOCK - 1);
-    let f = Vector::<D>::from_fn(|a, _| b.f[a][l]);
     let arm = -(r - 0.5 * b.d[l]);
     let mut c = [0.0; 3];
     for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
@@ -810,7 +810,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
     let ends = &c.j_inc[e_lo..e_hi];
     if TORQUE {
         let mut visit = |b: &PairBlock<D>, l| {
-            let (f, t) = lane::<D>(b, l, r);
+            let (f, t) = lane_force_torque::<D>(b, l, r);
             fq -= f;
             tq += t;
         };
@@ -822,7 +822,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             let e = e as usize - pair_base;
             // SAFETY: the index lists stay below the pair count (see `at`), and q's
             // pairs lie in `blocks` (caller).
-            let (f, t) = lane::<D>(unsafe { block_of(blocks, e) }, e, r);
+            let (f, t) = lane_force_torque::<D>(unsafe { block_of(blocks, e) }, e, r);
             fq += f;
             tq += t;
         }
