@@ -102,7 +102,11 @@ where
     /// Pair forces, then the per-particle gather with walls and body forces, for every
     /// particle (frozen ones included).
     pub(super) fn compute_forces(&mut self) -> Result<()> {
-        self.compute_forces_inner(true, false).map(|_| ())
+        rayon::scope(|s| {
+            let mut team = Team::new(s);
+            self.compute_forces_inner(true, false, &mut team)
+        })
+        .map(|_| ())
     }
 
     /// Freezes settled particles below the freeze level and unfreezes pushed ones.
@@ -160,21 +164,28 @@ where
     /// particles. Returns whether any velocity after the kick is
     /// non-finite or would carry its particle more than half its radius in one step (it
     /// could tunnel through a neighbour); always false without `kick`.
-    pub(super) fn compute_forces_inner(&mut self, all: bool, kick: bool) -> Result<bool> {
+    /// The loops run on `team`, or on rayon for large scenes (the sweep: it pauses the
+    /// team).
+    pub(super) fn compute_forces_inner(
+        &mut self,
+        all: bool,
+        kick: bool,
+        team: &mut Team,
+    ) -> Result<bool> {
         let max_ratio = self.cfg.max_overlap_ratio;
         // The pass compiled once per combination of what is switched on, so that the
         // common cases carry no tests of switches that are off, nor the frozen run's
         // bookkeeping when nothing is frozen.
         let frozen = self.n_frozen > 0 || self.pairs.n_frozen_pairs > 0;
         let (bad_pair, bad_wall, suspicious) = match (self.torques_on(), kick, frozen) {
-            (false, false, false) => self.forces::<false, false, false>(all),
-            (false, false, true) => self.forces::<false, false, true>(all),
-            (false, true, false) => self.forces::<false, true, false>(all),
-            (false, true, true) => self.forces::<false, true, true>(all),
-            (true, false, false) => self.forces::<true, false, false>(all),
-            (true, false, true) => self.forces::<true, false, true>(all),
-            (true, true, false) => self.forces::<true, true, false>(all),
-            (true, true, true) => self.forces::<true, true, true>(all),
+            (false, false, false) => self.forces::<false, false, false>(all, team),
+            (false, false, true) => self.forces::<false, false, true>(all, team),
+            (false, true, false) => self.forces::<false, true, false>(all, team),
+            (false, true, true) => self.forces::<false, true, true>(all, team),
+            (true, false, false) => self.forces::<true, false, false>(all, team),
+            (true, false, true) => self.forces::<true, false, true>(all, team),
+            (true, true, false) => self.forces::<true, true, false>(all, team),
+            (true, true, true) => self.forces::<true, true, true>(all, team),
         };
         let p = &self.p;
         if let Some(k) = bad_pair {
@@ -232,6 +243,7 @@ where
     fn forces<const TORQUE: bool, const KICK: bool, const FROZEN: bool>(
         &mut self,
         all: bool,
+        team: &mut Team,
     ) -> (Option<usize>, Option<(usize, usize, Real)>, bool) {
         debug_assert_eq!(self.torques_on(), TORQUE);
         let skip_frozen = !all && self.n_frozen > 0;
@@ -244,6 +256,7 @@ where
             torques: TORQUE,
             max_ratio: self.cfg.max_overlap_ratio,
         };
+        let scratch = &mut self.scratch;
         let p = &mut self.p;
         let n = p.x.len();
         // Velocities and spins are read by the pair pass (of other particles) while
@@ -309,17 +322,21 @@ where
         // done once it does not (see `SWEEP_MIN_BYTES`). Both give the same bits.
         if len * std::mem::size_of::<PairBlock<D>>() / BLOCK < self.sweep_min_bytes {
             let first = if skip_frozen { a0 } else { 0 };
+            while scratch.len() < team.threads() {
+                scratch.push(Box::default());
+            }
             // SAFETY: no particle is gathered during this pass.
-            let bad_pair = unsafe { pair_pass(blocks, first..len, ij, &pin, &law) };
+            let bad_pair = unsafe { pair_pass(team, scratch, blocks, first..len, ij, &pin, &law) };
             let blocks = &blocks[..];
             let Gathered {
                 bad_wall,
                 suspicious,
-            } = (0..n.div_ceil(CHUNK))
-                .into_par_iter()
-                .map(|c| {
+            } = team.map_reduce(
+                n.div_ceil(TEAM_CHUNK),
+                Gathered::default(),
+                |c, _| {
                     let mut acc = Gathered::default();
-                    for q in c * CHUNK..(c * CHUNK + CHUNK).min(n) {
+                    for q in c * TEAM_CHUNK..(c * TEAM_CHUNK + TEAM_CHUNK).min(n) {
                         if FROZEN && skip_frozen && gin.fz[q] {
                             continue;
                         }
@@ -330,17 +347,27 @@ where
                         };
                     }
                     acc
-                })
-                .reduce(Gathered::default, Gathered::merge);
+                },
+                Gathered::merge,
+            );
             return (bad_pair, bad_wall, suspicious);
         }
+        // The sweep runs on rayon.
+        team.pause();
 
         // 3a. The frozen run, when it is recomputed (freeze decisions), on its own
         // first: only frozen particles, which the sweep leaves to the end, read it.
         let mut bad_pair = None;
         if !skip_frozen && a0 > 0 {
             // SAFETY: no particle is gathered during this pass.
-            bad_pair = unsafe { pair_pass(blocks, 0..a0, ij, &pin, &law) };
+            bad_pair = rayon::scope(|s| {
+                let mut team = Team::new(s);
+                while scratch.len() < team.threads() {
+                    scratch.push(Box::default());
+                }
+                // SAFETY: no particle is gathered during this pass.
+                unsafe { pair_pass(&mut team, scratch, blocks, 0..a0, ij, &pin, &law) }
+            });
         }
 
         // 3b-5. The sweep over the active run [a0, len), one piece per thread. Piece
@@ -491,12 +518,15 @@ impl Gathered {
     }
 }
 
-/// The pair pass over pairs `range` of the list, in parallel over blocks. Returns the
-/// first pair too deep.
+/// The pair pass over pairs `range` of the list on the team, [`TEAM_BLOCKS`] blocks
+/// per item, each thread with its own scratch block (`scratch[slot]`; one per team
+/// thread). Returns the first pair too deep.
 ///
 /// # Safety
 /// No thread writes a velocity or spin meanwhile (see [`pair_block`]).
 unsafe fn pair_pass<const D: usize>(
+    team: &mut Team,
+    scratch: &mut [Box<Geometry<D>>],
     blocks: &mut [PairBlock<D>],
     range: std::ops::Range<usize>,
     ij: &[[u32; 2]],
@@ -506,27 +536,30 @@ unsafe fn pair_pass<const D: usize>(
 where
     Dim<D>: Spatial<D>,
 {
-    let b_first = range.start >> BLOCK_SHIFT;
-    blocks[b_first..range.end.div_ceil(BLOCK)]
-        .par_chunks_mut(CHUNK / BLOCK)
-        .enumerate()
-        .map_init(
-            // one geometry buffer per rayon job, not per chunk: it is 15 KB in 3D
-            || Box::new(Geometry::<D>::default()),
-            |g, (c, chunk)| {
-                let mut bad = None;
-                for (bi, blk) in chunk.iter_mut().enumerate() {
-                    let base = (b_first + c * (CHUNK / BLOCK) + bi) * BLOCK;
-                    let lanes = range.start.saturating_sub(base)..(range.end - base).min(BLOCK);
-                    // SAFETY: as the caller guarantees.
-                    let b = unsafe { pair_block(blk, g, base, lanes, ij, pin, law) };
-                    bad = bad.or(b);
-                }
-                bad
-            },
-        )
-        .flatten()
-        .min()
+    assert!(scratch.len() >= team.threads());
+    let (b_first, b_end) = (range.start >> BLOCK_SHIFT, range.end.div_ceil(BLOCK));
+    let (blks, geos) = (Disjoint::new(blocks), Disjoint::new(scratch));
+    team.map_reduce(
+        (b_end - b_first).div_ceil(TEAM_BLOCKS),
+        None,
+        |c, slot| {
+            // SAFETY: a slot is one thread's for the whole phase.
+            let g = unsafe { geos.one(slot) };
+            let mut bad = None;
+            let b0 = b_first + c * TEAM_BLOCKS;
+            for bi in b0..(b0 + TEAM_BLOCKS).min(b_end) {
+                let base = bi * BLOCK;
+                let lanes = range.start.saturating_sub(base)..(range.end - base).min(BLOCK);
+                // SAFETY: the items' blocks are disjoint; the rest as the caller
+                // guarantees.
+                let b = unsafe { pair_block(blks.one(bi), g, base, lanes, ij, pin, law) };
+                bad = bad.or(b);
+            }
+            bad
+        },
+        // the first pair too deep: items come in list order
+        |a: Option<usize>, b| a.or(b),
+    )
 }
 
 /// Particle q in the force sweep's piece whose pairs start at `plo` (`a0`: the

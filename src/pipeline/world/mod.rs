@@ -30,12 +30,22 @@ use rayon::prelude::*;
 
 mod energy;
 mod forces;
+mod team;
+
+use team::{Disjoint, Team};
 
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.
 const CHUNK: usize = 512;
 /// Pairs per parallel work item in the rebuild's merge (results do not depend on it).
 const PAIR_CHUNK: usize = 4096;
+/// Particles per item of the step's team loops (kick and drift, gather; see `team`).
+/// Small enough that a layer of a few hundred particles splits between threads, large
+/// enough that claiming an item (one atomic add) is noise. Results do not depend on it.
+const TEAM_CHUNK: usize = 256;
+/// Pair blocks per item of the step's pair pass on the team (results do not depend
+/// on it).
+const TEAM_BLOCKS: usize = 2;
 
 /// Steps that a particle's adaptive skin lasts at its own speed (see
 /// [`SimConfig::skin_ratio`]). A rebuild of a dense pack costs about as much as two or
@@ -406,6 +416,9 @@ where
     /// Pair state (bytes) from which the force pass runs as one sweep (see
     /// `forces::SWEEP_MIN_BYTES`; the tests lower it to check that both ways agree).
     sweep_min_bytes: usize,
+    /// The pair pass's scratch block, one per team slot (see `team`), kept between
+    /// steps: 15 KB each in 3D.
+    scratch: Vec<Box<Geometry<D>>>,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -441,6 +454,7 @@ where
             n_frozen: 0,
             energy_ref: None,
             sweep_min_bytes: forces::SWEEP_MIN_BYTES,
+            scratch: Vec::new(),
         })
     }
 
@@ -771,11 +785,12 @@ where
             self.time += n as Real * self.cfg.dt;
             return Ok(());
         }
-        // Run the loop on a pool worker: small parallel loops then execute inline
-        // instead of paying a cross-thread hand-off every step.
-        rayon::scope(|_| {
+        // Run the loop on a pool worker, with a team of the pool's threads for the
+        // step's loops (see `team`): cheaper than a rayon loop per phase.
+        rayon::scope(|s| {
+            let mut team = Team::new(s);
             for _ in 0..n {
-                self.step_once()?;
+                self.step_once(&mut team)?;
             }
             Ok(())
         })
@@ -788,27 +803,33 @@ where
         self.step_n(n)
     }
 
-    fn step_once(&mut self) -> Result<()> {
+    /// One step, its loops on `team`. Everything that calls into rayon (rebuilds,
+    /// freeze decisions, checks) pauses the team first (see `team`).
+    fn step_once(&mut self, team: &mut Team) -> Result<()> {
         if !self.list_valid {
+            team.pause();
             self.rebuild_pairs();
         }
         if !self.forces_valid {
+            team.pause();
             self.compute_forces()?;
         }
         if self.energy_ref.is_none() {
+            team.pause();
             self.check_energy()?;
         }
         let dt = self.cfg.dt;
         // 1. half kick + drift, compiled once per combination of spin kicks (only with
         // rotations and friction: otherwise no torque acts) and frozen particles to skip.
         let moved = match (self.torques_on(), self.n_frozen > 0) {
-            (false, false) => self.kick_drift::<false, false>(),
-            (false, true) => self.kick_drift::<false, true>(),
-            (true, false) => self.kick_drift::<true, false>(),
-            (true, true) => self.kick_drift::<true, true>(),
+            (false, false) => self.kick_drift::<false, false>(team),
+            (false, true) => self.kick_drift::<false, true>(team),
+            (true, false) => self.kick_drift::<true, false>(team),
+            (true, true) => self.kick_drift::<true, true>(team),
         };
         // 2. pair list
         if moved {
+            team.pause();
             self.rebuild_pairs();
         }
         // 3-5. forces and the second half kick; on freeze-decision steps every
@@ -816,8 +837,9 @@ where
         let decide = self
             .freeze
             .is_some_and(|f| (self.steps + 1) % f.interval == 0);
-        let suspicious = self.compute_forces_inner(decide, true)?;
+        let suspicious = self.compute_forces_inner(decide, true, team)?;
         if decide {
+            team.pause();
             self.update_frozen();
         }
         self.steps += 1;
@@ -826,6 +848,7 @@ where
         // velocity, which the cheap flag catches; the full check runs then, and at
         // intervals.
         if suspicious || self.steps % 1024 == 0 {
+            team.pause();
             self.check_state()?;
             self.check_energy()?;
         }
@@ -842,28 +865,51 @@ where
     /// frozen (`FROZEN`: some are), and of the spins with `TORQUE` (rotations and
     /// friction on). Returns whether a particle has moved more than its half skin since
     /// the last rebuild (or turned non-finite).
-    fn kick_drift<const TORQUE: bool, const FROZEN: bool>(&mut self) -> bool {
+    fn kick_drift<const TORQUE: bool, const FROZEN: bool>(&mut self, team: &mut Team) -> bool {
         let dt = self.cfg.dt;
         let half = 0.5 * dt;
         let p = &mut self.p;
-        p.x.par_chunks_mut(CHUNK)
-            .zip(p.v.par_chunks_mut(CHUNK))
-            .zip(p.f.par_chunks(CHUNK))
-            .zip(p.inv_m.par_chunks(CHUNK))
-            .zip(p.x_ref.par_chunks(CHUNK))
-            .zip(p.half_skin.par_chunks(CHUNK))
-            .zip(p.frozen.par_chunks(CHUNK))
-            .zip(p.w.par_chunks_mut(CHUNK))
-            .zip(p.t.par_chunks(CHUNK))
-            .zip(p.inv_i.par_chunks(CHUNK))
-            .map(|(((((((((x, v), f), im), xr), h), fz), w), t), ii)| {
+        let len = p.x.len();
+        let (xs, vs, ws) = (
+            Disjoint::new(&mut p.x),
+            Disjoint::new(&mut p.v),
+            Disjoint::new(&mut p.w),
+        );
+        let (fs, ims, xrs, hs, fzs, ts, iis) = (
+            &p.f,
+            &p.inv_m,
+            &p.x_ref,
+            &p.half_skin,
+            &p.frozen,
+            &p.t,
+            &p.inv_i,
+        );
+        team.map_reduce(
+            len.div_ceil(TEAM_CHUNK),
+            false,
+            |c, _| {
+                let r = c * TEAM_CHUNK..(c * TEAM_CHUNK + TEAM_CHUNK).min(len);
+                // SAFETY: the items' ranges are disjoint.
+                let (x, v, w) = unsafe {
+                    (
+                        xs.range(r.clone()),
+                        vs.range(r.clone()),
+                        ws.range(r.clone()),
+                    )
+                };
                 let mut moved = false;
                 // Every chunk slice cut to one length, and the constants copied in:
                 // the loop then runs without bounds checks or reloads.
                 let n = x.len();
-                let (v, f, im, xr, h, fz) =
-                    (&mut v[..n], &f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
-                let (w, t, ii) = (&mut w[..n], &t[..n], &ii[..n]);
+                let (v, f, im, xr, h, fz) = (
+                    &mut v[..n],
+                    &fs[r.clone()][..n],
+                    &ims[r.clone()][..n],
+                    &xrs[r.clone()][..n],
+                    &hs[r.clone()][..n],
+                    &fzs[r.clone()][..n],
+                );
+                let (w, t, ii) = (&mut w[..n], &ts[r.clone()][..n], &iis[r][..n]);
                 let (dt, half) = (dt, half);
                 for k in 0..n {
                     if FROZEN && fz[k] {
@@ -879,8 +925,9 @@ where
                     }
                 }
                 moved
-            })
-            .reduce(|| false, |a, b| a | b)
+            },
+            |a, b| a | b,
+        )
     }
 
     /// Rebuilds the Verlet list and carries the tangential history of surviving pairs
