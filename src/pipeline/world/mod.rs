@@ -39,6 +39,13 @@ use team::{Disjoint, Team};
 const CHUNK: usize = 512;
 /// Pairs per parallel work item in the rebuild's merge (results do not depend on it).
 const PAIR_CHUNK: usize = 4096;
+/// Least particles per rayon work item in the rebuild's per-particle loops (a few
+/// nanoseconds per particle: below this a hand-off to another thread costs more than
+/// it saves). Results do not depend on it.
+const REBUILD_MIN_PARTICLES: usize = 4096;
+/// Least pair blocks per rayon work item when the rebuild fills the blocks (results
+/// do not depend on it).
+const REBUILD_MIN_BLOCKS: usize = 8;
 /// Particles per item of the step's team loops (kick and drift, gather; see `team`).
 /// Small enough that a layer of a few hundred particles splits between threads, large
 /// enough that claiming an item (one atomic add) is noise. Results do not depend on it.
@@ -267,6 +274,7 @@ impl<const D: usize> Pairs<D> {
         let mut blocks: Vec<PairBlock<D>> = Vec::with_capacity(n);
         blocks.spare_capacity_mut()[..n]
             .par_iter_mut()
+            .with_min_len(REBUILD_MIN_BLOCKS)
             .enumerate()
             .for_each(|(b, slot)| {
                 // SAFETY: a PairBlock is arrays of f64 only (no padding, no pointers),
@@ -955,6 +963,7 @@ where
         p.half_skin
             .par_iter_mut()
             .zip(p.v.par_iter())
+            .with_min_len(REBUILD_MIN_PARTICLES)
             .for_each(|(h, v)| *h = (v.norm() * steps).clamp(lo, hi));
         let reach: Vec<Real> = p.r.iter().zip(&p.half_skin).map(|(r, h)| r + h).collect();
         let partial = self.n_frozen > 0;
@@ -1045,6 +1054,7 @@ where
             .par_iter_mut()
             .zip(p.x.par_iter())
             .zip(p.r.par_iter().zip(p.half_skin.par_iter()))
+            .with_min_len(REBUILD_MIN_PARTICLES)
             .for_each(|((near, x), (r, h))| {
                 *near = 0;
                 for (wi, wall) in walls.iter().enumerate() {
