@@ -322,9 +322,6 @@ where
         // done once it does not (see `SWEEP_MIN_BYTES`). Both give the same bits.
         if len * std::mem::size_of::<PairBlock<D>>() / BLOCK < self.sweep_min_bytes {
             let first = if skip_frozen { a0 } else { 0 };
-            while scratch.len() < team.threads() {
-                scratch.push(Box::default());
-            }
             // SAFETY: no particle is gathered during this pass.
             let bad_pair = unsafe { pair_pass(team, scratch, blocks, first..len, ij, &pin, &law) };
             let blocks = &blocks[..];
@@ -362,9 +359,6 @@ where
             // SAFETY: no particle is gathered during this pass.
             bad_pair = rayon::scope(|s| {
                 let mut team = Team::new(s);
-                while scratch.len() < team.threads() {
-                    scratch.push(Box::default());
-                }
                 // SAFETY: no particle is gathered during this pass.
                 unsafe { pair_pass(&mut team, scratch, blocks, 0..a0, ij, &pin, &law) }
             });
@@ -519,14 +513,15 @@ impl Gathered {
 }
 
 /// The pair pass over pairs `range` of the list on the team, [`TEAM_BLOCKS`] blocks
-/// per item, each thread with its own scratch block (`scratch[slot]`; one per team
-/// thread). Returns the first pair too deep.
+/// per item, each thread with its own scratch block (`scratch[slot]`, added here
+/// when the team has more threads than `scratch` has blocks). Returns the first pair
+/// too deep.
 ///
 /// # Safety
 /// No thread writes a velocity or spin meanwhile (see [`pair_block`]).
 unsafe fn pair_pass<const D: usize>(
     team: &mut Team,
-    scratch: &mut [Box<Geometry<D>>],
+    scratch: &mut Vec<Box<Geometry<D>>>,
     blocks: &mut [PairBlock<D>],
     range: std::ops::Range<usize>,
     ij: &[[u32; 2]],
@@ -536,7 +531,9 @@ unsafe fn pair_pass<const D: usize>(
 where
     Dim<D>: Spatial<D>,
 {
-    assert!(scratch.len() >= team.threads());
+    if scratch.len() < team.threads() {
+        scratch.resize_with(team.threads(), Box::default);
+    }
     let (b_first, b_end) = (range.start >> BLOCK_SHIFT, range.end.div_ceil(BLOCK));
     let (blks, geos) = (Disjoint::new(blocks), Disjoint::new(scratch));
     team.map_reduce(

@@ -4,8 +4,9 @@
 //! Why: a step of a layer of 100 to 10 000 particles is 5 to 500 us of work in three
 //! loops (kick and drift, pair pass, gather). With one rayon parallel loop per phase,
 //! each loop paid the hand-off to the idle worker (which waits in `sched_yield` or
-//! asleep), and on the project's 2-core machine two threads ran the first five
-//! layers of example 4.3 and all of 4.1 *slower* than one (session 13, HISTORY.md).
+//! asleep), and on the project's 2-core machine two threads ran example 4.1 only 5 %
+//! faster than one (3.13-3.18 s against 3.31-3.38 s; the team: 2.90-2.92 s on two
+//! threads; session 13, HISTORY.md).
 //!
 //! How: a *segment* is a run of loops (phases) between two calls into rayon (pair-list
 //! rebuilds, freeze decisions, checks). At its first phase with more than one item the
@@ -273,15 +274,14 @@ impl<'a, 'scope> Team<'a, 'scope> {
         merge: impl Fn(R, R) -> R,
     ) -> R {
         if items <= 1 || self.threads == 1 {
-            let r = (0..items).fold(identity, |a, k| merge(a, f(k, 0)));
-            return r;
+            return (0..items).fold(identity, |a, k| merge(a, f(k, 0)));
         }
         let mut out = vec![identity; items];
-        let slots = SendPtr(out.as_mut_ptr());
+        let slots = Disjoint::new(&mut out);
         self.run(items, &|k, slot| {
             let r = f(k, slot);
             // SAFETY: k < items, and each item is run once.
-            unsafe { *slots.get().add(k) = r };
+            unsafe { *slots.one(k) = r };
         });
         out.into_iter().fold(identity, merge)
     }
@@ -334,18 +334,6 @@ impl<'s, T> Disjoint<'s, T> {
 // SAFETY: the team's items borrow disjoint elements (each use says why).
 unsafe impl<T: Send> Sync for Disjoint<'_, T> {}
 unsafe impl<T: Send> Send for Disjoint<'_, T> {}
-
-/// A pointer to per-item outputs that the team's threads write disjointly.
-struct SendPtr<T>(*mut T);
-impl<T> SendPtr<T> {
-    /// The pointer (a method, so that closures capture the wrapper, not the field).
-    fn get(&self) -> *mut T {
-        self.0
-    }
-}
-// SAFETY: each item writes only its own element (see `map_reduce`).
-unsafe impl<T: Send> Sync for SendPtr<T> {}
-unsafe impl<T: Send> Send for SendPtr<T> {}
 
 #[cfg(test)]
 mod tests {
