@@ -7,7 +7,8 @@ jamming per layer, no freezing) and the same number with each faster variant:
   `PackScene.fast()`;
 - ``dt``: dt = `--dt-fraction` of the Rayleigh estimate (all presets are stable up to
   the estimate, `benchmarks/stability.py`);
-- ``fast``: `PackScene.fast()` (adaptive settling and freezing);
+- ``settle``: adaptive settling as in `PackScene.fast()`, no freezing;
+- ``fast``: `PackScene.fast()`;
 - ``fast+dt``: both.
 
 Packs of one setting use the master seed and streams 0..n-1, like `granpack paper`.
@@ -57,6 +58,7 @@ def variants(
     faster = {
         "freeze": scene.replace(freeze_depth=fast.freeze_depth),
         "dt": scene.replace(dt=dt),
+        "settle": scene.replace(settle_tol=fast.settle_tol),
         "fast": fast,
         "fast+dt": fast.replace(dt=dt),
     }
@@ -114,7 +116,7 @@ def plot(df: pl.DataFrame, out: Path) -> None:
     cols = ["phi_shift_sd", "z_shift_sd", "a_r_shift_sd", "a_n_shift_sd"]
     markers = dict(zip(sorted(df["preset"].unique()), "osD^v<>", strict=False))
     # the standard variants keep their colours; variants run with --set get the next ones
-    known = ["full", "freeze", "dt", "fast", "fast+dt"]
+    known = ["full", "freeze", "dt", "settle", "fast", "fast+dt"]
     extra = [v for v in df["variant"].unique(maintain_order=True) if v not in known]
     colors = {v: f"C{k % 10}" for k, v in enumerate(known + extra)}
     for (preset, label), sub in df.group_by(["preset", "variant"], maintain_order=True):

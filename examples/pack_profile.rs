@@ -13,7 +13,7 @@ where
     // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time, with
     // freezing); engine settings: DT=1e-4 (s), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
-    // callgrind)
+    // callgrind); HEIGHT=0.5 (m, the desired pack height)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -29,7 +29,7 @@ where
     let cfg = PackConfig::<D> {
         sim,
         base: Vector::<D>::from_element(1.0),
-        height: 0.5,
+        height: env("HEIGHT", 0.5),
         radii: RadiusLaw::Constant(r),
         h_layer: 0.1,
         phi_layer,
