@@ -102,11 +102,7 @@ where
     /// Pair forces, then the per-particle gather with walls and body forces, for every
     /// particle (frozen ones included).
     pub(super) fn compute_forces(&mut self) -> Result<()> {
-        rayon::scope(|s| {
-            let mut team = Team::new(s);
-            self.compute_forces_inner(true, false, &mut team)
-        })
-        .map(|_| ())
+        Team::scoped(|team| self.compute_forces_inner(true, false, team)).map(|_| ())
     }
 
     /// Freezes settled particles below the freeze level and unfreezes pushed ones.
@@ -356,11 +352,9 @@ where
         // first: only frozen particles, which the sweep leaves to the end, read it.
         let mut bad_pair = None;
         if !skip_frozen && a0 > 0 {
-            // SAFETY: no particle is gathered during this pass.
-            bad_pair = rayon::scope(|s| {
-                let mut team = Team::new(s);
+            bad_pair = Team::scoped(|team| {
                 // SAFETY: no particle is gathered during this pass.
-                unsafe { pair_pass(&mut team, scratch, blocks, 0..a0, ij, &pin, &law) }
+                unsafe { pair_pass(team, scratch, blocks, 0..a0, ij, &pin, &law) }
             });
         }
 

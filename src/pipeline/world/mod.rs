@@ -795,10 +795,9 @@ where
         }
         // Run the loop on a pool worker, with a team of the pool's threads for the
         // step's loops (see `team`): cheaper than a rayon loop per phase.
-        rayon::scope(|s| {
-            let mut team = Team::new(s);
+        Team::scoped(|team| {
             for _ in 0..n {
-                self.step_once(&mut team)?;
+                self.step_once(team)?;
             }
             Ok(())
         })

@@ -176,6 +176,12 @@ impl<'a, 'scope> Team<'a, 'scope> {
         }
     }
 
+    /// Runs `f` with a team in a rayon scope of its own: the helpers are spawned into
+    /// that scope, which waits for them after the team is dropped (and paused).
+    pub(super) fn scoped<R: Send>(f: impl FnOnce(&mut Team<'_, '_>) -> R + Send) -> R {
+        rayon::scope(|s| f(&mut Team::new(s)))
+    }
+
     /// Threads that may run a phase's items.
     pub(super) fn threads(&self) -> usize {
         self.threads
