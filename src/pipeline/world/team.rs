@@ -357,8 +357,7 @@ mod tests {
                 .build()
                 .unwrap();
             pool.install(|| {
-                rayon::scope(|s| {
-                    let mut team = Team::new(s);
+                Team::scoped(|team| {
                     assert_eq!(team.threads(), threads);
                     for phase in 0..2000usize {
                         let items = phase % 37;
@@ -435,12 +434,7 @@ mod tests {
             .build()
             .unwrap();
         let r = std::panic::catch_unwind(AssertUnwindSafe(|| {
-            pool.install(|| {
-                rayon::scope(|s| {
-                    let mut team = Team::new(s);
-                    team.run(64, &|k, _| assert!(k != 40, "item 40"));
-                })
-            })
+            pool.install(|| Team::scoped(|team| team.run(64, &|k, _| assert!(k != 40, "item 40"))))
         }));
         assert!(r.is_err());
     }
