@@ -188,6 +188,14 @@ pub struct Geometry<const D: usize> {
     /// velocity and the normal force, from the law's normal pass to its tangential one
     /// (cheaper to keep than to recompute).
     pub tmp: [[Real; BLOCK]; 6],
+    /// With the velocity predictor only (`PRED`): the pair pass fills `pv` with
+    /// dv_j - dv_i, the difference of the predictor's increments a dt/2 (m/s);
+    /// [`geometry_block`] turns it into the predicted relative velocity at the
+    /// contact, which the dashpots see.
+    pub pv: [[Real; BLOCK]; D],
+    /// With the velocity predictor only: the spin increments alpha dt/2 (rad/s) of i
+    /// (columns 0-2) and j (3-5), one component each in 2D.
+    pub pw: [[Real; BLOCK]; 6],
 }
 
 impl<const D: usize> Default for Geometry<D> {
@@ -198,6 +206,8 @@ impl<const D: usize> Default for Geometry<D> {
             d: [0.0; BLOCK],
             r: [[0.0; BLOCK]; 2],
             tmp: [[0.0; BLOCK]; 6],
+            pv: [[0.0; BLOCK]; D],
+            pw: [[0.0; BLOCK]; 6],
         }
     }
 }
@@ -206,10 +216,11 @@ impl<const D: usize> Default for Geometry<D> {
 /// unit normal, the overlap and the relative velocity of j's surface w.r.t. i's at the
 /// contact point, w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n) included when `rot`.
 /// Same arithmetic, in the same order, as the nalgebra expressions it replaces (bit
-/// for bit). Returns whether some lane is in contact (overlap > 0), and whether some
+/// for bit). With `PRED` it also forms the predicted relative velocity in `g.pv` (see
+/// [`Geometry`]). Returns whether some lane is in contact (overlap > 0), and whether some
 /// lane's overlap exceeds `max_ratio` (> 0) times its smaller radius.
 #[inline(never)]
-pub fn geometry_block<const D: usize>(
+pub fn geometry_block<const D: usize, const PRED: bool>(
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
     rot: bool,
@@ -238,6 +249,12 @@ pub fn geometry_block<const D: usize>(
             *x = g.n[a][m] * inv;
             g.n[a][m] = *x;
         }
+        if PRED {
+            // the predicted linear part, before the spins come off g.v
+            for a in 0..D {
+                g.pv[a][m] += g.v[a][m];
+            }
+        }
         if rot {
             let (ai, aj) = (ri - 0.5 * d, rj - 0.5 * d);
             if D == 3 {
@@ -251,11 +268,29 @@ pub fn geometry_block<const D: usize>(
                 for (a, x) in wxn.iter().enumerate().take(D) {
                     g.v[a][m] -= x;
                 }
+                if PRED {
+                    let w: [Real; 3] = std::array::from_fn(|c| {
+                        (g.tmp[c][m] + g.pw[c][m]) * ai + (g.tmp[3 + c][m] + g.pw[3 + c][m]) * aj
+                    });
+                    let wxn = [
+                        w[1] * n[2] - w[2] * n[1],
+                        w[2] * n[0] - w[0] * n[2],
+                        w[0] * n[1] - w[1] * n[0],
+                    ];
+                    for (a, x) in wxn.iter().enumerate().take(D) {
+                        g.pv[a][m] -= x;
+                    }
+                }
             } else {
                 // (0, 0, w) x (n0, n1, 0) = (-w n1, w n0)
                 let w = g.tmp[0][m] * ai + g.tmp[3][m] * aj;
                 g.v[0][m] -= -w * n[1];
                 g.v[1][m] -= w * n[0];
+                if PRED {
+                    let w = (g.tmp[0][m] + g.pw[0][m]) * ai + (g.tmp[3][m] + g.pw[3][m]) * aj;
+                    g.pv[0][m] -= -w * n[1];
+                    g.pv[1][m] -= w * n[0];
+                }
             }
         }
     }
@@ -282,11 +317,13 @@ pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
 /// advances the history and writes the total force on j, n x f_t (when `torques`, else
 /// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
-/// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
+/// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`; with
+/// `PRED` the dashpots see the predicted velocity `g.pv` and the stretch advances with
+/// `g.v`, as in `hertz_mindlin_split`.
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
 #[inline(never)]
-pub fn law_block<const D: usize>(
+pub fn law_block<const D: usize, const PRED: bool>(
     b: &mut PairBlock<D>,
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
@@ -303,7 +340,7 @@ pub fn law_block<const D: usize>(
         let q = s.sqrt();
         let mut vn = 0.0;
         for a in 0..D {
-            vn += g.v[a][m] * g.n[a][m];
+            vn += if PRED { g.pv[a][m] } else { g.v[a][m] } * g.n[a][m];
         }
         let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
         g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
@@ -324,7 +361,7 @@ pub fn law_block<const D: usize>(
     for m in lo..hi {
         let contact = g.d[m] > 0.0;
         let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
-        let t = trial(b, g, m, &h_old, c, dt);
+        let t = trial::<D, PRED>(b, g, m, &h_old, c, dt);
         let f_max = mu * g.tmp[3][m];
         let slide = t.ft2 > f_max * f_max;
         // Sliding caps the force at mu f_n (slide implies ft2 > 0). Both branches run
@@ -337,7 +374,7 @@ pub fn law_block<const D: usize>(
         let inv_kt = 1.0 / t.k_t;
         let h: [Real; D] = std::array::from_fn(|a| {
             if slide {
-                -(ft[a] + t.vt[a] * t.c_t) * inv_kt
+                -(ft[a] + t.vd[a] * t.c_t) * inv_kt
             } else {
                 t.hp[a]
             }
@@ -348,8 +385,8 @@ pub fn law_block<const D: usize>(
 
 /// The sticking trial of the tangential law for one lane (see [`trial`]).
 struct Trial<const D: usize> {
-    /// Tangential relative velocity (m/s).
-    vt: [Real; D],
+    /// Tangential relative velocity the dashpot sees (m/s): `vt`, or the predicted one.
+    vd: [Real; D],
     /// Projected, rescaled and advanced spring stretch (m).
     hp: [Real; D],
     /// Trial tangential force on j (N) and its squared magnitude.
@@ -365,7 +402,7 @@ struct Trial<const D: usize> {
 /// tangent plane with its magnitude kept, advanced by v_t dt, and the force it gives.
 /// Same formulas, in the same order, as `hertz_mindlin_coefs`.
 #[inline(always)]
-fn trial<const D: usize>(
+fn trial<const D: usize, const PRED: bool>(
     b: &PairBlock<D>,
     g: &Geometry<D>,
     m: usize,
@@ -394,17 +431,32 @@ fn trial<const D: usize>(
     };
     let k_t = (c.kt * b.sr[m]) * s;
     let c_t = (c.ct * b.sm[m]) * q;
+    // with the predictor vn is the predicted normal velocity; the stretch takes the
+    // tangential part of the half-step one (g.v)
+    let mut vn_half = 0.0;
+    if PRED {
+        for a in 0..D {
+            vn_half += g.v[a][m] * g.n[a][m];
+        }
+    }
     let mut vt = [0.0; D];
+    let mut vd = [0.0; D];
     let mut ft = [0.0; D];
     let mut ft2 = 0.0;
     for a in 0..D {
-        vt[a] = g.v[a][m] - g.n[a][m] * vn;
+        if PRED {
+            vt[a] = g.v[a][m] - g.n[a][m] * vn_half;
+            vd[a] = g.pv[a][m] - g.n[a][m] * vn;
+        } else {
+            vt[a] = g.v[a][m] - g.n[a][m] * vn;
+            vd[a] = vt[a];
+        }
         hp[a] = hp[a] * rescale + vt[a] * dt;
-        ft[a] = -(hp[a] * k_t) - vt[a] * c_t;
+        ft[a] = -(hp[a] * k_t) - vd[a] * c_t;
         ft2 += ft[a] * ft[a];
     }
     Trial {
-        vt,
+        vd,
         hp,
         ft,
         ft2,
@@ -456,15 +508,21 @@ fn write_lane<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::{hertz_mindlin_coefs, LawCoefs, PairParams};
+    use crate::dynamics::{hertz_mindlin_coefs, hertz_mindlin_split, LawCoefs, PairParams};
     use crate::math::Vector;
     use rand::{Rng, SeedableRng};
 
     /// The block law agrees with the scalar law pair by pair, sticking and sliding,
-    /// with and without friction; pairs apart come out zero whatever history they held,
-    /// and lanes outside the range are left alone.
+    /// with and without friction, with the velocity predictor (two velocities, as
+    /// `hertz_mindlin_split`) and without; pairs apart come out zero whatever history
+    /// they held, and lanes outside the range are left alone.
     #[test]
     fn block_law_matches_the_scalar_law() {
+        block_law_matches::<false>();
+        block_law_matches::<true>();
+    }
+
+    fn block_law_matches<const PRED: bool>() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         let (lo, hi) = (3, BLOCK - 5);
         for mu in [0.0, 0.2, 1.0] {
@@ -484,6 +542,12 @@ mod tests {
                 let c = LawCoefs::new(&p);
                 let n = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5).normalize();
                 let v = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5);
+                // the predicted velocity differs from the half-step one by up to 20 %
+                let vp = if PRED {
+                    v + Vector::<3>::from_fn(|_, _| 0.2 * (rng.random::<f64>() - 0.5))
+                } else {
+                    v
+                };
                 let h = Vector::<3>::from_fn(|_, _| 1e-5 * (rng.random::<f64>() - 0.5));
                 // one pair in five apart (overlap <= 0, the exact zero included)
                 let apart = m % 5 == 0;
@@ -493,7 +557,11 @@ mod tests {
                     1e-5 * rng.random::<f64>() + 1e-9
                 };
                 let mut h_scalar = h;
-                let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4);
+                let f = if PRED {
+                    hertz_mindlin_split(&c, d, &n, &v, &vp, &mut h_scalar, 1e-4)
+                } else {
+                    hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4)
+                };
                 expect.push((apart, f, h_scalar, n));
                 g.d[m] = d;
                 (g.r[0][m], g.r[1][m]) = (0.01 + 0.01 * rng.random::<f64>(), 0.02);
@@ -504,13 +572,14 @@ mod tests {
                 for a in 0..3 {
                     g.n[a][m] = n[a];
                     g.v[a][m] = v[a];
+                    g.pv[a][m] = vp[a];
                     b.h[a][m] = h[a];
                     b.f[a][m] = 7.0;
                     b.t[a][m] = 7.0;
                 }
             }
             let h_before = b.h;
-            law_block(&mut b, &mut g, lo..hi, &consts, 1e-4, true);
+            law_block::<3, PRED>(&mut b, &mut g, lo..hi, &consts, 1e-4, true);
             for (m, (apart, f, h, n)) in expect.iter().enumerate() {
                 if !(lo..hi).contains(&m) {
                     assert_eq!(b.d[m], 7.0);
@@ -571,7 +640,7 @@ mod tests {
         for a in 0..2 {
             (g.n[a][0], g.v[a][0], b.h[a][0]) = (n[a], v[a], h[a]);
         }
-        law_block(&mut b, &mut g, 0..1, &consts, 1e-4, true);
+        law_block::<2, false>(&mut b, &mut g, 0..1, &consts, 1e-4, true);
         let f = hertz_mindlin_coefs(&LawCoefs::new(&p), 2e-6, &n, &v, &mut h, 1e-4);
         let nxf = n[0] * f.tangential[1] - n[1] * f.tangential[0];
         assert!(f.tangential.norm() > 0.0);
@@ -631,7 +700,8 @@ mod tests {
             // with overlaps up to 10 % of r_i + r_j. A limit of 0.5 r_min never trips,
             // one of 1e-3 r_min does.
             let lanes = 0..BLOCK;
-            let (contact, bad) = geometry_block(&mut g.clone(), lanes.clone(), rot, 0.5);
+            let (contact, bad) =
+                geometry_block::<D, false>(&mut g.clone(), lanes.clone(), rot, 0.5);
             assert!(contact && !bad);
             // all lanes twice as far apart: no contact
             let mut apart = g.clone();
@@ -639,10 +709,55 @@ mod tests {
                 col.iter_mut().for_each(|x| *x *= 2.0);
             }
             assert_eq!(
-                geometry_block(&mut apart, lanes.clone(), rot, 1e-3),
+                geometry_block::<D, false>(&mut apart, lanes.clone(), rot, 1e-3),
                 (false, false)
             );
-            assert_eq!(geometry_block(&mut g, lanes, rot, 1e-3), (true, true));
+            // With the predictor: the same, and pv the predicted relative velocity
+            // from the increments dv_j - dv_i and dw_i, dw_j.
+            let mut gp = g.clone();
+            let mut expect_pv = Vec::new();
+            for (m, (d, n, _)) in expect.iter().enumerate() {
+                let dvp = Vector::<D>::from_fn(|_, _| rng.random::<f64>() - 0.5);
+                let dw: Vec<f64> = (0..2 * nc).map(|_| rng.random::<f64>() - 0.5).collect();
+                // g.v holds v_j - v_i until the geometry runs
+                let dv_rel = Vector::<D>::from_fn(|a, _| g.v[a][m]);
+                let mut vp = dvp + dv_rel;
+                if rot {
+                    let comps = |k: usize| -> Vec<f64> {
+                        (0..nc)
+                            .map(|c| g.tmp[k + c][m] + dw[k / 3 * nc + c])
+                            .collect()
+                    };
+                    let (wi, wj) = (
+                        Ang::<D>::from_comps(&comps(0)),
+                        Ang::<D>::from_comps(&comps(3)),
+                    );
+                    let w = wi * (g.r[0][m] - 0.5 * d) + wj * (g.r[1][m] - 0.5 * d);
+                    vp -= <Dim<D>>::cross_wv(w, n);
+                }
+                expect_pv.push(vp);
+                for a in 0..D {
+                    gp.pv[a][m] = dvp[a];
+                }
+                for c in 0..nc {
+                    (gp.pw[c][m], gp.pw[3 + c][m]) = (dw[c], dw[nc + c]);
+                }
+            }
+            assert_eq!(
+                geometry_block::<D, true>(&mut gp, lanes.clone(), rot, 1e-3),
+                (true, true)
+            );
+            assert_eq!(
+                geometry_block::<D, false>(&mut g, lanes, rot, 1e-3),
+                (true, true)
+            );
+            for (m, vp) in expect_pv.iter().enumerate() {
+                for a in 0..D {
+                    assert_eq!(gp.v[a][m].to_bits(), g.v[a][m].to_bits());
+                    let tol = 1e-14 * (1.0 + vp.norm());
+                    assert!((gp.pv[a][m] - vp[a]).abs() <= tol, "rot {rot} m {m} a {a}");
+                }
+            }
             for (m, (d, n, v)) in expect.iter().enumerate() {
                 assert_eq!(g.d[m].to_bits(), d.to_bits());
                 for a in 0..D {
