@@ -11,9 +11,11 @@ where
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
     // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time, with
-    // freezing); engine settings: DT=1e-4 (s), SKIN=0.2 (largest skin over r_min);
+    // freezing), FAST_DT=0.55 (of the Rayleigh estimate); engine settings: DT (s,
+    // overrides both), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
-    // callgrind); HEIGHT=0.5 (m, the desired pack height)
+    // callgrind); HEIGHT=0.5 (m, the desired pack height); PREDICT=1 (the velocity
+    // predictor, on by default with `fast`; PREDICT=0 turns it off)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -24,8 +26,12 @@ where
     let tol = env("TOL", 1e-2);
     let mut sim = SimConfig::<D>::paper();
     sim.drag = 0.005;
-    sim.dt = env("DT", sim.dt);
+    // `fast` takes FAST_DT of the Rayleigh estimate (as `PackScene.fast()`), or the
+    // paper's dt where that is larger
+    let fast_dt = (env("FAST_DT", 0.55) * sim.material.rayleigh_time_step(r)).max(sim.dt);
+    sim.dt = env("DT", if fast { fast_dt } else { sim.dt });
     sim.skin_ratio = env("SKIN", sim.skin_ratio);
+    sim.predict_velocity = env("PREDICT", if fast { 1.0 } else { 0.0 }) != 0.0;
     let cfg = PackConfig::<D> {
         sim,
         base: Vector::<D>::from_element(1.0),

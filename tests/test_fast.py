@@ -54,11 +54,18 @@ def test_adaptive_settling_stops_early_but_not_before_the_fall(deep_scene):
 
 
 def test_fast_settings_keep_physics_constants():
-    s = gp.PackScene.preset("4.3")
-    f = s.fast()
-    assert f.settle_tol is not None and f.freeze_depth is not None
-    for name in ("material", "dt", "settle_time", "gravity", "drag", "phi_layer", "h_layer"):
-        assert getattr(f, name) == getattr(s, name)
+    for preset in ("4.1", "4.2", "4.3", "4.4"):
+        s = gp.PackScene.preset(preset)
+        f = s.fast()
+        assert f.settle_tol is not None and f.freeze_depth is not None and f.predict_velocity
+        for name in ("material", "settle_time", "gravity", "drag", "phi_layer", "h_layer"):
+            assert getattr(f, name) == getattr(s, name)
+        # dt: a fraction of the stable step, never below the scene's own
+        crit = s.material.critical_time_step(s.r_min)
+        assert f.dt == max(s.dt, 0.55 * crit) and f.dt < crit
+    # 4.3's spheres take 1.9 times the paper's step; 4.1's discs keep it
+    assert gp.PackScene.preset("4.3").fast().dt == pytest.approx(1.883e-4, rel=1e-3)
+    assert gp.PackScene.preset("4.1").fast().dt == 1e-4
 
 
 def test_fast_defaults_match_the_full_fidelity_statistics():

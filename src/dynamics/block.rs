@@ -189,13 +189,9 @@ pub struct Geometry<const D: usize> {
     /// (cheaper to keep than to recompute).
     pub tmp: [[Real; BLOCK]; 6],
     /// With the velocity predictor only (`PRED`): the pair pass fills `pv` with
-    /// dv_j - dv_i, the difference of the predictor's increments a dt/2 (m/s);
-    /// [`geometry_block`] turns it into the predicted relative velocity at the
-    /// contact, which the dashpots see.
+    /// dv_j - dv_i, the difference of the predictor's increments a dt/2 (m/s), whose
+    /// normal component the law adds to the normal dashpot's velocity.
     pub pv: [[Real; BLOCK]; D],
-    /// With the velocity predictor only: the spin increments alpha dt/2 (rad/s) of i
-    /// (columns 0-2) and j (3-5), one component each in 2D.
-    pub pw: [[Real; BLOCK]; 6],
 }
 
 impl<const D: usize> Default for Geometry<D> {
@@ -207,7 +203,6 @@ impl<const D: usize> Default for Geometry<D> {
             r: [[0.0; BLOCK]; 2],
             tmp: [[0.0; BLOCK]; 6],
             pv: [[0.0; BLOCK]; D],
-            pw: [[0.0; BLOCK]; 6],
         }
     }
 }
@@ -216,11 +211,10 @@ impl<const D: usize> Default for Geometry<D> {
 /// unit normal, the overlap and the relative velocity of j's surface w.r.t. i's at the
 /// contact point, w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n) included when `rot`.
 /// Same arithmetic, in the same order, as the nalgebra expressions it replaces (bit
-/// for bit). With `PRED` it also forms the predicted relative velocity in `g.pv` (see
-/// [`Geometry`]). Returns whether some lane is in contact (overlap > 0), and whether some
+/// for bit). Returns whether some lane is in contact (overlap > 0), and whether some
 /// lane's overlap exceeds `max_ratio` (> 0) times its smaller radius.
 #[inline(never)]
-pub fn geometry_block<const D: usize, const PRED: bool>(
+pub fn geometry_block<const D: usize>(
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
     rot: bool,
@@ -249,12 +243,6 @@ pub fn geometry_block<const D: usize, const PRED: bool>(
             *x = g.n[a][m] * inv;
             g.n[a][m] = *x;
         }
-        if PRED {
-            // the predicted linear part, before the spins come off g.v
-            for a in 0..D {
-                g.pv[a][m] += g.v[a][m];
-            }
-        }
         if rot {
             let (ai, aj) = (ri - 0.5 * d, rj - 0.5 * d);
             if D == 3 {
@@ -268,29 +256,11 @@ pub fn geometry_block<const D: usize, const PRED: bool>(
                 for (a, x) in wxn.iter().enumerate().take(D) {
                     g.v[a][m] -= x;
                 }
-                if PRED {
-                    let w: [Real; 3] = std::array::from_fn(|c| {
-                        (g.tmp[c][m] + g.pw[c][m]) * ai + (g.tmp[3 + c][m] + g.pw[3 + c][m]) * aj
-                    });
-                    let wxn = [
-                        w[1] * n[2] - w[2] * n[1],
-                        w[2] * n[0] - w[0] * n[2],
-                        w[0] * n[1] - w[1] * n[0],
-                    ];
-                    for (a, x) in wxn.iter().enumerate().take(D) {
-                        g.pv[a][m] -= x;
-                    }
-                }
             } else {
                 // (0, 0, w) x (n0, n1, 0) = (-w n1, w n0)
                 let w = g.tmp[0][m] * ai + g.tmp[3][m] * aj;
                 g.v[0][m] -= -w * n[1];
                 g.v[1][m] -= w * n[0];
-                if PRED {
-                    let w = (g.tmp[0][m] + g.pw[0][m]) * ai + (g.tmp[3][m] + g.pw[3][m]) * aj;
-                    g.pv[0][m] -= -w * n[1];
-                    g.pv[1][m] -= w * n[0];
-                }
             }
         }
     }
@@ -318,8 +288,8 @@ pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<
 /// advances the history and writes the total force on j, n x f_t (when `torques`, else
 /// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
 /// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`; with
-/// `PRED` the dashpots see the predicted velocity `g.pv` and the stretch advances with
-/// `g.v`, as in `hertz_mindlin_split`.
+/// `PRED` the normal dashpot sees the predicted velocity `g.v + g.pv`, as in
+/// `hertz_mindlin_split`.
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
 #[inline(never)]
@@ -340,10 +310,19 @@ pub fn law_block<const D: usize, const PRED: bool>(
         let q = s.sqrt();
         let mut vn = 0.0;
         for a in 0..D {
-            vn += if PRED { g.pv[a][m] } else { g.v[a][m] } * g.n[a][m];
+            vn += g.v[a][m] * g.n[a][m];
+        }
+        // with the predictor the normal dashpot sees the predicted normal velocity
+        let mut vn_damp = 0.0;
+        if PRED {
+            for a in 0..D {
+                vn_damp += (g.v[a][m] + g.pv[a][m]) * g.n[a][m];
+            }
+        } else {
+            vn_damp = vn;
         }
         let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
-        g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
+        g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn_damp).max(0.0);
         g.tmp[0][m] = s;
         g.tmp[1][m] = q;
         g.tmp[2][m] = vn;
@@ -361,7 +340,7 @@ pub fn law_block<const D: usize, const PRED: bool>(
     for m in lo..hi {
         let contact = g.d[m] > 0.0;
         let h_old: [Real; D] = std::array::from_fn(|a| b.h[a][m]);
-        let t = trial::<D, PRED>(b, g, m, &h_old, c, dt);
+        let t = trial(b, g, m, &h_old, c, dt);
         let f_max = mu * g.tmp[3][m];
         let slide = t.ft2 > f_max * f_max;
         // Sliding caps the force at mu f_n (slide implies ft2 > 0). Both branches run
@@ -374,7 +353,7 @@ pub fn law_block<const D: usize, const PRED: bool>(
         let inv_kt = 1.0 / t.k_t;
         let h: [Real; D] = std::array::from_fn(|a| {
             if slide {
-                -(ft[a] + t.vd[a] * t.c_t) * inv_kt
+                -(ft[a] + t.vt[a] * t.c_t) * inv_kt
             } else {
                 t.hp[a]
             }
@@ -385,8 +364,8 @@ pub fn law_block<const D: usize, const PRED: bool>(
 
 /// The sticking trial of the tangential law for one lane (see [`trial`]).
 struct Trial<const D: usize> {
-    /// Tangential relative velocity the dashpot sees (m/s): `vt`, or the predicted one.
-    vd: [Real; D],
+    /// Tangential relative velocity (m/s).
+    vt: [Real; D],
     /// Projected, rescaled and advanced spring stretch (m).
     hp: [Real; D],
     /// Trial tangential force on j (N) and its squared magnitude.
@@ -402,7 +381,7 @@ struct Trial<const D: usize> {
 /// tangent plane with its magnitude kept, advanced by v_t dt, and the force it gives.
 /// Same formulas, in the same order, as `hertz_mindlin_coefs`.
 #[inline(always)]
-fn trial<const D: usize, const PRED: bool>(
+fn trial<const D: usize>(
     b: &PairBlock<D>,
     g: &Geometry<D>,
     m: usize,
@@ -431,32 +410,17 @@ fn trial<const D: usize, const PRED: bool>(
     };
     let k_t = (c.kt * b.sr[m]) * s;
     let c_t = (c.ct * b.sm[m]) * q;
-    // with the predictor vn is the predicted normal velocity; the stretch takes the
-    // tangential part of the half-step one (g.v)
-    let mut vn_half = 0.0;
-    if PRED {
-        for a in 0..D {
-            vn_half += g.v[a][m] * g.n[a][m];
-        }
-    }
     let mut vt = [0.0; D];
-    let mut vd = [0.0; D];
     let mut ft = [0.0; D];
     let mut ft2 = 0.0;
     for a in 0..D {
-        if PRED {
-            vt[a] = g.v[a][m] - g.n[a][m] * vn_half;
-            vd[a] = g.pv[a][m] - g.n[a][m] * vn;
-        } else {
-            vt[a] = g.v[a][m] - g.n[a][m] * vn;
-            vd[a] = vt[a];
-        }
+        vt[a] = g.v[a][m] - g.n[a][m] * vn;
         hp[a] = hp[a] * rescale + vt[a] * dt;
-        ft[a] = -(hp[a] * k_t) - vd[a] * c_t;
+        ft[a] = -(hp[a] * k_t) - vt[a] * c_t;
         ft2 += ft[a] * ft[a];
     }
     Trial {
-        vd,
+        vt,
         hp,
         ft,
         ft2,
@@ -513,8 +477,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     /// The block law agrees with the scalar law pair by pair, sticking and sliding,
-    /// with and without friction, with the velocity predictor (two velocities, as
-    /// `hertz_mindlin_split`) and without; pairs apart come out zero whatever history
+    /// with and without friction, with the velocity predictor (a second velocity for
+    /// the normal dashpot, as `hertz_mindlin_split`) and without; pairs apart come out zero whatever history
     /// they held, and lanes outside the range are left alone.
     #[test]
     fn block_law_matches_the_scalar_law() {
@@ -572,7 +536,7 @@ mod tests {
                 for a in 0..3 {
                     g.n[a][m] = n[a];
                     g.v[a][m] = v[a];
-                    g.pv[a][m] = vp[a];
+                    g.pv[a][m] = vp[a] - v[a];
                     b.h[a][m] = h[a];
                     b.f[a][m] = 7.0;
                     b.t[a][m] = 7.0;
@@ -700,8 +664,7 @@ mod tests {
             // with overlaps up to 10 % of r_i + r_j. A limit of 0.5 r_min never trips,
             // one of 1e-3 r_min does.
             let lanes = 0..BLOCK;
-            let (contact, bad) =
-                geometry_block::<D, false>(&mut g.clone(), lanes.clone(), rot, 0.5);
+            let (contact, bad) = geometry_block(&mut g.clone(), lanes.clone(), rot, 0.5);
             assert!(contact && !bad);
             // all lanes twice as far apart: no contact
             let mut apart = g.clone();
@@ -709,55 +672,10 @@ mod tests {
                 col.iter_mut().for_each(|x| *x *= 2.0);
             }
             assert_eq!(
-                geometry_block::<D, false>(&mut apart, lanes.clone(), rot, 1e-3),
+                geometry_block(&mut apart, lanes.clone(), rot, 1e-3),
                 (false, false)
             );
-            // With the predictor: the same, and pv the predicted relative velocity
-            // from the increments dv_j - dv_i and dw_i, dw_j.
-            let mut gp = g.clone();
-            let mut expect_pv = Vec::new();
-            for (m, (d, n, _)) in expect.iter().enumerate() {
-                let dvp = Vector::<D>::from_fn(|_, _| rng.random::<f64>() - 0.5);
-                let dw: Vec<f64> = (0..2 * nc).map(|_| rng.random::<f64>() - 0.5).collect();
-                // g.v holds v_j - v_i until the geometry runs
-                let dv_rel = Vector::<D>::from_fn(|a, _| g.v[a][m]);
-                let mut vp = dvp + dv_rel;
-                if rot {
-                    let comps = |k: usize| -> Vec<f64> {
-                        (0..nc)
-                            .map(|c| g.tmp[k + c][m] + dw[k / 3 * nc + c])
-                            .collect()
-                    };
-                    let (wi, wj) = (
-                        Ang::<D>::from_comps(&comps(0)),
-                        Ang::<D>::from_comps(&comps(3)),
-                    );
-                    let w = wi * (g.r[0][m] - 0.5 * d) + wj * (g.r[1][m] - 0.5 * d);
-                    vp -= <Dim<D>>::cross_wv(w, n);
-                }
-                expect_pv.push(vp);
-                for a in 0..D {
-                    gp.pv[a][m] = dvp[a];
-                }
-                for c in 0..nc {
-                    (gp.pw[c][m], gp.pw[3 + c][m]) = (dw[c], dw[nc + c]);
-                }
-            }
-            assert_eq!(
-                geometry_block::<D, true>(&mut gp, lanes.clone(), rot, 1e-3),
-                (true, true)
-            );
-            assert_eq!(
-                geometry_block::<D, false>(&mut g, lanes, rot, 1e-3),
-                (true, true)
-            );
-            for (m, vp) in expect_pv.iter().enumerate() {
-                for a in 0..D {
-                    assert_eq!(gp.v[a][m].to_bits(), g.v[a][m].to_bits());
-                    let tol = 1e-14 * (1.0 + vp.norm());
-                    assert!((gp.pv[a][m] - vp[a]).abs() <= tol, "rot {rot} m {m} a {a}");
-                }
-            }
+            assert_eq!(geometry_block(&mut g, lanes, rot, 1e-3), (true, true));
             for (m, (d, n, v)) in expect.iter().enumerate() {
                 assert_eq!(g.d[m].to_bits(), d.to_bits());
                 for a in 0..D {

@@ -105,11 +105,11 @@ pub fn hertz_mindlin_coefs<const D: usize>(
     hertz_mindlin_split(c, overlap, n, v_rel, v_rel, history, dt)
 }
 
-/// [`hertz_mindlin_coefs`] with two relative velocities at the contact (m/s): `v_rel`
-/// advances the tangential spring's stretch (the half-step velocity, consistent with
-/// the positions), `v_damp` drives the normal and tangential dashpots (the velocity
-/// predicted at the end of the step, see `SimConfig::predict_velocity`). With both
-/// the same it is `hertz_mindlin_coefs`, bit for bit.
+/// [`hertz_mindlin_coefs`] with two relative velocities at the contact (m/s): the
+/// normal dashpot sees the normal component of `v_damp` (the velocity predicted at the
+/// end of the step, see `SimConfig::predict_velocity`), everything else `v_rel` (the
+/// half-step velocity: the tangential spring's stretch must advance with it, as the
+/// positions do). With both the same it is `hertz_mindlin_coefs`, bit for bit.
 #[inline(always)]
 pub fn hertz_mindlin_split<const D: usize>(
     c: &LawCoefs,
@@ -136,7 +136,6 @@ pub fn hertz_mindlin_split<const D: usize>(
     }
 
     let v_t = v_rel - n * v_rel.dot(n);
-    let v_td = v_damp - n * vn;
     // Keep the history in the current tangent plane; rescale so that rotating the
     // contact frame does not change the stored elastic energy.
     let h_old2 = history.norm_squared();
@@ -149,7 +148,7 @@ pub fn hertz_mindlin_split<const D: usize>(
 
     let k_t = c.kt * s;
     let c_t = c.ct * q;
-    let mut f_t = -(h * k_t) - v_td * c_t;
+    let mut f_t = -(h * k_t) - v_t * c_t;
     let f_max = c.mu * f_n;
     let ft2 = f_t.norm_squared();
     if ft2 > f_max * f_max {
@@ -157,7 +156,7 @@ pub fn hertz_mindlin_split<const D: usize>(
         let scale = if ft2 > 0.0 { f_max / ft2.sqrt() } else { 0.0 };
         f_t *= scale;
         h = if k_t > 0.0 {
-            -(f_t + v_td * c_t) * (1.0 / k_t)
+            -(f_t + v_t * c_t) * (1.0 / k_t)
         } else {
             Vector::<D>::zeros()
         };

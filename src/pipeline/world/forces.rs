@@ -104,7 +104,6 @@ where
     pub(super) fn compute_forces(&mut self) -> Result<()> {
         // Outside a step the velocities are the full-step ones: nothing to predict.
         self.p.dv.fill(Vector::<D>::zeros());
-        self.p.dw.fill(Default::default());
         Team::scoped(|team| self.compute_forces_inner(true, false, team)).map(|_| ())
     }
 
@@ -276,7 +275,6 @@ where
             v: out.v,
             w: out.w,
             dv: &p.dv,
-            dw: &p.dw,
         };
         let Pairs {
             ij,
@@ -318,7 +316,6 @@ where
             max_ratio: law.max_ratio,
             rot: law.rot,
             dv: &p.dv,
-            dw: &p.dw,
         };
 
         // Two passes (all pairs, then all particles) while the pair state fits in
@@ -652,9 +649,8 @@ where
     r: &'a [Real],
     v: SyncPtr<Vector<D>>,
     w: SyncPtr<Ang<D>>,
-    /// The predictor's increments (`Particles::dv`, `dw`; empty without it).
+    /// The predictor's increments (`Particles::dv`; empty without it).
     dv: &'a [Vector<D>],
-    dw: &'a [Ang<D>],
 }
 
 /// The pair pass over lanes `lanes` of one block (pairs `base + lanes` of the list):
@@ -739,22 +735,16 @@ where
             }
         }
         if PRED {
-            // the increments are written by the first half kick only (bounds-checked:
-            // the arrays are empty without the predictor)
-            let dv = p.dv[j] - p.dv[i];
+            // SAFETY: with the predictor the increments have one entry per particle
+            // (`add_particles`), and i, j are below the particle count (see `at`).
+            let (dvi, dvj) = unsafe { (at(p.dv, i), at(p.dv, j)) };
+            let dv = dvj - dvi;
             for a in 0..D {
                 g.pv[a][l] = dv[a];
             }
-            if rot {
-                let (wi, wj) = (p.dw[i], p.dw[j]);
-                for c in 0..<Ang<D> as AngOps>::NCOMP {
-                    g.pw[c][l] = wi.comp(c);
-                    g.pw[3 + c][l] = wj.comp(c);
-                }
-            }
         }
     }
-    let (contact, too_deep) = geometry_block::<D, PRED>(g, lo..hi, rot, law.max_ratio);
+    let (contact, too_deep) = geometry_block(g, lo..hi, rot, law.max_ratio);
     let mut bad = None;
     if too_deep {
         // the first pair too deep (rare: the step is then refused)
@@ -796,9 +786,8 @@ where
     guard: Real,
     max_ratio: Real,
     rot: bool,
-    /// The predictor's increments (`Particles::dv`, `dw`; empty without it).
+    /// The predictor's increments (`Particles::dv`; empty without it).
     dv: &'a [Vector<D>],
-    dw: &'a [Ang<D>],
 }
 
 /// What the gather writes, per particle.
@@ -877,13 +866,9 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             at(c.j_start, q + 1) as usize,
         )
     };
-    // The velocity and spin the dashpots see: the half-step ones, or with the
-    // predictor those predicted at the end of the step.
-    let (vd, wd) = if c.dv.is_empty() {
-        (*v, *w)
-    } else {
-        (*v + c.dv[q], *w + c.dw[q])
-    };
+    // The velocity the normal dashpots and drag see: the half-step one, or with the
+    // predictor the one predicted at the end of the step.
+    let vd = if c.dv.is_empty() { *v } else { *v + c.dv[q] };
     let mut fq = c.gravity * m;
     if c.drag > 0.0 {
         fq -= vd * c.drag;
@@ -964,10 +949,8 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
         let fc = if c.dv.is_empty() {
             hertz_mindlin(&params, d, &n, &vrel, &mut wh[wi], c.dt)
         } else {
-            let mut vdamp = -vd;
-            if c.rot {
-                vdamp -= <Dim<D>>::cross_wv(wd, &(n * arm));
-            }
+            // the spin adds nothing along the normal
+            let vdamp = -vd;
             let coefs = LawCoefs::new(&params);
             hertz_mindlin_split(&coefs, d, &n, &vrel, &vdamp, &mut wh[wi], c.dt)
         };

@@ -103,14 +103,16 @@ pub struct SimConfig<const D: usize> {
     pub max_overlap_ratio: Real,
     /// 2D mass model. Ignored in 3D.
     pub inertia_2d: Inertia2D,
-    /// Velocity the dashpots see (the normal and tangential dashpots of particle and
-    /// wall contacts, and drag). false (default): the half-step velocity v_{n+1/2} of
-    /// plain velocity Verlet, as in LIGGGHTS and LAMMPS, which lags the force by dt/2:
-    /// first order in dt with damping. true: the velocity predicted at the end of the
-    /// step, v_{n+1/2} + a_n dt/2 (and the same for spins), which makes the damping
-    /// second order; positions, overlaps and the tangential spring's stretch still
-    /// advance with the half-step velocity. `benchmarks/collision_dt.py` measures both.
-    /// Costs 48 bytes per sphere and two more velocity reads per pair.
+    /// Velocity the normal dashpots (of particle and wall contacts) and drag see.
+    /// false (default): the half-step velocity v_{n+1/2} of plain velocity Verlet, as
+    /// in LIGGGHTS and LAMMPS, which lags the force by dt/2: first order in dt with
+    /// damping, so a landing collision rebounds too fast (1.1-1.4 % at 12 steps in
+    /// contact, 4-5 % at 6). true: the velocity predicted at the end of the step,
+    /// v_{n+1/2} + a_n dt/2, which makes the normal damping second order (0.2-0.7 % at
+    /// both). The tangential spring's stretch advances with the half-step velocity, as
+    /// the positions do, and the tangential dashpot sees it too (its lag changes the
+    /// rebound spin by about 2 % at either step). `benchmarks/collision_dt.py`
+    /// measures both. Costs 24 bytes per particle and one more velocity read per pair.
     pub predict_velocity: bool,
 }
 
@@ -235,11 +237,10 @@ struct Particles<const D: usize, A> {
     wall_hist: Vec<[Vector<D>; MAX_WALLS]>,
     wall_force: Vec<[Vector<D>; MAX_WALLS]>,
     /// With [`SimConfig::predict_velocity`] only (empty otherwise): the predictor's
-    /// increments f_n dt / 2m and t_n dt / 2I, written by the first half kick, which
-    /// the force pass adds to the half-step velocity and spin for the dashpots. Zero
-    /// outside a step, when the velocity is the full-step one.
+    /// increment f_n dt / 2m, written by the first half kick, which the force pass adds
+    /// to the half-step velocity for the normal dashpots and drag. Zero outside a
+    /// step, when the velocity is the full-step one.
     dv: Vec<Vector<D>>,
-    dw: Vec<A>,
     /// Frozen particles are not integrated (see [`FreezeConfig`]).
     frozen: Vec<bool>,
     /// Bit w set: wall w was in contact at the last evaluation (its state is nonzero).
@@ -743,7 +744,6 @@ where
             self.p.wall_force.push([Vector::<D>::zeros(); MAX_WALLS]);
             if self.cfg.predict_velocity {
                 self.p.dv.push(Vector::<D>::zeros());
-                self.p.dw.push(Ang::<D>::default());
             }
             self.p.frozen.push(false);
             self.p.wall_mask.push(0);
@@ -903,7 +903,7 @@ where
             Disjoint::new(&mut p.v),
             Disjoint::new(&mut p.w),
         );
-        let (dvs, dws) = (Disjoint::new(&mut p.dv), Disjoint::new(&mut p.dw));
+        let dvs = Disjoint::new(&mut p.dv);
         let (fs, ims, xrs, hs, fzs, ts, iis) = (
             &p.f,
             &p.inv_m,
@@ -941,18 +941,18 @@ where
                 let (w, t, ii) = (&mut w[..n], &ts[r.clone()][..n], &iis[r.clone()][..n]);
                 let (dt, half) = (dt, half);
                 // the predictor's increments, for the force pass (none without it)
-                let (pv, pw) = if pred {
+                let pv = if pred {
                     // SAFETY: the items' ranges are disjoint.
-                    unsafe { (dvs.range(r.clone()), dws.range(r.clone())) }
+                    unsafe { dvs.range(r.clone()) }
                 } else {
-                    (&mut [][..], &mut [][..])
+                    &mut [][..]
                 };
                 for k in 0..n {
                     if FROZEN && fz[k] {
                         if pred {
                             // at rest: nothing to predict (a stale increment would
                             // reach its contacts' dashpots)
-                            (pv[k], pw[k]) = (Vector::<D>::zeros(), Default::default());
+                            pv[k] = Vector::<D>::zeros();
                         }
                         continue;
                     }
@@ -966,11 +966,7 @@ where
                         pv[k] = dv;
                     }
                     if TORQUE {
-                        let dw = t[k] * (ii[k] * half);
-                        w[k] += dw;
-                        if pred {
-                            pw[k] = dw;
-                        }
+                        w[k] += t[k] * (ii[k] * half);
                     }
                 }
                 moved
@@ -1145,6 +1141,9 @@ where
         pr.j_start = j_start;
         pr.j_inc = j_inc;
         pr.check_indices(n);
+        // the pair pass reads the predictor's increments unchecked too
+        let pred = self.cfg.predict_velocity;
+        assert!(!pred || self.p.dv.len() == n);
     }
 
     /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
