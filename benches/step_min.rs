@@ -4,7 +4,7 @@
 //! `cargo bench --bench step_min [-- THREADS] [sizes | tiles3]`: `sizes` adds the tiled
 //! packs (3D: 8 952, 80 568 and 572 928 spheres; 2D: 1 397 and 100 584 discs), to check
 //! that the cost per particle-step stays flat with size; `tiles3` runs the 80 568-sphere
-//! pack alone. `PREDICT=1` in the environment turns the velocity predictor on.
+//! pack alone.
 
 mod common;
 

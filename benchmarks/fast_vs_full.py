@@ -8,11 +8,10 @@ jamming per layer, no freezing) and the same number with each faster variant:
 - ``dt``: dt = `--dt-fraction` of the Rayleigh estimate (all presets are stable up to
   the estimate, `benchmarks/stability.py`);
 - ``settle``: adaptive settling as in `PackScene.fast()`, no freezing;
-- ``fast``: `PackScene.fast()` (adaptive settling, freezing, and in 3D a larger dt
-  with the velocity predictor);
+- ``fast``: `PackScene.fast()` (adaptive settling, freezing, and in 3D a larger dt);
 - ``fast+dt``: `PackScene.fast()` with dt = `--dt-fraction` of the Rayleigh estimate;
-- ``fast-verlet``: `PackScene.fast()` with plain velocity Verlet and the scene's dt
-  (the fast settings of sessions 2-14).
+- ``fast-paper-dt``: `PackScene.fast()` with the scene's own dt (the fast settings of
+  sessions 2-14).
 
 Packs of one setting use the master seed and streams 0..n-1, like `granpack paper`.
 For each variant it reports the wall time per pack and the difference of the mean phi,
@@ -64,7 +63,7 @@ def variants(
         "settle": scene.replace(settle_tol=fast.settle_tol),
         "fast": fast,
         "fast+dt": fast.replace(dt=dt),
-        "fast-verlet": fast.replace(predict_velocity=False, dt=scene.dt),
+        "fast-paper-dt": fast.replace(dt=scene.dt),
     }
     return {"full": scene} | {k: v.replace(**(changes or {})) for k, v in faster.items()}
 
@@ -120,7 +119,7 @@ def plot(df: pl.DataFrame, out: Path) -> None:
     cols = ["phi_shift_sd", "z_shift_sd", "a_r_shift_sd", "a_n_shift_sd"]
     markers = dict(zip(sorted(df["preset"].unique()), "osD^v<>", strict=False))
     # the standard variants keep their colours; variants run with --set get the next ones
-    known = ["full", "freeze", "dt", "settle", "fast", "fast+dt", "fast-verlet"]
+    known = ["full", "freeze", "dt", "settle", "fast", "fast+dt", "fast-paper-dt"]
     extra = [v for v in df["variant"].unique(maintain_order=True) if v not in known]
     colors = {v: f"C{k % 10}" for k, v in enumerate(known + extra)}
     for (preset, label), sub in df.group_by(["preset", "variant"], maintain_order=True):

@@ -13,7 +13,6 @@ shown at the end).
     python benchmarks/stability.py                  # 3 seeds, f to 1/128
     python benchmarks/stability.py --quick          # 1 seed, f to 1/16, smaller scenes
     python benchmarks/stability.py --damping 0.85   # a damping at which f < 1
-    python benchmarks/stability.py --predict-velocity   # with the fast settings' predictor
 """
 
 from __future__ import annotations
@@ -28,13 +27,11 @@ import granpack as gp
 PRESETS = ("4.1", "4.2", "4.3", "4.4")
 
 
-def reduced(
-    name: str, quick: bool, damping: float | None = None, predict: bool = False
-) -> gp.PackScene:
+def reduced(name: str, quick: bool, damping: float | None = None) -> gp.PackScene:
     """The preset on a smaller base with about 4 layers of 0.1 m and the paper's 1 s of
     jamming per layer (quick: 2 layers, 0.5 s; a layer falls through its slab in about
     0.3 s at g = 2). `damping` overrides the material's damping ratio."""
-    scene = gp.PackScene.preset(name).replace(predict_velocity=predict)
+    scene = gp.PackScene.preset(name)
     if damping is not None:
         scene = scene.replace(material=dataclasses.replace(scene.material, damping=damping))
     if quick:
@@ -98,9 +95,6 @@ def main(argv=None) -> int:
         default=None,
         help="override the damping ratio (e.g. 0.85: unstable below the estimate)",
     )
-    ap.add_argument(
-        "--predict-velocity", action="store_true", help="the velocity predictor of fast()"
-    )
     ap.add_argument("-v", "--verbose", action="store_true", help="each run on stderr")
     args = ap.parse_args(argv)
     seeds = [0] if args.quick else [0, 1, 2]
@@ -113,7 +107,7 @@ def main(argv=None) -> int:
     rows = []
     t_all = time.perf_counter()
     for name in args.presets:
-        scene = reduced(name, args.quick, args.damping, args.predict_velocity)
+        scene = reduced(name, args.quick, args.damping)
         crit = scene.material.critical_time_step(scene.r_min)
         log(f"{name}: estimate {crit:.4g} s for r_min = {scene.r_min:g} m")
         t0 = time.perf_counter()
@@ -133,8 +127,6 @@ def main(argv=None) -> int:
         rows.append((name, scene, crit, best, first_bad, n, time.perf_counter() - t0))
 
     damping = "" if args.damping is None else f", damping {args.damping}"
-    if args.predict_velocity:
-        damping += ", velocity predictor"
     print(
         f"Largest stable dt per preset (reduced scenes{damping}, seeds {seeds}; "
         "stable = no guard fires)\n"

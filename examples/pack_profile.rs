@@ -14,8 +14,7 @@ where
     // freezing), FAST_DT=0.55 (of the Rayleigh estimate); engine settings: DT (s,
     // overrides both), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
-    // callgrind); HEIGHT=0.5 (m, the desired pack height); PREDICT=1 (the velocity
-    // predictor, on by default with `fast`; PREDICT=0 turns it off)
+    // callgrind); HEIGHT=0.5 (m, the desired pack height)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -31,7 +30,6 @@ where
     let fast_dt = (env("FAST_DT", 0.55) * sim.material.rayleigh_time_step(r)).max(sim.dt);
     sim.dt = env("DT", if fast { fast_dt } else { sim.dt });
     sim.skin_ratio = env("SKIN", sim.skin_ratio);
-    sim.predict_velocity = env("PREDICT", if fast { 1.0 } else { 0.0 }) != 0.0;
     let cfg = PackConfig::<D> {
         sim,
         base: Vector::<D>::from_element(1.0),

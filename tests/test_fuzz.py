@@ -51,7 +51,6 @@ SIM_KEYS = [
     "skin_ratio",
     "max_overlap_ratio",
     "inertia_2d",
-    "predict_velocity",
 ]
 
 
@@ -277,7 +276,6 @@ SIM_VALUES = {
     "skin_ratio": st.one_of(ODD_FLOATS, st.floats(0, 12), SCALARS),
     "max_overlap_ratio": st.one_of(ODD_FLOATS, st.floats(0, 1.2), SCALARS),
     "inertia_2d": st.one_of(st.sampled_from(["sphere", "disc", "cube"]), SCALARS),
-    "predict_velocity": st.one_of(st.booleans(), SCALARS),
 }
 
 

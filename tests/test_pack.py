@@ -101,7 +101,7 @@ THREAD_SCRIPT = textwrap.dedent(
         # freezing (and thawing, partial rebuilds) and adaptive settling too
         scene = scene.replace(
             height=0.15, settle_time=0.4, settle_tol=1e-2, freeze_depth=0.02,
-            freeze_speed=2e-2, freeze_force=0.5, predict_velocity=True,
+            freeze_speed=2e-2, freeze_force=0.5,
         )
     p = gp.generate(scene)
     h = hashlib.sha256()
@@ -116,8 +116,7 @@ THREAD_SCRIPT = textwrap.dedent(
 @pytest.mark.parametrize("mode", ["paper", "fast"])
 def test_bit_identical_on_one_and_two_threads(mode):
     """More than one parallel chunk (512 particles) so that threads really split work;
-    in `fast` mode particles freeze, thaw and the pair list is partly rebuilt, with the
-    velocity predictor on."""
+    in `fast` mode particles freeze, thaw and the pair list is partly rebuilt."""
     out = {}
     for threads in ("1", "2"):
         env = {**os.environ, "RAYON_NUM_THREADS": threads}

@@ -98,8 +98,6 @@ where
     let r: Vec<f64> = order.iter().map(|&k| r[k]).collect();
     let mut cfg = SimConfig::<D>::paper();
     cfg.drag = 0.005;
-    // PREDICT=1: the velocity predictor of the fast settings
-    cfg.predict_velocity = std::env::var("PREDICT").is_ok_and(|v| v == "1");
     let mut hi = Vector::<D>::repeat(tiles as f64);
     hi[D - 1] = f64::INFINITY;
     cfg.walls = Some((Vector::<D>::zeros(), hi));

@@ -34,7 +34,6 @@ class Simulation:
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
         inertia_2d: str = "sphere",
-        predict_velocity: bool = False,
     ) -> None: ...
     @property
     def dim(self) -> int: ...
@@ -105,7 +104,6 @@ class LayerPacker:
         freeze_depth: float | None = None,
         freeze_speed: float = 1e-3,
         freeze_force: float = 0.1,
-        predict_velocity: bool = False,
     ) -> None: ...
     @property
     def done(self) -> bool: ...

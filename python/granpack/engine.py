@@ -89,10 +89,6 @@ class Simulation:
         unstable. Default 0.5.
     inertia_2d : {"sphere", "disc"}
         2D mass model: a sphere confined to the plane (default) or a unit-thickness disc.
-    predict_velocity : bool
-        Dashpots see the velocity predicted at the end of the step (second order with
-        damping) instead of the half-step velocity. Default False (plain velocity
-        Verlet); see `PackScene.predict_velocity`.
     """
 
     def __init__(
@@ -108,7 +104,6 @@ class Simulation:
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
         inertia_2d: str = "sphere",
-        predict_velocity: bool = False,
     ) -> None:
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
             raise GranpackError(f"invalid dim = {dim!r}: must be 2 or 3")
@@ -159,7 +154,6 @@ class Simulation:
             skin_ratio=as_real("skin_ratio", skin_ratio, 0, 10),
             max_overlap_ratio=as_real("max_overlap_ratio", max_overlap_ratio, 0, 1, lo_open=True),
             inertia_2d=inertia_2d,
-            predict_velocity=as_bool("predict_velocity", predict_velocity),
         )
 
     def add_particles(self, positions, radii, velocities=None, spins=None) -> None:

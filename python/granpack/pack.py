@@ -305,7 +305,6 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
         freeze_depth=s.freeze_depth,
         freeze_speed=s.freeze_speed,
         freeze_force=s.freeze_force,
-        predict_velocity=s.predict_velocity,
     )
 
 

@@ -156,7 +156,6 @@ fn sim_config<const D: usize>(
     skin_ratio: f64,
     max_overlap_ratio: f64,
     inertia_2d: &str,
-    predict_velocity: bool,
 ) -> PyResult<SimConfig<D>>
 where
     Dim<D>: Spatial<D>,
@@ -192,7 +191,6 @@ where
         skin_ratio,
         max_overlap_ratio,
         inertia_2d,
-        predict_velocity,
     })
 }
 
@@ -234,7 +232,7 @@ struct Simulation {
 impl Simulation {
     #[new]
     #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, walls, skin_ratio=0.2,
-                        max_overlap_ratio=0.5, inertia_2d="sphere", predict_velocity=false))]
+                        max_overlap_ratio=0.5, inertia_2d="sphere"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -247,7 +245,6 @@ impl Simulation {
         skin_ratio: f64,
         max_overlap_ratio: f64,
         inertia_2d: &str,
-        predict_velocity: bool,
     ) -> PyResult<Self> {
         macro_rules! make {
             ($D:literal, $variant:ident) => {
@@ -261,7 +258,6 @@ impl Simulation {
                     skin_ratio,
                     max_overlap_ratio,
                     inertia_2d,
-                    predict_velocity,
                 )?)?)
             };
         }
@@ -445,7 +441,7 @@ impl LayerPacker {
                         h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
                         max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
                         inertia_2d="sphere", adaptive_settle=None, freeze_depth=None,
-                        freeze_speed=1e-3, freeze_force=0.1, predict_velocity=false))]
+                        freeze_speed=1e-3, freeze_force=0.1))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -471,7 +467,6 @@ impl LayerPacker {
         freeze_depth: Option<f64>,
         freeze_speed: f64,
         freeze_force: f64,
-        predict_velocity: bool,
     ) -> PyResult<Self> {
         let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
         macro_rules! make {
@@ -486,7 +481,6 @@ impl LayerPacker {
                     skin_ratio,
                     max_overlap_ratio,
                     inertia_2d,
-                    predict_velocity,
                 )?;
                 let v = <Dim<$D> as Spatial<$D>>::VERTICAL;
                 let mut b = Vector::<$D>::zeros();

@@ -188,10 +188,6 @@ pub struct Geometry<const D: usize> {
     /// velocity and the normal force, from the law's normal pass to its tangential one
     /// (cheaper to keep than to recompute).
     pub tmp: [[Real; BLOCK]; 6],
-    /// With the velocity predictor only (`PRED`): the pair pass fills `pv` with
-    /// dv_j - dv_i, the difference of the predictor's increments a dt/2 (m/s), whose
-    /// normal component the law adds to the normal dashpot's velocity.
-    pub pv: [[Real; BLOCK]; D],
 }
 
 impl<const D: usize> Default for Geometry<D> {
@@ -202,7 +198,6 @@ impl<const D: usize> Default for Geometry<D> {
             d: [0.0; BLOCK],
             r: [[0.0; BLOCK]; 2],
             tmp: [[0.0; BLOCK]; 6],
-            pv: [[0.0; BLOCK]; D],
         }
     }
 }
@@ -287,13 +282,11 @@ pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
 /// advances the history and writes the total force on j, n x f_t (when `torques`, else
 /// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
-/// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`; with
-/// `PRED` the normal dashpot sees the predicted velocity `g.v + g.pv`, as in
-/// `hertz_mindlin_split`.
+/// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
 #[inline(never)]
-pub fn law_block<const D: usize, const PRED: bool>(
+pub fn law_block<const D: usize>(
     b: &mut PairBlock<D>,
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
@@ -312,17 +305,8 @@ pub fn law_block<const D: usize, const PRED: bool>(
         for a in 0..D {
             vn += g.v[a][m] * g.n[a][m];
         }
-        // with the predictor the normal dashpot sees the predicted normal velocity
-        let mut vn_damp = 0.0;
-        if PRED {
-            for a in 0..D {
-                vn_damp += (g.v[a][m] + g.pv[a][m]) * g.n[a][m];
-            }
-        } else {
-            vn_damp = vn;
-        }
         let f_elastic = (2.0 / 3.0) * (c.kn * b.sr[m]) * s * d;
-        g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn_damp).max(0.0);
+        g.tmp[3][m] = (f_elastic - (c.cn * b.sm[m]) * q * vn).max(0.0);
         g.tmp[0][m] = s;
         g.tmp[1][m] = q;
         g.tmp[2][m] = vn;
@@ -472,21 +456,15 @@ fn write_lane<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::{hertz_mindlin_coefs, hertz_mindlin_split, LawCoefs, PairParams};
+    use crate::dynamics::{hertz_mindlin_coefs, LawCoefs, PairParams};
     use crate::math::Vector;
     use rand::{Rng, SeedableRng};
 
     /// The block law agrees with the scalar law pair by pair, sticking and sliding,
-    /// with and without friction, with the velocity predictor (a second velocity for
-    /// the normal dashpot, as `hertz_mindlin_split`) and without; pairs apart come out zero whatever history
-    /// they held, and lanes outside the range are left alone.
+    /// with and without friction; pairs apart come out zero whatever history they held,
+    /// and lanes outside the range are left alone.
     #[test]
     fn block_law_matches_the_scalar_law() {
-        block_law_matches::<false>();
-        block_law_matches::<true>();
-    }
-
-    fn block_law_matches<const PRED: bool>() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         let (lo, hi) = (3, BLOCK - 5);
         for mu in [0.0, 0.2, 1.0] {
@@ -506,12 +484,6 @@ mod tests {
                 let c = LawCoefs::new(&p);
                 let n = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5).normalize();
                 let v = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5);
-                // the predicted velocity differs from the half-step one by up to 20 %
-                let vp = if PRED {
-                    v + Vector::<3>::from_fn(|_, _| 0.2 * (rng.random::<f64>() - 0.5))
-                } else {
-                    v
-                };
                 let h = Vector::<3>::from_fn(|_, _| 1e-5 * (rng.random::<f64>() - 0.5));
                 // one pair in five apart (overlap <= 0, the exact zero included)
                 let apart = m % 5 == 0;
@@ -521,11 +493,7 @@ mod tests {
                     1e-5 * rng.random::<f64>() + 1e-9
                 };
                 let mut h_scalar = h;
-                let f = if PRED {
-                    hertz_mindlin_split(&c, d, &n, &v, &vp, &mut h_scalar, 1e-4)
-                } else {
-                    hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4)
-                };
+                let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h_scalar, 1e-4);
                 expect.push((apart, f, h_scalar, n));
                 g.d[m] = d;
                 (g.r[0][m], g.r[1][m]) = (0.01 + 0.01 * rng.random::<f64>(), 0.02);
@@ -536,14 +504,13 @@ mod tests {
                 for a in 0..3 {
                     g.n[a][m] = n[a];
                     g.v[a][m] = v[a];
-                    g.pv[a][m] = vp[a] - v[a];
                     b.h[a][m] = h[a];
                     b.f[a][m] = 7.0;
                     b.t[a][m] = 7.0;
                 }
             }
             let h_before = b.h;
-            law_block::<3, PRED>(&mut b, &mut g, lo..hi, &consts, 1e-4, true);
+            law_block(&mut b, &mut g, lo..hi, &consts, 1e-4, true);
             for (m, (apart, f, h, n)) in expect.iter().enumerate() {
                 if !(lo..hi).contains(&m) {
                     assert_eq!(b.d[m], 7.0);
@@ -604,7 +571,7 @@ mod tests {
         for a in 0..2 {
             (g.n[a][0], g.v[a][0], b.h[a][0]) = (n[a], v[a], h[a]);
         }
-        law_block::<2, false>(&mut b, &mut g, 0..1, &consts, 1e-4, true);
+        law_block(&mut b, &mut g, 0..1, &consts, 1e-4, true);
         let f = hertz_mindlin_coefs(&LawCoefs::new(&p), 2e-6, &n, &v, &mut h, 1e-4);
         let nxf = n[0] * f.tangential[1] - n[1] * f.tangential[0];
         assert!(f.tangential.norm() > 0.0);

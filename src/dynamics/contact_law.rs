@@ -102,27 +102,9 @@ pub fn hertz_mindlin_coefs<const D: usize>(
     history: &mut Vector<D>,
     dt: Real,
 ) -> ContactForce<D> {
-    hertz_mindlin_split(c, overlap, n, v_rel, v_rel, history, dt)
-}
-
-/// [`hertz_mindlin_coefs`] with two relative velocities at the contact (m/s): the
-/// normal dashpot sees the normal component of `v_damp` (the velocity predicted at the
-/// end of the step, see `SimConfig::predict_velocity`), everything else `v_rel` (the
-/// half-step velocity: the tangential spring's stretch must advance with it, as the
-/// positions do). With both the same it is `hertz_mindlin_coefs`, bit for bit.
-#[inline(always)]
-pub fn hertz_mindlin_split<const D: usize>(
-    c: &LawCoefs,
-    overlap: Real,
-    n: &Vector<D>,
-    v_rel: &Vector<D>,
-    v_damp: &Vector<D>,
-    history: &mut Vector<D>,
-    dt: Real,
-) -> ContactForce<D> {
     let s = overlap.sqrt();
     let q = s.sqrt();
-    let vn = v_damp.dot(n);
+    let vn = v_rel.dot(n);
     // 4/3 E* sqrt(R*) d^{3/2} = 2/3 k_n d
     let f_elastic = (2.0 / 3.0) * c.kn * s * overlap;
     // vn < 0 while approaching: the dashpot then adds to the repulsion.
@@ -135,7 +117,7 @@ pub fn hertz_mindlin_split<const D: usize>(
         };
     }
 
-    let v_t = v_rel - n * v_rel.dot(n);
+    let v_t = v_rel - n * vn;
     // Keep the history in the current tangent plane; rescale so that rotating the
     // contact frame does not change the stored elastic energy.
     let h_old2 = history.norm_squared();

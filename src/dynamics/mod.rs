@@ -4,7 +4,5 @@ pub mod block;
 pub mod contact_law;
 pub mod material;
 
-pub use contact_law::{
-    hertz_mindlin, hertz_mindlin_coefs, hertz_mindlin_split, ContactForce, LawCoefs, PairParams,
-};
+pub use contact_law::{hertz_mindlin, hertz_mindlin_coefs, ContactForce, LawCoefs, PairParams};
 pub use material::Material;

@@ -102,8 +102,6 @@ where
     /// Pair forces, then the per-particle gather with walls and body forces, for every
     /// particle (frozen ones included).
     pub(super) fn compute_forces(&mut self) -> Result<()> {
-        // Outside a step the velocities are the full-step ones: nothing to predict.
-        self.p.dv.fill(Vector::<D>::zeros());
         Team::scoped(|team| self.compute_forces_inner(true, false, team)).map(|_| ())
     }
 
@@ -253,7 +251,6 @@ where
             rot: self.cfg.rotations,
             torques: TORQUE,
             max_ratio: self.cfg.max_overlap_ratio,
-            pred: self.cfg.predict_velocity,
         };
         let scratch = &mut self.scratch;
         let p = &mut self.p;
@@ -274,7 +271,6 @@ where
             r: &p.r,
             v: out.v,
             w: out.w,
-            dv: &p.dv,
         };
         let Pairs {
             ij,
@@ -315,7 +311,6 @@ where
             guard: 0.25 / (dt * dt),
             max_ratio: law.max_ratio,
             rot: law.rot,
-            dv: &p.dv,
         };
 
         // Two passes (all pairs, then all particles) while the pair state fits in
@@ -635,8 +630,6 @@ struct LawPass {
     rot: bool,
     torques: bool,
     max_ratio: Real,
-    /// The velocity predictor is on ([`SimConfig::predict_velocity`]).
-    pred: bool,
 }
 
 /// What the pair pass reads of the particles; velocities and spins through pointers,
@@ -649,8 +642,6 @@ where
     r: &'a [Real],
     v: SyncPtr<Vector<D>>,
     w: SyncPtr<Ang<D>>,
-    /// The predictor's increments (`Particles::dv`; empty without it).
-    dv: &'a [Vector<D>],
 }
 
 /// The pair pass over lanes `lanes` of one block (pairs `base + lanes` of the list):
@@ -662,33 +653,6 @@ where
 /// No thread writes the velocity or spin of a particle of these pairs meanwhile.
 #[inline(always)]
 unsafe fn pair_block<const D: usize>(
-    blk: &mut PairBlock<D>,
-    g: &mut Geometry<D>,
-    base: usize,
-    lanes: std::ops::Range<usize>,
-    ij: &[[u32; 2]],
-    p: &PairIn<D>,
-    law: &LawPass,
-) -> Option<usize>
-where
-    Dim<D>: Spatial<D>,
-{
-    // SAFETY: passed on from the caller.
-    unsafe {
-        if law.pred {
-            pair_block_with::<D, true>(blk, g, base, lanes, ij, p, law)
-        } else {
-            pair_block_with::<D, false>(blk, g, base, lanes, ij, p, law)
-        }
-    }
-}
-
-/// [`pair_block`], compiled with and without the velocity predictor.
-///
-/// # Safety
-/// As for [`pair_block`].
-#[inline(always)]
-unsafe fn pair_block_with<const D: usize, const PRED: bool>(
     blk: &mut PairBlock<D>,
     g: &mut Geometry<D>,
     base: usize,
@@ -734,15 +698,6 @@ where
                 g.tmp[3 + c][l] = wj.comp(c);
             }
         }
-        if PRED {
-            // SAFETY: with the predictor the increments have one entry per particle
-            // (`add_particles`), and i, j are below the particle count (see `at`).
-            let (dvi, dvj) = unsafe { (at(p.dv, i), at(p.dv, j)) };
-            let dv = dvj - dvi;
-            for a in 0..D {
-                g.pv[a][l] = dv[a];
-            }
-        }
     }
     let (contact, too_deep) = geometry_block(g, lo..hi, rot, law.max_ratio);
     let mut bad = None;
@@ -752,7 +707,7 @@ where
         bad = (lo..hi).find(|&l| g.d[l] > ratio(l)).map(|l| base + l);
     }
     if contact {
-        law_block::<D, PRED>(blk, g, lo..hi, &law.consts, law.dt, law.torques);
+        law_block(blk, g, lo..hi, &law.consts, law.dt, law.torques);
     } else {
         clear_lanes(blk, lo..hi);
     }
@@ -786,8 +741,6 @@ where
     guard: Real,
     max_ratio: Real,
     rot: bool,
-    /// The predictor's increments (`Particles::dv`; empty without it).
-    dv: &'a [Vector<D>],
 }
 
 /// What the gather writes, per particle.
@@ -866,12 +819,9 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             at(c.j_start, q + 1) as usize,
         )
     };
-    // The velocity the normal dashpots and drag see: the half-step one, or with the
-    // predictor the one predicted at the end of the step.
-    let vd = if c.dv.is_empty() { *v } else { *v + c.dv[q] };
     let mut fq = c.gravity * m;
     if c.drag > 0.0 {
-        fq -= vd * c.drag;
+        fq -= *v * c.drag;
     }
     let mut tq = Ang::<D>::default();
     let active = a_lo - pair_base..a_hi - pair_base;
@@ -946,14 +896,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             m_eff: m,
             ..c.params
         };
-        let fc = if c.dv.is_empty() {
-            hertz_mindlin(&params, d, &n, &vrel, &mut wh[wi], c.dt)
-        } else {
-            // the spin adds nothing along the normal
-            let vdamp = -vd;
-            let coefs = LawCoefs::new(&params);
-            hertz_mindlin_split(&coefs, d, &n, &vrel, &vdamp, &mut wh[wi], c.dt)
-        };
+        let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[wi], c.dt);
         let on_wall = n * fc.normal + fc.tangential;
         wf[wi] = on_wall;
         *wm |= 1 << wi;
@@ -969,12 +912,12 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
     }
     if KICK && !frozen_q {
         *v += fq * (inv_m * c.half);
+        // written so that NaN also trips it
+        let v2 = v.norm_squared();
+        acc.suspicious |= v2.is_nan() || v2 > r * r * c.guard;
         // no torque without friction: the spin keeps its value
         if TORQUE {
             *w += tq * (inv_i * c.half);
         }
-        // written so that NaN also trips it
-        let v2 = v.norm_squared();
-        acc.suspicious |= v2.is_nan() || v2 > r * r * c.guard;
     }
 }
