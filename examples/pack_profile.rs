@@ -14,7 +14,7 @@ where
     // freezing), FAST_DT=0.55 (of the Rayleigh estimate); engine settings: DT (s,
     // overrides both), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
-    // callgrind); HEIGHT=0.5 (m, the desired pack height)
+    // callgrind); HEIGHT=0.5 (m, the desired pack height); SEED=1
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -38,7 +38,7 @@ where
         h_layer: 0.1,
         phi_layer,
         settle_time: env("SETTLE", 1.0),
-        seed: 1,
+        seed: env("SEED", 1.0) as u64,
         stream: 0,
         max_attempts: 100_000,
         max_layers: layers,
