@@ -68,6 +68,18 @@ def test_fast_settings_keep_physics_constants():
     assert gp.PackScene.preset("4.1").fast().dt == 1e-4
 
 
+def ensemble(scene: gp.PackScene, core_margin: float, packs: int = 8):
+    """phi and Z of `packs` packs (streams 0..packs-1), and their total DEM steps."""
+    phi, z, steps = [], [], 0
+    for k in range(packs):
+        pack = gp.generate(scene.replace(stream=k))
+        m = gp.microstructure(pack, core_margin=core_margin)
+        phi.append(pack.phi)
+        z.append(m.z)
+        steps += sum(r["steps"] for r in pack.layers)
+    return np.array(phi), np.array(z), steps
+
+
 def test_fast_defaults_match_the_full_fidelity_statistics():
     """The fast defaults (adaptive settling, freezing one h_layer deep, final relax)
     reproduce the full-fidelity ensemble: the mean packing fraction and coordination
@@ -76,17 +88,10 @@ def test_fast_defaults_match_the_full_fidelity_statistics():
     scene = gp.PackScene.preset("4.2").replace(
         base=(0.3,), height=0.12, h_layer=0.04, settle_time=1.0, seed=3
     )
-    stats = {}
-    for label, s in (("full", scene), ("fast", scene.fast())):
-        phi, z, steps = [], [], 0
-        for k in range(8):
-            pack = gp.generate(s.replace(stream=k))
-            m = gp.microstructure(pack, core_margin=0.02)
-            phi.append(pack.phi)
-            z.append(m.z)
-            steps += sum(r["steps"] for r in pack.layers)
-        stats[label] = (np.array(phi), np.array(z), steps)
-    (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = stats["full"], stats["fast"]
+    (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = (
+        ensemble(scene, 0.02),
+        ensemble(scene.fast(), 0.02),
+    )
     assert steps_fast < 0.9 * steps_full  # the fast settings do skip work
     assert abs(phi_fast.mean() - phi_full.mean()) <= phi_full.std(ddof=1)
     assert abs(z_fast.mean() - z_full.mean()) <= z_full.std(ddof=1)
@@ -99,17 +104,10 @@ def test_fast_time_step_keeps_the_3d_statistics():
     of the mean of 8 full-fidelity packs of the same seed and streams, in about half
     the steps. Fixed seed: deterministic."""
     scene = gp.PackScene.preset("4.3").replace(base=(0.3, 0.3), height=0.2, seed=3)
-    stats = {}
-    for label, s in (("full", scene), ("fast", scene.fast())):
-        phi, z, steps = [], [], 0
-        for k in range(8):
-            pack = gp.generate(s.replace(stream=k))
-            m = gp.microstructure(pack, core_margin=0.04)
-            phi.append(pack.phi)
-            z.append(m.z)
-            steps += sum(r["steps"] for r in pack.layers)
-        stats[label] = (np.array(phi), np.array(z), steps)
-    (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = stats["full"], stats["fast"]
+    (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = (
+        ensemble(scene, 0.04),
+        ensemble(scene.fast(), 0.04),
+    )
     assert scene.fast().dt > 1.8 * scene.dt
     assert steps_fast < 0.6 * steps_full
     assert abs(phi_fast.mean() - phi_full.mean()) <= phi_full.std(ddof=1)

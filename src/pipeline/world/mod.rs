@@ -1175,18 +1175,12 @@ mod tests {
         c
     }
 
-    /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
-    /// (5 m* v^2 / (4 K))^{2/5} and the duration 2 * 1.47164 d_max / v.
-    #[test]
-    fn hertz_contact_duration_and_max_overlap() {
-        let cfg = two_body_cfg::<3>(0.0);
-        let mut w = World::new(cfg.clone()).unwrap();
-        let r = 0.01;
-        let v0 = 1.0;
+    /// Two spheres of radius `r` on the x axis, `gap` (m) apart, closing at `v0` (m/s).
+    fn add_head_on_pair(w: &mut World<3>, r: Real, v0: Real, gap: Real) {
         w.add_particles(
             &[
                 Vector::<3>::new(0.0, 0.0, 0.0),
-                Vector::<3>::new(2.0 * r + 1e-9, 0.0, 0.0),
+                Vector::<3>::new(2.0 * r + gap, 0.0, 0.0),
             ],
             &[r, r],
             Some(&[
@@ -1196,6 +1190,17 @@ mod tests {
             None,
         )
         .unwrap();
+    }
+
+    /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
+    /// (5 m* v^2 / (4 K))^{2/5} and the duration 2 * 1.47164 d_max / v.
+    #[test]
+    fn hertz_contact_duration_and_max_overlap() {
+        let cfg = two_body_cfg::<3>(0.0);
+        let mut w = World::new(cfg.clone()).unwrap();
+        let r = 0.01;
+        let v0 = 1.0;
+        add_head_on_pair(&mut w, r, v0, 1e-9);
         let m = w.masses()[0];
         let (m_eff, r_eff) = (0.5 * m, 0.5 * r);
         let k = 4.0 / 3.0 * cfg.material.e_star() * r_eff.sqrt();
@@ -1260,20 +1265,7 @@ mod tests {
         let mut cfg = cfg.clone();
         cfg.dt = dt;
         let mut w = World::new(cfg).unwrap();
-        let gap = 1e-12 + phase * v0 * dt;
-        w.add_particles(
-            &[
-                Vector::<3>::new(0.0, 0.0, 0.0),
-                Vector::<3>::new(2.0 * r + gap, 0.0, 0.0),
-            ],
-            &[r, r],
-            Some(&[
-                Vector::<3>::new(0.5 * v0, 0.0, 0.0),
-                Vector::<3>::new(-0.5 * v0, 0.0, 0.0),
-            ]),
-            None,
-        )
-        .unwrap();
+        add_head_on_pair(&mut w, r, v0, 1e-12 + phase * v0 * dt);
         let mut touched = false;
         for _ in 0..100_000 {
             w.step_n(1).unwrap();
