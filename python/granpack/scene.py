@@ -33,7 +33,7 @@ FAST_SETTLE_TOL = 1e-2
 FAST_FREEZE_LAYERS = 1.0
 #: Time step of `PackScene.fast()`, as a fraction of the Rayleigh estimate for r_min
 #: (never below the scene's own dt). A landing collision then lasts about 6 steps, and
-#: its restitution, averaged over where in a step the contact begins, is within 0.4 %
+#: its restitution, averaged over where in a step the contact begins, is within 0.5 %
 #: of the resolved one, as at the paper's dt (`benchmarks/collision_dt.py`); 20 packs
 #: of 4.3 lie within 0.54 sd of the full-fidelity ensemble (README, "The fast settings").
 FAST_DT_RAYLEIGH = 0.55
