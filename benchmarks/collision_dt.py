@@ -87,8 +87,9 @@ def main(argv: list[str] | None = None) -> None:
         "0.5 Rayleigh": 0.5 * rayleigh,
         "0.9 Rayleigh": 0.9 * rayleigh,
     }
-    if scene.fast().dt != scene.dt:
-        steps["fast()"] = scene.fast().dt
+    fast_dt = scene.fast().dt
+    if fast_dt != scene.dt:
+        steps["fast()"] = fast_dt
     rows = []
     ref = {angle: collide(scene, 1e-6, angle, v0) for angle in (0.0, 45.0)}
     phases = np.arange(PHASES) / PHASES
