@@ -11,8 +11,9 @@ where
 {
     // fast settings from the environment, for trying values: DEPTH=0.1 (m), SPEED=1e-3
     // (m/s), FORCE=0.1 (of the weight), TOL=1e-2 (0: the fixed settle time, with
-    // freezing), FAST_DT=0.55 (of the Rayleigh estimate); engine settings: DT (s,
-    // overrides both), SKIN=0.2 (largest skin over r_min);
+    // freezing), FAST_DT=0.55 and SETTLE_DT=0.75 (of the Rayleigh estimate: the dt of
+    // the landing and of the rest of each layer); engine settings: DT (s, overrides
+    // FAST_DT), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
     // callgrind); HEIGHT=0.5 (m, the desired pack height); SEED=1
     let env = |k: &str, d: f64| {
@@ -29,6 +30,11 @@ where
     // paper's dt where that is larger
     let fast_dt = (env("FAST_DT", 0.55) * sim.material.rayleigh_time_step(r)).max(sim.dt);
     sim.dt = env("DT", if fast { fast_dt } else { sim.dt });
+    // and, once each layer has fallen, SETTLE_DT of the estimate (as `fast()`; 0: keep dt)
+    let settle_frac = env("SETTLE_DT", 0.75);
+    let settle_dt = (settle_frac > 0.0)
+        .then(|| settle_frac * sim.material.rayleigh_time_step(r))
+        .filter(|&d| d > sim.dt);
     sim.skin_ratio = env("SKIN", sim.skin_ratio);
     let cfg = PackConfig::<D> {
         sim,
@@ -46,6 +52,7 @@ where
         freeze_depth: fast.then_some(depth),
         freeze_speed: env("SPEED", 1e-3),
         freeze_force: env("FORCE", 0.1),
+        settle_dt: settle_dt.filter(|_| fast),
     };
     let mut p = Packer::new(cfg).unwrap();
     let t0 = Instant::now();

@@ -3,6 +3,8 @@ adaptive settling keep the pack's invariants and stay deterministic."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -53,6 +55,27 @@ def test_adaptive_settling_stops_early_but_not_before_the_fall(deep_scene):
     assert pack.height >= scene.height
 
 
+def test_settle_dt_takes_over_once_the_layer_has_fallen(deep_scene):
+    """With settle_dt a layer runs at dt until it has had time to fall through its
+    slab (sqrt(2 h_layer / g) = 0.2 s here, checked every 0.01 s), then at settle_dt
+    for the rest of settle_time; the pack keeps its invariants."""
+    dt, dt2 = deep_scene.dt, 1.5e-4
+    pack = gp.generate(deep_scene.replace(settle_dt=dt2))
+    t_fall = math.sqrt(2 * deep_scene.h_layer / deep_scene.gravity)
+    chunk = round(0.01 / dt)
+    # the first check at or after t_fall: either side of it, as rounding has it
+    first = [chunk * k for k in (math.floor(t_fall / 0.01), math.ceil(t_fall / 0.01) + 1)]
+    expect = {n1 + round((deep_scene.settle_time - n1 * dt) / dt2) for n1 in first}
+    steps = [r["steps"] for r in pack.layers]
+    assert all(s in expect for s in steps), (steps, expect)
+    assert max(expect) < round(deep_scene.settle_time / dt)
+    x, r = pack.positions, pack.radii
+    assert np.all(x[:, 0] - r >= -1e-3 * r) and np.all(x[:, 0] + r <= 0.3 + 1e-3 * r)
+    assert np.all(x[:, 1] - r >= -1e-3 * r)
+    assert pack.contacts.overlap.max() < 0.01 * 0.01
+    assert pack.height >= deep_scene.height
+
+
 def test_fast_settings_keep_physics_constants():
     for preset in ("4.1", "4.2", "4.3", "4.4"):
         s = gp.PackScene.preset(preset)
@@ -63,9 +86,13 @@ def test_fast_settings_keep_physics_constants():
         # dt: a fraction of the stable step, never below the scene's own
         crit = s.material.critical_time_step(s.r_min)
         assert f.dt == max(s.dt, 0.55 * crit) and f.dt < crit
+        # and after each landing 0.75 of it, where that is larger than dt
+        assert f.settle_dt == (0.75 * crit if 0.75 * crit > f.dt else None)
     # 4.3's spheres take 1.9 times the paper's step; 4.1's discs keep it
     assert gp.PackScene.preset("4.3").fast().dt == pytest.approx(1.883e-4, rel=1e-3)
     assert gp.PackScene.preset("4.1").fast().dt == 1e-4
+    # 4.2's 1e-4 s is already 0.83 of its estimate: one step throughout
+    assert gp.PackScene.preset("4.2").fast().settle_dt is None
 
 
 def ensemble(scene: gp.PackScene, core_margin: float, packs: int = 8):

@@ -135,6 +135,7 @@ NEAR_VALID = {  # values around the valid ranges, to get past the first check
     "r_std": st.one_of(ODD_FLOATS, st.floats(0.0, 0.01)),
     "phi_layer": st.one_of(ODD_FLOATS, st.floats(0.0, 0.6)),
     "dt": st.one_of(ODD_FLOATS, st.floats(0.0, 1e-3)),
+    "settle_dt": st.one_of(st.none(), ODD_FLOATS, st.floats(0.0, 1e-3)),
     "seed": st.integers(min_value=-5, max_value=2**65),
     "max_layers": st.integers(min_value=-5, max_value=2**65),
     "radius_law": st.sampled_from(["constant", "gaussian", "normal"]),
@@ -182,7 +183,9 @@ def test_toml_random_bytes_from_string_and_file(tmp_path_factory, data):
 )
 def test_toml_documents_with_random_values(doc):
     text = tomli_w.dumps(doc)
-    scene = attempt(lambda: gp.PackScene.from_toml_string(text), *SCENE_KEYS, "preset", "scene")
+    # a bad [material] entry is named by its own key (density, young, ...)
+    names = (*SCENE_KEYS, *MATERIAL_KEYS, "preset", "scene")
+    scene = attempt(lambda: gp.PackScene.from_toml_string(text), *names)
     if scene is not None:
         check_scene(scene)
 

@@ -101,7 +101,7 @@ THREAD_SCRIPT = textwrap.dedent(
         # freezing (and thawing, partial rebuilds) and adaptive settling too
         scene = scene.replace(
             height=0.15, settle_time=0.4, settle_tol=1e-2, freeze_depth=0.02,
-            freeze_speed=2e-2, freeze_force=0.5,
+            freeze_speed=2e-2, freeze_force=0.5, settle_dt=6.5e-5,
         )
     p = gp.generate(scene)
     h = hashlib.sha256()
@@ -116,7 +116,8 @@ THREAD_SCRIPT = textwrap.dedent(
 @pytest.mark.parametrize("mode", ["paper", "fast"])
 def test_bit_identical_on_one_and_two_threads(mode):
     """More than one parallel chunk (512 particles) so that threads really split work;
-    in `fast` mode particles freeze, thaw and the pair list is partly rebuilt."""
+    in `fast` mode particles freeze, thaw and the pair list is partly rebuilt, and the
+    step changes to settle_dt once each layer has fallen."""
     out = {}
     for threads in ("1", "2"):
         env = {**os.environ, "RAYON_NUM_THREADS": threads}
@@ -180,6 +181,8 @@ def test_scene_toml_round_trip_and_errors(tmp_path):
         ({"base": (1.0, 1.0)}, "base"),
         ({"height": -1.0}, "height"),
         ({"dt": 1e-3}, "dt"),
+        ({"settle_dt": 0.0}, "settle_dt"),
+        ({"settle_dt": 1e-3}, "settle_dt.*Rayleigh"),
         ({"seed": -1}, "seed"),
         ({"radius_law": "lognormal"}, "radius_law"),
         ({"r_mean": 1e-5, "dt": 1e-8, "base": (100.0,)}, "about .* particles"),

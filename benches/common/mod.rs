@@ -54,6 +54,7 @@ where
         freeze_depth: None,
         freeze_speed: 1e-3,
         freeze_force: 0.1,
+        settle_dt: None,
     })
     .unwrap();
     p.run(|_| {}).unwrap();

@@ -104,6 +104,7 @@ class LayerPacker:
         freeze_depth: float | None = None,
         freeze_speed: float = 1e-3,
         freeze_force: float = 0.1,
+        settle_dt: float | None = None,
     ) -> None: ...
     @property
     def done(self) -> bool: ...

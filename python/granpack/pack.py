@@ -305,6 +305,7 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
         freeze_depth=s.freeze_depth,
         freeze_speed=s.freeze_speed,
         freeze_force=s.freeze_force,
+        settle_dt=s.settle_dt,
     )
 
 

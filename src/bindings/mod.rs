@@ -441,7 +441,7 @@ impl LayerPacker {
                         h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
                         max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
                         inertia_2d="sphere", adaptive_settle=None, freeze_depth=None,
-                        freeze_speed=1e-3, freeze_force=0.1))]
+                        freeze_speed=1e-3, freeze_force=0.1, settle_dt=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -467,6 +467,7 @@ impl LayerPacker {
         freeze_depth: Option<f64>,
         freeze_speed: f64,
         freeze_force: f64,
+        settle_dt: Option<f64>,
     ) -> PyResult<Self> {
         let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
         macro_rules! make {
@@ -510,6 +511,7 @@ impl LayerPacker {
                     freeze_depth,
                     freeze_speed,
                     freeze_force,
+                    settle_dt,
                 })?)
             }};
         }

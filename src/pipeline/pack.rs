@@ -48,6 +48,13 @@ pub struct PackConfig<const D: usize> {
     /// upper bound. The last layer (the free surface) always runs the whole
     /// `settle_time`. None (default): the paper's fixed `settle_time`.
     pub adaptive_settle: Option<Real>,
+    /// Time step (s) for the rest of a layer's jamming run once the new layer has had
+    /// time to fall through its slab (sqrt(2 h_layer / g) after it is placed), and for
+    /// the last layer's remainder and the final relax. The landing collisions, fast
+    /// (sqrt(2 g h_layer)) and short, keep `sim.dt`; the slow rolling and creep after
+    /// them tolerate a coarser step. At most the Rayleigh step of r_min. None (default):
+    /// `sim.dt` throughout, as the paper.
+    pub settle_dt: Option<Real>,
     /// Freeze settled particles whose top lies more than this depth (m) below the pack
     /// height before the current layer. After the last layer every particle thaws and
     /// the pack relaxes for [`FREEZE_RELAX`] (at most `settle_time`), so that the frozen
@@ -103,6 +110,10 @@ where
         }
         if let Some(depth) = self.freeze_depth {
             check_range("freeze_depth", depth, 0.0, true, f64::INFINITY, false)?;
+        }
+        if let Some(dt) = self.settle_dt {
+            let crit = self.sim.material.rayleigh_time_step(self.radii.r_min());
+            check_range("settle_dt", dt, 0.0, false, crit, true)?;
         }
         check_range(
             "freeze_speed",
@@ -281,16 +292,24 @@ where
                 interval: 100,
             }))?;
         }
-        let mut steps = self.settle()?;
+        // Each layer lands at the scene's dt (the last one may have ended at settle_dt).
+        self.world.set_dt(self.cfg.sim.dt)?;
+        let (mut steps, t_layer) = self.settle()?;
         self.height = self.measure_height();
-        let dt = self.cfg.sim.dt;
-        let full = (self.cfg.settle_time / dt).round() as u64;
-        if self.done() && steps < full {
+        let dt = self.world.config().dt;
+        // The steps left of settle_time at the step the settle ended with; in whole steps
+        // when that is the scene's dt, so that the paper's settings never round.
+        let rest = if dt == self.cfg.sim.dt {
+            ((self.cfg.settle_time / dt).round() as u64).saturating_sub(steps)
+        } else {
+            ((self.cfg.settle_time - t_layer) / dt).round().max(0.0) as u64
+        };
+        if self.done() && rest > 0 {
             // An adaptive settle may stop a layer while its top particles still roll:
             // harmless below, where the next layer lands on them anyway, but the last
             // layer is the pack's free surface, so it gets the whole settle_time.
-            self.world.step_n(full - steps)?;
-            steps = full;
+            self.world.step_n(rest)?;
+            steps += rest;
             self.height = self.measure_height();
         }
         if self.done() && self.world.n_frozen() > 0 {
@@ -328,16 +347,21 @@ where
             .fold(0.0, Real::max)
     }
 
-    /// Runs the jamming stage of one layer; returns the steps taken.
-    fn settle(&mut self) -> Result<u64> {
+    /// Runs the jamming stage of one layer: at `sim.dt` until the new layer has had time
+    /// to fall through its slab, then at `settle_dt` (when set) for the rest of
+    /// `settle_time`, ending early once the layer is quiet (`adaptive_settle`). Returns
+    /// the steps taken and the simulated time (s).
+    fn settle(&mut self) -> Result<(u64, Real)> {
         let dt = self.cfg.sim.dt;
-        let max_steps = (self.cfg.settle_time / dt).round() as u64;
-        let Some(tol) = self.cfg.adaptive_settle else {
-            self.world.step_n(max_steps)?;
-            return Ok(max_steps);
-        };
-        // Energy scale m g r of a mean particle, and the time the new layer needs to fall
-        // through its slab: the run never stops before that.
+        let total = (self.cfg.settle_time / dt).round() as u64;
+        let tol = self.cfg.adaptive_settle;
+        let dt2 = self.cfg.settle_dt.filter(|&d| d != dt);
+        if tol.is_none() && dt2.is_none() {
+            self.world.step_n(total)?;
+            return Ok((total, total as Real * dt));
+        }
+        // The energy scale m g r of a mean particle, and the time the new layer needs to
+        // fall through its slab: the run neither stops nor coarsens its step before that.
         let g = self.cfg.sim.gravity.norm();
         let r_mean = self.cfg.radii.r_mean();
         let m_mean = self.cfg.sim.material.density * crate::math::particle_volume::<3>(r_mean);
@@ -347,19 +371,43 @@ where
         } else {
             0.0
         };
-        let chunk = ((0.01 / dt).round() as u64).max(1);
-        let mut done = 0u64;
-        while done < max_steps {
-            let n = chunk.min(max_steps - done);
+        let quiet = |w: &World<D>| {
+            tol.is_some_and(|tol| {
+                let moving = (w.len() - w.n_frozen()).max(1);
+                w.kinetic_energy() / (moving as Real) < tol * scale
+            })
+        };
+        // Checked every 0.01 s of simulated time.
+        let chunk = |dt: Real| ((0.01 / dt).round() as u64).max(1);
+        let mut steps = 0u64;
+        while steps < total {
+            let n = chunk(dt).min(total - steps);
             self.world.step_n(n)?;
-            done += n;
-            let moving = (self.world.len() - self.world.n_frozen()).max(1);
-            let e = self.world.kinetic_energy() / moving as Real;
-            if done as Real * dt >= t_fall && e < tol * scale {
+            steps += n;
+            let fallen = steps as Real * dt >= t_fall;
+            if fallen && quiet(&self.world) {
+                return Ok((steps, steps as Real * dt));
+            }
+            if fallen && dt2.is_some() {
                 break;
             }
         }
-        Ok(done)
+        let t = steps as Real * dt;
+        let Some(dt2) = dt2.filter(|_| steps < total) else {
+            return Ok((steps, t));
+        };
+        self.world.set_dt(dt2)?;
+        let total2 = ((self.cfg.settle_time - t) / dt2).round() as u64;
+        let mut steps2 = 0u64;
+        while steps2 < total2 {
+            let n = chunk(dt2).min(total2 - steps2);
+            self.world.step_n(n)?;
+            steps2 += n;
+            if quiet(&self.world) {
+                break;
+            }
+        }
+        Ok((steps + steps2, t + steps2 as Real * dt2))
     }
 
     /// Runs the whole loop, calling `progress` after every layer.
@@ -369,5 +417,79 @@ where
             progress(&rep);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small_2d() -> PackConfig<2> {
+        let mut sim = SimConfig::<2>::paper();
+        sim.drag = 0.005;
+        PackConfig {
+            sim,
+            base: Vector::<2>::new(0.2, 0.0),
+            height: 0.05,
+            radii: RadiusLaw::Constant(0.01),
+            h_layer: 0.04,
+            phi_layer: 0.4,
+            settle_time: 0.3,
+            seed: 5,
+            stream: 0,
+            max_attempts: 100_000,
+            max_layers: 100,
+            adaptive_settle: None,
+            freeze_depth: None,
+            freeze_speed: 1e-3,
+            freeze_force: 0.1,
+            settle_dt: None,
+        }
+    }
+
+    /// settle_dt must be positive and at most the Rayleigh step; the error names it.
+    #[test]
+    fn settle_dt_out_of_range_is_refused_by_name() {
+        let crit = small_2d().sim.material.rayleigh_time_step(0.01);
+        for bad in [0.0, -1e-4, 1.01 * crit, Real::NAN] {
+            let cfg = PackConfig {
+                settle_dt: Some(bad),
+                ..small_2d()
+            };
+            let err = Packer::new(cfg).err().expect("accepted a bad settle_dt");
+            assert!(err.to_string().contains("settle_dt"), "{err}");
+        }
+        let ok = PackConfig {
+            settle_dt: Some(crit),
+            ..small_2d()
+        };
+        assert!(Packer::new(ok).is_ok());
+    }
+
+    /// Every layer's simulated time is settle_time whatever its two steps: t_fall at
+    /// dt (to the next 0.01 s), the rest at settle_dt. The world's clock, which adds
+    /// each step's own dt, shows it.
+    #[test]
+    fn settle_dt_keeps_each_layer_at_settle_time() {
+        let cfg = PackConfig {
+            settle_dt: Some(1.6e-4),
+            ..small_2d()
+        };
+        let (settle, dt2) = (cfg.settle_time, 1.6e-4);
+        let mut p = Packer::new(cfg).unwrap();
+        let mut t0 = 0.0;
+        while !p.done() {
+            let rep = p.next_layer().unwrap();
+            let t = p.world().time() - t0;
+            t0 = p.world().time();
+            assert!(
+                (t - settle).abs() <= 0.5 * dt2 + 1e-12,
+                "layer {}: {t} s",
+                rep.layer
+            );
+            // fewer steps than at dt = 1e-4 throughout
+            assert!(rep.steps < (settle / 1e-4).round() as u64, "{}", rep.steps);
+        }
+        assert!(p.world().config().dt == dt2);
     }
 }

@@ -785,6 +785,17 @@ where
         Ok(())
     }
 
+    /// Changes the time step (s) between steps: positive, and at most the Rayleigh
+    /// step of the particles present.
+    pub fn set_dt(&mut self, dt: Real) -> Result<()> {
+        check_range("dt", dt, 0.0, false, f64::INFINITY, false)?;
+        if dt != self.cfg.dt {
+            self.cfg.dt = dt;
+            self.dt_checked = false;
+        }
+        Ok(())
+    }
+
     /// Advances `n` steps. Stops with an error at the first sign of blow-up.
     pub fn step_n(&mut self, n: u64) -> Result<()> {
         self.check_dt()?;
@@ -1190,6 +1201,24 @@ mod tests {
             None,
         )
         .unwrap();
+    }
+
+    /// A new dt is refused by name when not positive, and checked against the Rayleigh
+    /// step at the next step, as the configured one is.
+    #[test]
+    fn set_dt_is_checked() {
+        let mut w = World::new(two_body_cfg::<3>(0.1)).unwrap();
+        add_head_on_pair(&mut w, 0.01, 0.1, 1e-4);
+        for bad in [0.0, -1e-5, Real::NAN] {
+            let err = w.set_dt(bad).unwrap_err();
+            assert!(err.to_string().contains("dt"), "{err}");
+        }
+        let crit = w.critical_time_step();
+        w.set_dt(0.5 * crit).unwrap();
+        w.step_n(3).unwrap();
+        assert!((w.time() - 3.0 * 0.5 * crit).abs() < 1e-15);
+        w.set_dt(2.0 * crit).unwrap();
+        assert!(matches!(w.step_n(1), Err(Error::UnstableTimeStep { .. })));
     }
 
     /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
