@@ -126,16 +126,18 @@ def test_fast_defaults_match_the_full_fidelity_statistics():
 
 def test_fast_time_step_keeps_the_3d_statistics():
     """In 3D `fast()` also takes dt = 0.55 of the Rayleigh estimate (1.9 times the
-    paper's for 4.3): on a reduced 4.3 scene the mean packing fraction and
-    coordination number of 8 fast packs lie within one standard deviation (ddof = 1)
-    of the mean of 8 full-fidelity packs of the same seed and streams, in about half
-    the steps. Fixed seed: deterministic."""
+    paper's for 4.3) and settle_dt = 0.75 of it once each layer has landed: on a
+    reduced 4.3 scene the mean packing fraction and coordination number of 8 fast packs
+    lie within one standard deviation (ddof = 1) of the mean of 8 full-fidelity packs
+    of the same seed and streams (session 16: -0.06 and +0.14 sd), in well under half
+    the steps (37 %). Fixed seed: deterministic."""
     scene = gp.PackScene.preset("4.3").replace(base=(0.3, 0.3), height=0.2, seed=3)
     (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = (
         ensemble(scene, 0.04),
         ensemble(scene.fast(), 0.04),
     )
     assert scene.fast().dt > 1.8 * scene.dt
+    assert scene.fast().settle_dt > 1.3 * scene.fast().dt
     assert steps_fast < 0.6 * steps_full
     assert abs(phi_fast.mean() - phi_full.mean()) <= phi_full.std(ddof=1)
     assert abs(z_fast.mean() - z_full.mean()) <= z_full.std(ddof=1)
