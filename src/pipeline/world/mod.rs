@@ -785,8 +785,9 @@ where
         Ok(())
     }
 
-    /// Changes the time step (s) between steps: positive, and at most the Rayleigh
-    /// step of the particles present.
+    /// Changes the time step (s) between steps. It must be positive (checked here) and
+    /// at most the Rayleigh step of the particles present (checked at the next step,
+    /// as for the configured dt).
     pub fn set_dt(&mut self, dt: Real) -> Result<()> {
         check_range("dt", dt, 0.0, false, f64::INFINITY, false)?;
         if dt != self.cfg.dt {
