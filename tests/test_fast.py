@@ -63,8 +63,9 @@ def test_settle_dt_takes_over_once_the_layer_has_fallen(deep_scene):
     pack = gp.generate(deep_scene.replace(settle_dt=dt2))
     t_fall = math.sqrt(2 * deep_scene.h_layer / deep_scene.gravity)
     chunk = round(0.01 / dt)
-    # the first check at or after t_fall: either side of it, as rounding has it
-    first = [chunk * k for k in (math.floor(t_fall / 0.01), math.ceil(t_fall / 0.01) + 1)]
+    # the first check at or after t_fall (0.01 s apart): either of two, as rounding has it
+    k = math.ceil(t_fall / 0.01 - 1e-9)
+    first = [chunk * k, chunk * (k + 1)]
     expect = {n1 + round((deep_scene.settle_time - n1 * dt) / dt2) for n1 in first}
     steps = [r["steps"] for r in pack.layers]
     assert all(s in expect for s in steps), (steps, expect)
