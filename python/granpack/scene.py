@@ -26,6 +26,18 @@ RSA_SATURATION = {2: 0.547, 3: 0.384}
 
 _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 
+
+def _material_table(table: Mapping) -> Material:
+    """A Material from a scene's material table; a bad entry is named as it is written
+    in the scene, `material.<key>`."""
+    unknown_keys("material", table, _MATERIAL_KEYS)
+    try:
+        return Material(**table)
+    except GranpackError as exc:
+        # every Material check raises "invalid <key> = ..." (`as_real`)
+        raise GranpackError(str(exc).replace("invalid ", "invalid material.", 1)) from None
+
+
 #: Adaptive settling tolerance of `PackScene.fast()` (kinetic energy per moving particle
 #: over m g r).
 FAST_SETTLE_TOL = 1e-2
@@ -216,8 +228,7 @@ class PackScene:
         )
         if not isinstance(self.material, Material):
             if isinstance(self.material, dict):
-                unknown_keys("material", self.material, _MATERIAL_KEYS)
-                s(self, "material", Material(**self.material))
+                s(self, "material", _material_table(self.material))
             else:
                 raise GranpackError(f"invalid material = {self.material!r}: must be a Material")
         s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
@@ -327,7 +338,7 @@ class PackScene:
             unknown_keys("material", d["material"], _MATERIAL_KEYS)
             mat = dict(base.get("material", Material()).to_dict())
             mat.update(d.pop("material"))
-            d["material"] = Material(**mat)
+            d["material"] = _material_table(mat)
         if "base" in d and not isinstance(d["base"], list | tuple):
             raise GranpackError(f"invalid base = {d['base']!r}: expected a list of lengths (m)")
         base.update(d)
