@@ -4,6 +4,7 @@
 //!
 //! Map of the crate:
 //! - [`math`]: the dimension trait (`Dim<2>`, `Dim<3>`), vectors, generalised cross products;
+//! - [`cpu`]: the run-time choice of instruction set for the hot kernels;
 //! - [`error`]: the one error enum;
 //! - [`geometry`]: cell grid and pair search;
 //! - [`dynamics`]: material, the Hertz-Mindlin contact law;
@@ -11,6 +12,7 @@
 //! - `bindings` (feature `python`): the PyO3 module `granpack._core`.
 #![warn(missing_docs)]
 
+pub mod cpu;
 pub mod dynamics;
 pub mod error;
 pub mod geometry;

@@ -202,14 +202,25 @@ impl<const D: usize> Default for Geometry<D> {
     }
 }
 
+crate::cpu::multiversion! {
 /// Turns what the pair pass gathered for lanes `lanes` (see [`Geometry`]) into the
 /// unit normal, the overlap and the relative velocity of j's surface w.r.t. i's at the
 /// contact point, w_j x (-(r_j - d/2) n) - w_i x ((r_i - d/2) n) included when `rot`.
 /// Same arithmetic, in the same order, as the nalgebra expressions it replaces (bit
 /// for bit). Returns whether some lane is in contact (overlap > 0), and whether some
 /// lane's overlap exceeds `max_ratio` (> 0) times its smaller radius.
-#[inline(never)]
-pub fn geometry_block<const D: usize>(
+///
+/// Compiled for each instruction-set level (see [`crate::cpu`]).
+pub fn geometry_block [const D: usize] (
+    g: &mut Geometry<D>,
+    lanes: std::ops::Range<usize>,
+    rot: bool,
+    max_ratio: Real,
+) -> (bool, bool) where [] => geometry_block_impl [D]
+}
+
+#[inline(always)]
+fn geometry_block_impl<const D: usize>(
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,
     rot: bool,
@@ -279,14 +290,27 @@ pub fn clear_lanes<const D: usize>(b: &mut PairBlock<D>, lanes: std::ops::Range<
     b.d[lanes].fill(0.0);
 }
 
+crate::cpu::multiversion! {
 /// Runs the law on lanes `lanes` of a block: for a pair in contact (`g.d > 0`) it
 /// advances the history and writes the total force on j, n x f_t (when `torques`, else
 /// zero) and the overlap; a pair apart gets all four zero. The lanes outside `lanes`
 /// are left alone. Same formulas, in the same order, as `hertz_mindlin_coefs`.
+///
+/// Compiled for each instruction-set level (see [`crate::cpu`]).
+pub fn law_block [const D: usize] (
+    b: &mut PairBlock<D>,
+    g: &mut Geometry<D>,
+    lanes: std::ops::Range<usize>,
+    c: &LawConsts,
+    dt: Real,
+    torques: bool,
+) -> () where [] => law_block_impl [D]
+}
+
 // A lane index addresses a dozen columns at once: index loops read best.
 #[allow(clippy::needless_range_loop)]
-#[inline(never)]
-pub fn law_block<const D: usize>(
+#[inline(always)]
+fn law_block_impl<const D: usize>(
     b: &mut PairBlock<D>,
     g: &mut Geometry<D>,
     lanes: std::ops::Range<usize>,

@@ -328,18 +328,12 @@ where
                 n.div_ceil(TEAM_CHUNK),
                 Gathered::default(),
                 |c, _| {
-                    let mut acc = Gathered::default();
-                    for q in c * TEAM_CHUNK..(c * TEAM_CHUNK + TEAM_CHUNK).min(n) {
-                        if FROZEN && skip_frozen && gin.fz[q] {
-                            continue;
-                        }
-                        // SAFETY: every pair is computed, and each particle is
-                        // gathered once, by this job.
-                        unsafe {
-                            gather_one::<D, TORQUE, KICK, FROZEN>(&gin, out, blocks, 0, q, &mut acc)
-                        };
+                    let qs = c * TEAM_CHUNK..(c * TEAM_CHUNK + TEAM_CHUNK).min(n);
+                    // SAFETY: every pair is computed, and each particle is gathered
+                    // once, by this job.
+                    unsafe {
+                        gather_range::<D, TORQUE, KICK, FROZEN>(&gin, out, blocks, qs, skip_frozen)
                     }
-                    acc
                 },
                 Gathered::merge,
             );
@@ -599,6 +593,49 @@ unsafe fn visit<const D: usize, const TORQUE: bool, const KICK: bool, const FROZ
     unsafe { gather_one::<D, TORQUE, KICK, FROZEN>(gin, out, own, b0 * BLOCK, q, &mut s.gathered) };
 }
 
+crate::cpu::multiversion! {
+/// The gather of particles `qs` (all pairs computed, in `blocks` from pair 0 on),
+/// skipping frozen ones when `skip_frozen`; compiled for each instruction-set level
+/// (see [`crate::cpu`]).
+///
+/// # Safety
+/// As for [`gather_one`], for every particle of `qs`.
+unsafe fn gather_range [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+    blocks: &[PairBlock<D>],
+    qs: std::ops::Range<usize>,
+    skip_frozen: bool,
+) -> Gathered where [Dim<D>: Spatial<D>] => gather_range_impl [D, TORQUE, KICK, FROZEN]
+}
+
+#[inline(always)]
+unsafe fn gather_range_impl<
+    const D: usize,
+    const TORQUE: bool,
+    const KICK: bool,
+    const FROZEN: bool,
+>(
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+    blocks: &[PairBlock<D>],
+    qs: std::ops::Range<usize>,
+    skip_frozen: bool,
+) -> Gathered
+where
+    Dim<D>: Spatial<D>,
+{
+    let mut acc = Gathered::default();
+    for q in qs {
+        if FROZEN && skip_frozen && gin.fz[q] {
+            continue;
+        }
+        // SAFETY: as the caller guarantees.
+        unsafe { gather_one::<D, TORQUE, KICK, FROZEN>(gin, out, blocks, 0, q, &mut acc) };
+    }
+    acc
+}
+
 /// What one piece of the force sweep leaves: the first pair too deep, the first
 /// too-deep wall contact, whether a kick looked unsafe, and the particles to gather
 /// after the sweep.
@@ -644,15 +681,28 @@ where
     w: SyncPtr<Ang<D>>,
 }
 
+crate::cpu::multiversion! {
 /// The pair pass over lanes `lanes` of one block (pairs `base + lanes` of the list):
 /// each pair's particle data gathered into the scratch block `g`, then the geometry
 /// and the law vectorised over the lanes, which write the pairs' state in place.
-/// Returns the first pair too deep (list index).
+/// Returns the first pair too deep (list index). Compiled for each instruction-set
+/// level (see [`crate::cpu`]).
 ///
 /// # Safety
 /// No thread writes the velocity or spin of a particle of these pairs meanwhile.
+unsafe fn pair_block [const D: usize] (
+    blk: &mut PairBlock<D>,
+    g: &mut Geometry<D>,
+    base: usize,
+    lanes: std::ops::Range<usize>,
+    ij: &[[u32; 2]],
+    p: &PairIn<D>,
+    law: &LawPass,
+) -> Option<usize> where [Dim<D>: Spatial<D>] => pair_block_impl [D]
+}
+
 #[inline(always)]
-unsafe fn pair_block<const D: usize>(
+unsafe fn pair_block_impl<const D: usize>(
     blk: &mut PairBlock<D>,
     g: &mut Geometry<D>,
     base: usize,

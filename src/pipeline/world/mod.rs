@@ -916,34 +916,25 @@ where
                         ws.range(r.clone()),
                     )
                 };
-                let mut moved = false;
-                // Every chunk slice cut to one length, and the constants copied in:
-                // the loop then runs without bounds checks or reloads.
-                let n = x.len();
-                let (v, f, im, xr, h, fz) = (
-                    &mut v[..n],
-                    &fs[r.clone()][..n],
-                    &ims[r.clone()][..n],
-                    &xrs[r.clone()][..n],
-                    &hs[r.clone()][..n],
-                    &fzs[r.clone()][..n],
+                let (f, im, xr, h) = (
+                    &fs[r.clone()],
+                    &ims[r.clone()],
+                    &xrs[r.clone()],
+                    &hs[r.clone()],
                 );
-                let (w, t, ii) = (&mut w[..n], &ts[r.clone()][..n], &iis[r][..n]);
-                let (dt, half) = (dt, half);
-                for k in 0..n {
-                    if FROZEN && fz[k] {
-                        continue;
-                    }
-                    v[k] += f[k] * (im[k] * half);
-                    x[k] += v[k] * dt;
-                    // written so that NaN also trips it
-                    let d2 = (x[k] - xr[k]).norm_squared();
-                    moved |= d2.is_nan() | (d2 > h[k] * h[k]);
-                    if TORQUE {
-                        w[k] += t[k] * (ii[k] * half);
-                    }
-                }
-                moved
+                let (fz, t, ii) = (&fzs[r.clone()], &ts[r.clone()], &iis[r]);
+                kick_drift_chunk::<D, TORQUE, FROZEN>(
+                    KickDrift { x, v, w },
+                    f,
+                    im,
+                    xr,
+                    h,
+                    fz,
+                    t,
+                    ii,
+                    dt,
+                    half,
+                )
             },
             |a, b| a | b,
         )
@@ -1169,6 +1160,72 @@ where
         }
         Ok(out)
     }
+}
+
+/// What kick/drift changes in one chunk of particles.
+struct KickDrift<'a, const D: usize>
+where
+    Dim<D>: Spatial<D>,
+{
+    x: &'a mut [Vector<D>],
+    v: &'a mut [Vector<D>],
+    w: &'a mut [Ang<D>],
+}
+
+crate::cpu::multiversion! {
+/// Kick/drift of one chunk (see [`World::kick_drift`]); compiled for each
+/// instruction-set level (see [`crate::cpu`]).
+fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
+    s: KickDrift<D>,
+    f: &[Vector<D>],
+    im: &[Real],
+    xr: &[Vector<D>],
+    h: &[Real],
+    fz: &[bool],
+    t: &[Ang<D>],
+    ii: &[Real],
+    dt: Real,
+    half: Real,
+) -> bool where [Dim<D>: Spatial<D>] => kick_drift_chunk_impl [D, TORQUE, FROZEN]
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn kick_drift_chunk_impl<const D: usize, const TORQUE: bool, const FROZEN: bool>(
+    s: KickDrift<D>,
+    f: &[Vector<D>],
+    im: &[Real],
+    xr: &[Vector<D>],
+    h: &[Real],
+    fz: &[bool],
+    t: &[Ang<D>],
+    ii: &[Real],
+    dt: Real,
+    half: Real,
+) -> bool
+where
+    Dim<D>: Spatial<D>,
+{
+    let mut moved = false;
+    // Every chunk slice cut to one length: the loop then runs without bounds checks.
+    let n = s.x.len();
+    let (x, v, w) = (&mut s.x[..n], &mut s.v[..n], &mut s.w[..n]);
+    let (f, im, xr, h, fz) = (&f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
+    let (t, ii) = (&t[..n], &ii[..n]);
+    for k in 0..n {
+        if FROZEN && fz[k] {
+            continue;
+        }
+        v[k] += f[k] * (im[k] * half);
+        x[k] += v[k] * dt;
+        // written so that NaN also trips it
+        let d2 = (x[k] - xr[k]).norm_squared();
+        moved |= d2.is_nan() | (d2 > h[k] * h[k]);
+        if TORQUE {
+            w[k] += t[k] * (ii[k] * half);
+        }
+    }
+    moved
 }
 
 #[cfg(test)]
@@ -1590,5 +1647,88 @@ mod tests {
         );
         assert!(run(true, 1) == two, "sweep, one thread");
         assert!(run(true, 3) == two, "sweep, three threads");
+    }
+
+    /// FNV-1a over the bit patterns of positions, velocities and spins.
+    fn state_hash<const D: usize>(w: &World<D>) -> u64
+    where
+        Dim<D>: Spatial<D>,
+    {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let words = w
+            .positions()
+            .iter()
+            .chain(w.velocities())
+            .flat_map(|v| v.iter().map(|c| c.to_bits()))
+            .chain(
+                w.spins()
+                    .iter()
+                    .flat_map(|s| (0..<Ang<D> as AngOps>::NCOMP).map(|k| s.comp(k).to_bits())),
+            );
+        for b in words {
+            h = (h ^ b).wrapping_mul(0x0100_0000_01b3);
+        }
+        h
+    }
+
+    /// Every instruction-set level the CPU runs gives the same bits, in 3D (two passes
+    /// and the sweep, walls, spins, friction) and in 2D. The level is process-wide, and
+    /// no other test sets it, so each run below runs at the level it names.
+    #[test]
+    fn every_level_gives_the_same_bits() {
+        use crate::cpu;
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (x3, r3) = lattice(&mut rng, 6, 3, 0.015);
+        // the lattice's first vertical plane (y < 30 mm), as discs in (x, z)
+        let (x2, r2): (Vec<Vector<2>>, Vec<Real>) = x3
+            .iter()
+            .zip(&r3)
+            .filter(|(x, _)| x[1] < 0.03)
+            .map(|(x, &r)| (Vector::<2>::new(x[0], x[2]), r))
+            .unzip();
+        let run3 = |sweep: bool| {
+            let mut w = World::new(falling_box(0.2)).unwrap();
+            if sweep {
+                w.sweep_min_bytes = 0;
+            }
+            w.add_particles(&x3, &r3, None, None).unwrap();
+            w.step_n(4000).unwrap();
+            let n = w.contacts().unwrap().i.len();
+            assert!(n > 100, "the bed is in contact: {n}");
+            state_hash(&w)
+        };
+        let run2 = || {
+            let mut cfg = SimConfig::<2>::paper();
+            cfg.walls = Some((Vector::<2>::zeros(), Vector::<2>::new(0.2, f64::INFINITY)));
+            cfg.gravity = Vector::<2>::new(0.0, -9.81);
+            cfg.drag = 0.05;
+            let mut w = World::new(cfg).unwrap();
+            w.add_particles(&x2, &r2, None, None).unwrap();
+            w.step_n(4000).unwrap();
+            let n = w.contacts().unwrap().i.len();
+            assert!(n > 15, "the 2D bed is in contact: {n}");
+            state_hash(&w)
+        };
+        let before = cpu::level();
+        let mut seen = Vec::new();
+        for l in cpu::available() {
+            cpu::set_level(l).unwrap();
+            assert_eq!(cpu::level(), l);
+            seen.push((l, run3(false), run3(true), run2()));
+        }
+        cpu::set_level(before).unwrap();
+        let first = seen[0];
+        for s in &seen {
+            assert_eq!(
+                (s.1, s.2, s.3),
+                (first.1, first.2, first.3),
+                "{} against {}",
+                s.0.name(),
+                first.0.name()
+            );
+        }
+        // the sweep and the two passes agree too
+        assert_eq!(first.1, first.2);
     }
 }
