@@ -1,5 +1,6 @@
 //! The crate's one error type. Every fallible entry point returns [`Result`]; the
-//! bindings map it to `granpack.GranpackError` (a `ValueError`).
+//! bindings map each variant to a subclass of `granpack.GranpackError` (a
+//! `ValueError`) that carries the variant's fields as attributes.
 
 use thiserror::Error;
 
@@ -8,7 +9,7 @@ use thiserror::Error;
 pub enum Error {
     /// A parameter is outside its allowed range. The message names the parameter, the
     /// value and the range.
-    #[error("invalid {name} = {value}: {expected}")]
+    #[error("{}", invalid_message(name, value, expected))]
     InvalidParameter {
         /// Parameter name as the user spells it.
         name: String,
@@ -41,6 +42,8 @@ pub enum Error {
         time: f64,
         /// Index of the particle concerned.
         particle: usize,
+        /// Which guard stopped the run.
+        kind: BlowupKind,
         /// What was detected, with the value.
         what: String,
     },
@@ -62,6 +65,37 @@ pub enum Error {
     },
 }
 
+/// Which guard stopped a run that blew up (see [`Error::Blowup`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlowupKind {
+    /// A pair overlap beyond `max_overlap_ratio` of the smaller radius.
+    Overlap,
+    /// A wall overlap beyond `max_overlap_ratio` of the radius.
+    WallOverlap,
+    /// The total energy grew with gravity the only source.
+    Energy,
+    /// A position, velocity or spin became NaN or infinite.
+    NonFinite,
+    /// A particle moves more than half its radius per step (it could tunnel).
+    Speed,
+    /// A centre crossed a wall.
+    WallCrossed,
+}
+
+impl BlowupKind {
+    /// The kind as Python's `BlowUpError.kind` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            BlowupKind::Overlap => "overlap",
+            BlowupKind::WallOverlap => "wall_overlap",
+            BlowupKind::Energy => "energy",
+            BlowupKind::NonFinite => "non_finite",
+            BlowupKind::Speed => "speed",
+            BlowupKind::WallCrossed => "wall_crossed",
+        }
+    }
+}
+
 impl Error {
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(name: &str, value: impl std::fmt::Display, expected: &str) -> Self {
@@ -70,6 +104,16 @@ impl Error {
             value: value.to_string(),
             expected: expected.to_string(),
         }
+    }
+}
+
+/// "invalid name = value: expected", or without "= value" when there is no single value
+/// to show (an array's shape, say).
+fn invalid_message(name: &str, value: &str, expected: &str) -> String {
+    if value.is_empty() {
+        format!("invalid {name}: {expected}")
+    } else {
+        format!("invalid {name} = {value}: {expected}")
     }
 }
 

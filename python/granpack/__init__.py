@@ -5,16 +5,28 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 (`granpack._core`); this package is the thin Python layer over it.
 """
 
-from ._core import GranpackError
 from ._core import __version__ as __version__
 from .contacts import Contacts
 from .engine import Material, Simulation
+from .errors import (
+    BlowUpError,
+    FileFormatError,
+    GranpackError,
+    InvalidParameterError,
+    SaturationError,
+    UnstableTimeStepError,
+)
 from .microstructure import microstructure
 from .pack import Pack, generate, load_pack
 from .scene import PRESETS, PackScene
 
 __all__ = [
     "GranpackError",
+    "InvalidParameterError",
+    "UnstableTimeStepError",
+    "BlowUpError",
+    "SaturationError",
+    "FileFormatError",
     "Contacts",
     "Material",
     "Simulation",

@@ -9,9 +9,18 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from ._core import GranpackError
+from .errors import FileFormatError, GranpackError, InvalidParameterError
 
-__all__ = ["GranpackError", "as_real", "as_int", "as_bool", "as_array", "unknown_keys"]
+__all__ = [
+    "GranpackError",
+    "InvalidParameterError",
+    "FileFormatError",
+    "as_real",
+    "as_int",
+    "as_bool",
+    "as_array",
+    "unknown_keys",
+]
 
 
 def as_real(
@@ -27,16 +36,20 @@ def as_real(
 ) -> float:
     """Returns `value` as a float in the given range or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Real | np.floating | np.integer):
-        raise GranpackError(f"invalid {name} = {value!r}: must be a real number{unit_txt(unit)}")
+        raise InvalidParameterError(
+            f"invalid {name} = {value!r}: must be a real number{unit_txt(unit)}"
+        )
     v = float(value)
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise GranpackError(f"invalid {name} = {v}: must be finite{unit_txt(unit)}")
+        raise InvalidParameterError(f"invalid {name} = {v}: must be finite{unit_txt(unit)}")
     bad_lo = v <= lo if lo_open else v < lo
     bad_hi = v >= hi if hi_open else v > hi
     if bad_lo or bad_hi:
         lb = "(" if lo_open else "["
         hb = ")" if hi_open else "]"
-        raise GranpackError(f"invalid {name} = {v}: must lie in {lb}{lo}, {hi}{hb}{unit_txt(unit)}")
+        raise InvalidParameterError(
+            f"invalid {name} = {v}: must lie in {lb}{lo}, {hi}{hb}{unit_txt(unit)}"
+        )
     return v
 
 
@@ -47,11 +60,11 @@ def unit_txt(unit: str) -> str:
 def as_int(name: str, value: object, lo: int, hi: int | None = None) -> int:
     """Returns `value` as an int in [lo, hi] or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Integral | np.integer):
-        raise GranpackError(f"invalid {name} = {value!r}: must be an integer")
+        raise InvalidParameterError(f"invalid {name} = {value!r}: must be an integer")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         upper = "inf" if hi is None else str(hi)
-        raise GranpackError(f"invalid {name} = {v}: must lie in [{lo}, {upper}]")
+        raise InvalidParameterError(f"invalid {name} = {v}: must lie in [{lo}, {upper}]")
     return v
 
 
@@ -59,7 +72,7 @@ def as_bool(name: str, value: object) -> bool:
     """Accepts True/False (and numpy bools) only."""
     if isinstance(value, bool | np.bool_):
         return bool(value)
-    raise GranpackError(f"invalid {name} = {value!r}: must be true or false")
+    raise InvalidParameterError(f"invalid {name} = {value!r}: must be true or false")
 
 
 def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -68,24 +81,26 @@ def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndar
     try:
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
-        raise GranpackError(f"invalid {name}: not an array ({exc})") from None
+        raise InvalidParameterError(f"invalid {name}: not an array ({exc})") from None
     if (
         a.dtype == object
         or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer))
         or a.dtype == np.bool_
     ):
-        raise GranpackError(f"invalid {name}: dtype {a.dtype}, expected a real (float64) array")
+        raise InvalidParameterError(
+            f"invalid {name}: dtype {a.dtype}, expected a real (float64) array"
+        )
     a = np.ascontiguousarray(a, dtype=np.float64)
     want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
     # zip is safe: a.ndim == len(shape) is checked first
     if a.ndim != len(shape) or any(
         s is not None and s != n for s, n in zip(shape, a.shape, strict=False)
     ):
-        raise GranpackError(f"invalid {name}: shape {a.shape}, expected {want}")
+        raise InvalidParameterError(f"invalid {name}: shape {a.shape}, expected {want}")
     if not np.all(np.isfinite(a)):
         bad = np.argwhere(~np.isfinite(a))[0]
         where = tuple(int(b) for b in bad)
-        raise GranpackError(f"invalid {name}: non-finite value at index {where}")
+        raise InvalidParameterError(f"invalid {name}: non-finite value at index {where}")
     return a
 
 

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import GranpackError
+from ._validate import GranpackError, InvalidParameterError
 
 __all__ = ["main", "build_parser"]
 
@@ -641,14 +641,14 @@ def _load_for_analysis(args):
         positions, radii, dim = ms.read_xyzr(path, dim=args.dim)
     if args.box is not None:
         if len(args.box) != 2 * dim:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid --box: {len(args.box)} values, expected {2 * dim} "
                 f"(lo hi for each of the {dim} axes)"
             )
         v = np.asarray(args.box, dtype=np.float64)
         box = (v[0::2], v[1::2])
         if np.any(box[1] <= box[0]):
-            raise GranpackError("invalid --box: every axis needs lo < hi")
+            raise InvalidParameterError("invalid --box: every axis needs lo < hi")
     kwargs = {"positions": positions, "radii": radii}
     if box is not None:
         kwargs["box"] = box

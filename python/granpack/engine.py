@@ -9,7 +9,7 @@ from numbers import Integral
 import numpy as np
 
 from . import _core
-from ._validate import GranpackError, as_array, as_bool, as_real
+from ._validate import InvalidParameterError, as_array, as_bool, as_real
 from .contacts import Contacts
 
 __all__ = ["Material", "Simulation"]
@@ -106,13 +106,17 @@ class Simulation:
         inertia_2d: str = "sphere",
     ) -> None:
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
-            raise GranpackError(f"invalid dim = {dim!r}: must be 2 or 3")
+            raise InvalidParameterError(f"invalid dim = {dim!r}: must be 2 or 3")
         dim = int(dim)
         if not isinstance(inertia_2d, str) or inertia_2d not in ("sphere", "disc"):
-            raise GranpackError(f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'")
+            raise InvalidParameterError(
+                f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'"
+            )
         material = Material() if material is None else material
         if not isinstance(material, Material):
-            raise GranpackError(f"invalid material = {material!r}: must be a granpack.Material")
+            raise InvalidParameterError(
+                f"invalid material = {material!r}: must be a granpack.Material"
+            )
         dt = as_real("dt", dt, 0, lo_open=True, unit="s")
         if gravity is None:
             gravity = [0.0] * dim
@@ -127,16 +131,18 @@ class Simulation:
                 lo = [float(v) for v in lo]
                 hi = [float(v) for v in hi]
             except (TypeError, ValueError):
-                raise GranpackError(
+                raise InvalidParameterError(
                     f"invalid box = {box!r}: expected ((lo_1..lo_D), (hi_1..hi_D))"
                 ) from None
             if len(lo) != dim or len(hi) != dim:
-                raise GranpackError(f"invalid box = {box!r}: corners need {dim} coordinates")
+                raise InvalidParameterError(
+                    f"invalid box = {box!r}: corners need {dim} coordinates"
+                )
             for k in range(dim):
                 if not math.isfinite(lo[k]) or (
                     k != dim - 1 and not (math.isfinite(hi[k]) and hi[k] > lo[k])
                 ):
-                    raise GranpackError(
+                    raise InvalidParameterError(
                         f"invalid box = {box!r}: axis {k} needs finite lo < hi (the top may be inf)"
                     )
             walls = (lo, hi)
@@ -163,7 +169,7 @@ class Simulation:
         r = as_array("radii", radii, (x.shape[0],))
         if np.any(r <= 0):
             k = int(np.argmax(r <= 0))
-            raise GranpackError(f"invalid radii[{k}] = {r[k]}: must be > 0 (m)")
+            raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be > 0 (m)")
         # The engine divides by mass and moment of inertia: both must be finite and > 0.
         rho = self.material.density
         with np.errstate(over="ignore", under="ignore"):
@@ -173,7 +179,7 @@ class Simulation:
         bad = ~(np.isfinite(m) & (m > 0) & np.isfinite(inertia) & (inertia > 0))
         if np.any(bad):
             k = int(np.argmax(bad))
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid radii[{k}] = {r[k]}: with density = {rho} kg/m^3 the mass "
                 f"{m[k]:.3g} kg or moment of inertia {inertia[k]:.3g} kg m^2 is not a finite "
                 "number > 0"
@@ -192,7 +198,7 @@ class Simulation:
     def step(self, n: int = 1) -> None:
         """Advances n steps (the GIL is released meanwhile)."""
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n < 2**64:
-            raise GranpackError(f"invalid n = {n!r}: must be an integer in [0, 2^64)")
+            raise InvalidParameterError(f"invalid n = {n!r}: must be an integer in [0, 2^64)")
         self._sim.step(int(n))
 
     def run(self, seconds: float) -> None:

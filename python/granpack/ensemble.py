@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import GranpackError, as_int
+from ._validate import GranpackError, InvalidParameterError, as_int
 from .pack import Pack, generate
 from .scene import PackScene
 
@@ -128,7 +128,7 @@ class Progress:
         if mode in (False, None, "none", "quiet"):
             mode = "none"
         if self.callback is None and mode not in ("bar", "lines", "none"):
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid progress = {mode!r}: use True, False, 'auto', 'bar', 'lines' "
                 "or a callable"
             )
@@ -333,7 +333,7 @@ def _run_here(pending: list[PackTask], prog: Progress) -> None:
                 t.scene, progress=lambda rep, t=t: prog.layer(t.label, t.scene.height, rep)
             )
         except GranpackError as exc:
-            raise GranpackError(f"{t.label}: {exc}") from None
+            raise exc.with_prefix(f"{t.label}: ") from None
         _finish(t, pack, prog)
 
 
@@ -364,7 +364,7 @@ def _run_pool(pending: list[PackTask], n_workers: int, threads: int, prog: Progr
                         "finished packs are on disk, rerun to continue"
                     ) from None
                 except GranpackError as exc:
-                    raise GranpackError(f"{t.label}: {exc}") from None
+                    raise exc.with_prefix(f"{t.label}: ") from None
                 _finish(t, pack, prog)
         ok = True
     finally:
@@ -425,7 +425,7 @@ def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
             try:
                 pack = f.result()
             except GranpackError as exc:
-                raise GranpackError(f"{t.label}: {exc}") from None
+                raise exc.with_prefix(f"{t.label}: ") from None
             _finish(t, pack, prog)
             f.release()
     finally:

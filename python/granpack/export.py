@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from ._validate import GranpackError
+from ._validate import FileFormatError, GranpackError, InvalidParameterError
 from .pack import Pack, atomic_write
 
 __all__ = [
@@ -86,7 +86,9 @@ def export(pack: Pack, path: str | Path, format: str | None = None) -> list[Path
     if format is None:
         format = _format_from_suffix(path)
     if format not in FORMATS:
-        raise GranpackError(f"invalid format = {format!r}: choose one of {', '.join(FORMATS)}")
+        raise InvalidParameterError(
+            f"invalid format = {format!r}: choose one of {', '.join(FORMATS)}"
+        )
     if format == "vtk":
         return [write_vtk(pack, path)]
     if format == "lammps":
@@ -361,11 +363,12 @@ def read_lammps_data(path: str | Path) -> dict:
             sections[current].append([float(wd) for wd in words])
         atoms = np.array(sections.get("Atoms", []), dtype=np.float64).reshape(-1, 7)
     except (ValueError, IndexError) as exc:
-        raise GranpackError(f"cannot read LAMMPS data file {path}: {exc}") from None
+        raise FileFormatError(f"cannot read LAMMPS data file {path}: {exc}", path=path) from None
     if n_atoms is None or atoms.shape[0] != n_atoms:
-        raise GranpackError(
+        raise FileFormatError(
             f"cannot read LAMMPS data file {path}: header says {n_atoms} atoms, "
-            f"Atoms section has {atoms.shape[0]} (atom_style sphere expected)"
+            f"Atoms section has {atoms.shape[0]} (atom_style sphere expected)",
+            path=path,
         )
     order = np.argsort(atoms[:, 0], kind="stable")
     atoms = atoms[order]
@@ -374,8 +377,8 @@ def read_lammps_data(path: str | Path) -> dict:
         v = np.array(sections["Velocities"], dtype=np.float64).reshape(-1, 7)
         v = v[np.argsort(v[:, 0], kind="stable")]
         if v.shape[0] != n_atoms or np.any(v[:, 0] != atoms[:, 0]):
-            raise GranpackError(
-                f"cannot read LAMMPS data file {path}: Velocities do not match Atoms"
+            raise FileFormatError(
+                f"cannot read LAMMPS data file {path}: Velocities do not match Atoms", path=path
             )
         vel = v[:, 1:]
     return {

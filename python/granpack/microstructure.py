@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _core
-from ._validate import GranpackError, as_int, as_real
+from ._validate import FileFormatError, GranpackError, InvalidParameterError, as_int, as_real
 from .contacts import Contacts
 
 __all__ = [
@@ -152,14 +152,14 @@ def empirical_z(e) -> dict:
 def _unit_rows(name: str, normals) -> np.ndarray:
     n = np.asarray(normals, dtype=float)
     if n.ndim != 2 or n.shape[1] not in (2, 3):
-        raise GranpackError(f"invalid {name}: shape {n.shape}, expected (M, 2) or (M, 3)")
+        raise InvalidParameterError(f"invalid {name}: shape {n.shape}, expected (M, 2) or (M, 3)")
     if n.shape[0] == 0:
-        raise GranpackError(f"invalid {name}: no contacts (M = 0); the tensor is undefined")
+        raise InvalidParameterError(f"invalid {name}: no contacts (M = 0); the tensor is undefined")
     if not np.all(np.isfinite(n)):
-        raise GranpackError(f"invalid {name}: non-finite values")
+        raise InvalidParameterError(f"invalid {name}: non-finite values")
     norm = np.linalg.norm(n, axis=1)
     if np.any(norm == 0.0):
-        raise GranpackError(f"invalid {name}: row {int(np.argmin(norm))} has zero length")
+        raise InvalidParameterError(f"invalid {name}: row {int(np.argmin(norm))} has zero length")
     return n / norm[:, None]
 
 
@@ -197,11 +197,11 @@ def anisotropy_tensor(tensor) -> np.ndarray:
     """
     t = np.asarray(tensor, dtype=float)
     if t.ndim != 2 or t.shape[0] != t.shape[1] or t.shape[0] not in (2, 3):
-        raise GranpackError(f"invalid tensor: shape {t.shape}, expected (2, 2) or (3, 3)")
+        raise InvalidParameterError(f"invalid tensor: shape {t.shape}, expected (2, 2) or (3, 3)")
     d = t.shape[0]
     tr = np.trace(t)
     if not np.isfinite(tr) or tr == 0.0:
-        raise GranpackError(f"invalid tensor: trace {tr}, must be finite and non-zero")
+        raise InvalidParameterError(f"invalid tensor: trace {tr}, must be finite and non-zero")
     return ANISOTROPY_FACTOR[d] * (t / tr - np.eye(d) / d)
 
 
@@ -320,16 +320,20 @@ def _force_columns(normals, force_normal, force_tangential):
     fn = np.asarray(force_normal, dtype=float)
     ft = np.asarray(force_tangential, dtype=float)
     if fn.shape != (m,):
-        raise GranpackError(f"invalid force_normal: shape {fn.shape}, expected ({m},)")
+        raise InvalidParameterError(f"invalid force_normal: shape {fn.shape}, expected ({m},)")
     if ft.shape != (m, d):
-        raise GranpackError(f"invalid force_tangential: shape {ft.shape}, expected ({m}, {d})")
+        raise InvalidParameterError(
+            f"invalid force_tangential: shape {ft.shape}, expected ({m}, {d})"
+        )
     if not (np.all(np.isfinite(fn)) and np.all(np.isfinite(ft))):
-        raise GranpackError("invalid forces: non-finite values")
+        raise InvalidParameterError("invalid forces: non-finite values")
     if np.any(fn < 0.0):
         k = int(np.argmin(fn))
-        raise GranpackError(f"invalid force_normal[{k}] = {fn[k]}: must be >= 0 (N)")
+        raise InvalidParameterError(f"invalid force_normal[{k}] = {fn[k]}: must be >= 0 (N)")
     if not np.any(fn > 0.0):
-        raise GranpackError("invalid force_normal: all zero, so f0 = 0 and a^n, a^t are undefined")
+        raise InvalidParameterError(
+            "invalid force_normal: all zero, so f0 = 0 and a^n, a^t are undefined"
+        )
     # Only the part in the tangent plane is a tangential force; dropping a stray normal
     # component also keeps tr F^t = 0 exactly.
     ft = ft - np.sum(ft * n, axis=1)[:, None] * n
@@ -511,7 +515,7 @@ def force_tensors_binned(normals, force_normal, force_tangential, n_bins=None) -
     fn_tensor = np.einsum("g,gij->ij", fbar, second[full]) / total
     ft_tensor = np.einsum("gi,gj->ij", ftbar, first[full]) / total
     if f0 <= 0.0:
-        raise GranpackError("invalid force_normal: f0 = 0, a^n and a^t are undefined")
+        raise InvalidParameterError("invalid force_normal: f0 = 0, a^n and a^t are undefined")
     return _finish(f0, fn_tensor, ft_tensor, d)
 
 
@@ -666,7 +670,7 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
     """
     path = Path(path)
     if dim is not None and dim not in (2, 3):
-        raise GranpackError(f"invalid dim = {dim!r}: must be None, 2 or 3")
+        raise InvalidParameterError(f"invalid dim = {dim!r}: must be None, 2 or 3")
     try:
         text = path.read_text()
     except FileNotFoundError:
@@ -682,26 +686,30 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
             continue
         if len(body) not in (3, 4) or (ncol is not None and len(body) != ncol):
             want = "4 numbers (x y z r) or 3 (x y r)" if ncol is None else f"{ncol} numbers"
-            raise GranpackError(f"{path}:{lineno}: expected {want}, found {len(body)} fields")
+            raise FileFormatError(
+                f"{path}:{lineno}: expected {want}, found {len(body)} fields", path=path
+            )
         ncol = len(body)
         try:
             vals = [float(v) for v in body]
         except ValueError:
             bad = next(v for v in body if not _is_float(v))
-            raise GranpackError(f"{path}:{lineno}: {bad!r} is not a number") from None
+            raise FileFormatError(f"{path}:{lineno}: {bad!r} is not a number", path=path) from None
         if not all(math.isfinite(v) for v in vals):
-            raise GranpackError(f"{path}:{lineno}: non-finite value")
+            raise FileFormatError(f"{path}:{lineno}: non-finite value", path=path)
         if vals[-1] <= 0.0:
-            raise GranpackError(f"{path}:{lineno}: radius {vals[-1]} must be > 0 (m)")
+            raise FileFormatError(f"{path}:{lineno}: radius {vals[-1]} must be > 0 (m)", path=path)
         rows.append(vals)
         lines.append(lineno)
     if not rows:
-        raise GranpackError(f"{path}: no particles (every line is blank or a comment)")
+        raise FileFormatError(f"{path}: no particles (every line is blank or a comment)", path=path)
     a = np.array(rows)
     radii = np.ascontiguousarray(a[:, -1])
     if ncol == 3:
         if dim == 3:
-            raise GranpackError(f"{path}: dim = 3 needs four columns x y z r, found three")
+            raise FileFormatError(
+                f"{path}: dim = 3 needs four columns x y z r, found three", path=path
+            )
         return np.ascontiguousarray(a[:, :2]), radii, 2
     z_zero = bool(np.all(a[:, 2] == 0.0))
     y_zero = bool(np.all(a[:, 1] == 0.0))
@@ -713,7 +721,7 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
         return np.ascontiguousarray(a[:, :2]), radii, 2
     if y_zero:
         return np.ascontiguousarray(a[:, [0, 2]]), radii, 2
-    raise GranpackError(f"{path}: dim = 2 needs an all-zero y or z column; neither is")
+    raise FileFormatError(f"{path}: dim = 2 needs an all-zero y or z column; neither is", path=path)
 
 
 def _is_float(s: str) -> bool:
@@ -960,34 +968,40 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
     elif isinstance(contacts, Mapping):
         cols = dict(contacts)
     else:
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid contacts = {type(contacts).__name__}: expected granpack.Contacts or a "
             "dict of arrays (i, j, normal, and optionally force_normal, force_tangential)"
         )
     for key in ("i", "j", "normal"):
         if key not in cols:
-            raise GranpackError(f"invalid contacts: missing column {key!r}")
+            raise InvalidParameterError(f"invalid contacts: missing column {key!r}")
     try:
         i = np.asarray(cols["i"])
         j = np.asarray(cols["j"])
         normal = np.asarray(cols["normal"], dtype=float)
     except (TypeError, ValueError) as exc:
-        raise GranpackError(f"invalid contacts: {exc}") from None
+        raise InvalidParameterError(f"invalid contacts: {exc}") from None
     m = i.shape[0] if i.ndim == 1 else -1
     if m < 0 or j.shape != (m,) or normal.shape != (m, d):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid contacts: shapes i {i.shape}, j {j.shape}, normal {normal.shape}; "
             f"expected (M,), (M,), (M, {d})"
         )
     for name, arr in (("i", i), ("j", j)):
         if m and not np.issubdtype(arr.dtype, np.integer):
-            raise GranpackError(f"invalid contacts.{name}: dtype {arr.dtype}, expected integers")
+            raise InvalidParameterError(
+                f"invalid contacts.{name}: dtype {arr.dtype}, expected integers"
+            )
     i = i.astype(np.int64)
     j = j.astype(np.int64)
     if m and (i.min() < 0 or i.max() >= n):
-        raise GranpackError(f"invalid contacts.i: particle indices must lie in [0, {n - 1}]")
+        raise InvalidParameterError(
+            f"invalid contacts.i: particle indices must lie in [0, {n - 1}]"
+        )
     if m and (j.min() < _MIN_WALL_ID or j.max() >= n):
-        raise GranpackError(f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5")
+        raise InvalidParameterError(
+            f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5"
+        )
     zeros_d = np.zeros((m, d))
     full = {
         "i": i,
@@ -999,20 +1013,20 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
         "branch": np.asarray(cols.get("branch", zeros_d), dtype=float),
     }
     if full["force_normal"].shape != (m,) or full["force_tangential"].shape != (m, d):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid contacts: force_normal {full['force_normal'].shape}, force_tangential "
             f"{full['force_tangential'].shape}; expected ({m},), ({m}, {d})"
         )
     for key in ("normal", "force_normal", "force_tangential"):
         if not np.all(np.isfinite(full[key])):
-            raise GranpackError(f"invalid contacts.{key}: non-finite values")
+            raise InvalidParameterError(f"invalid contacts.{key}: non-finite values")
     if m and np.min(full["force_normal"]) < 0.0:
         k = int(np.argmin(full["force_normal"]))
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid contacts.force_normal[{k}] = {full['force_normal'][k]}: must be >= 0 (N)"
         )
     if m and np.any(np.linalg.norm(normal, axis=1) == 0.0):
-        raise GranpackError("invalid contacts.normal: a row has zero length")
+        raise InvalidParameterError("invalid contacts.normal: a row has zero length")
     return Contacts.from_dict(full)
 
 
@@ -1022,17 +1036,17 @@ def _as_box(box, d: int):
         lo = np.asarray(lo, dtype=float).ravel()
         hi = np.asarray(hi, dtype=float).ravel()
     except (TypeError, ValueError):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid box = {box!r}: expected (lo, hi), each a sequence of {d} lengths (m)"
         ) from None
     if lo.shape != (d,) or hi.shape[0] not in (d - 1, d):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid box: lo has {lo.shape[0]} values and hi {hi.shape[0]}; expected {d} and "
             f"{d} (hi's vertical value is ignored: the top is H_top) or {d - 1}"
         )
     hi = hi[: d - 1]
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo[:-1])):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid box: lo = {lo.tolist()}, hi = {hi.tolist()}; need finite hi > lo (m)"
         )
     return lo, hi
@@ -1043,18 +1057,20 @@ def _as_particles(positions, radii):
         x = np.asarray(positions, dtype=float)
         r = np.asarray(radii, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise GranpackError(f"invalid positions/radii: {exc}") from None
+        raise InvalidParameterError(f"invalid positions/radii: {exc}") from None
     if x.ndim != 2 or x.shape[1] not in (2, 3):
-        raise GranpackError(f"invalid positions: shape {x.shape}, expected (N, 2) or (N, 3)")
+        raise InvalidParameterError(
+            f"invalid positions: shape {x.shape}, expected (N, 2) or (N, 3)"
+        )
     if x.shape[0] == 0:
-        raise GranpackError("invalid positions: no particles (N = 0)")
+        raise InvalidParameterError("invalid positions: no particles (N = 0)")
     if r.shape != (x.shape[0],):
-        raise GranpackError(f"invalid radii: shape {r.shape}, expected ({x.shape[0]},)")
+        raise InvalidParameterError(f"invalid radii: shape {r.shape}, expected ({x.shape[0]},)")
     if not np.all(np.isfinite(x)):
-        raise GranpackError("invalid positions: non-finite values")
+        raise InvalidParameterError("invalid positions: non-finite values")
     if not (np.all(np.isfinite(r)) and np.all(r > 0)):
         k = int(np.argmin(np.where(np.isfinite(r), r, -np.inf)))
-        raise GranpackError(f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)")
+        raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)")
     return np.ascontiguousarray(x), np.ascontiguousarray(r)
 
 
@@ -1138,7 +1154,7 @@ def microstructure(
         try:
             positions, radii, contacts, box = pack.positions, pack.radii, pack.contacts, pack.box
         except AttributeError:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid pack = {type(pack).__name__}: expected a granpack.Pack"
             ) from None
     elif positions is None or radii is None:
@@ -1159,7 +1175,7 @@ def microstructure(
     else:
         lo, hi_h = _as_box(box, d)
         if h_top <= lo[-1]:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid box: floor at {lo[-1]} m is at or above the top of the pack {h_top} m"
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from ._validate import GranpackError
+from ._validate import FileFormatError, GranpackError, InvalidParameterError
 from .contacts import Contacts
 from .scene import PackScene
 
@@ -143,7 +143,7 @@ def load_pack(path: str | Path) -> Pack:
     """Reads a pack written by `Pack.save`; a truncated or foreign file is a
     GranpackError, never a crash."""
     if not isinstance(path, str | os.PathLike):
-        raise GranpackError(f"invalid path = {path!r}: expected a file name")
+        raise InvalidParameterError(f"invalid path = {path!r}: expected a file name")
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -174,8 +174,9 @@ def load_pack(path: str | Path) -> Pack:
         # A corrupt zip header can name an unknown compression method or zip version
         # (NotImplementedError) or set the encryption flag (RuntimeError); a corrupt
         # array header can announce an absurd shape (MemoryError).
-        raise GranpackError(
-            f"cannot read pack {path}: corrupt or truncated ({type(exc).__name__}: {exc})"
+        reason = f"corrupt or truncated ({type(exc).__name__}: {exc})"
+        raise FileFormatError(
+            f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
     try:
         meta = json.loads(_text(data, "meta.json"))
@@ -206,7 +207,10 @@ def load_pack(path: str | Path) -> Pack:
         OverflowError,
         RecursionError,
     ) as exc:
-        raise GranpackError(f"cannot read pack {path}: missing or invalid field ({exc})") from None
+        reason = f"missing or invalid field ({exc})"
+        raise FileFormatError(
+            f"cannot read pack {path}: {reason}", path=path, reason=reason
+        ) from None
 
 
 def _text(data: dict, key: str) -> str:
@@ -267,7 +271,7 @@ def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
     n = scene.estimated_particles()
     need = n * BYTES_PER_PARTICLE
     if need > 0.8 * total_bytes:
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid scene: about {n:.3g} particles (~{need / 2**30:.1f} GiB) would not fit "
             f"in this machine's memory ({total_bytes / 2**30:.1f} GiB); shrink base or "
             "height, or grow r_mean"
@@ -325,7 +329,7 @@ def generate(
         kinetic_energy, wall_seconds).
     """
     if not isinstance(scene, PackScene):
-        raise GranpackError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
+        raise InvalidParameterError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
     check_memory(scene)
     t0 = time.perf_counter()
     packer = _packer(scene)

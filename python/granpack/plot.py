@@ -31,7 +31,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
-from ._validate import GranpackError
+from ._validate import InvalidParameterError
 from .pack import atomic_write
 
 __all__ = [
@@ -196,7 +196,7 @@ def packs_figure(packs: Sequence, title: str | None = None, labels: Sequence[str
     show the structure best at this size)."""
     packs = list(packs)
     if not packs:
-        raise GranpackError("invalid packs: nothing to draw")
+        raise InvalidParameterError("invalid packs: nothing to draw")
     ncol = 2 if len(packs) > 1 else 1
     nrow = math.ceil(len(packs) / ncol)
     dim, _, _, _, base, height = _parts(packs[0])
@@ -308,7 +308,9 @@ def normals_figure(
     the number of normals)."""
     normals = np.asarray(normals, dtype=np.float64)
     if normals.ndim != 2 or normals.shape[1] not in (2, 3):
-        raise GranpackError(f"invalid normals: shape {normals.shape}, expected (M, 2) or (M, 3)")
+        raise InvalidParameterError(
+            f"invalid normals: shape {normals.shape}, expected (M, 2) or (M, 3)"
+        )
     if normals.shape[1] == 2:
         fig = _figure(5.5, 5.0)
         ax = fig.add_subplot(projection="polar")

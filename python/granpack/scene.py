@@ -14,7 +14,15 @@ from pathlib import Path
 
 import tomli_w
 
-from ._validate import GranpackError, as_bool, as_int, as_real, unknown_keys
+from ._validate import (
+    FileFormatError,
+    GranpackError,
+    InvalidParameterError,
+    as_bool,
+    as_int,
+    as_real,
+    unknown_keys,
+)
 from .engine import Material
 
 __all__ = ["PackScene", "PRESETS", "RSA_SATURATION"]
@@ -168,23 +176,23 @@ class PackScene:
         s = object.__setattr__
         dim = self.dim
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
-            raise GranpackError(f"invalid dim = {self.dim!r}: must be 2 or 3")
+            raise InvalidParameterError(f"invalid dim = {self.dim!r}: must be 2 or 3")
         s(self, "dim", int(self.dim))
         try:
             base = tuple(self.base)
         except TypeError:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid base = {self.base!r}: expected {self.dim - 1} lengths (m)"
             ) from None
         if len(base) != self.dim - 1:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid base = {self.base!r}: expected {self.dim - 1} length(s) (m) "
                 f"for dim = {self.dim}"
             )
         s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
         s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
         if self.radius_law not in ("constant", "gaussian"):
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid radius_law = {self.radius_law!r}: must be 'constant' or 'gaussian'"
             )
         s(self, "r_mean", as_real("r_mean", self.r_mean, 0, lo_open=True, unit="m"))
@@ -199,7 +207,7 @@ class PackScene:
             rmin = as_real("r_min", rmin, 0, lo_open=True, unit="m")
             rmax = as_real("r_max", rmax, rmin, unit="m; r_max >= r_min")
             if not rmin <= self.r_mean <= rmax:
-                raise GranpackError(
+                raise InvalidParameterError(
                     f"invalid r_mean = {self.r_mean}: must lie in "
                     f"[r_min, r_max] = [{rmin}, {rmax}] (m)"
                 )
@@ -207,7 +215,7 @@ class PackScene:
             s(self, "r_max", rmax)
         for b in self.base:
             if b < 2 * self.r_max:
-                raise GranpackError(
+                raise InvalidParameterError(
                     f"invalid base = {self.base}: every length must be at least one particle "
                     f"diameter 2 r_max = {2 * self.r_max} (m)"
                 )
@@ -230,11 +238,13 @@ class PackScene:
             if isinstance(self.material, dict):
                 s(self, "material", _material_table(self.material))
             else:
-                raise GranpackError(f"invalid material = {self.material!r}: must be a Material")
+                raise InvalidParameterError(
+                    f"invalid material = {self.material!r}: must be a Material"
+                )
         s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
         crit = self.material.critical_time_step(self.r_min)
         if self.dt > crit:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid dt = {self.dt:g} s: must not exceed the critical (Rayleigh) time step "
                 f"{crit:.4g} s estimated for r_min = {self.r_min:g} m"
             )
@@ -245,7 +255,7 @@ class PackScene:
         s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
         s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
         if self.inertia_2d not in ("sphere", "disc"):
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid inertia_2d = {self.inertia_2d!r}: must be 'sphere' or 'disc'"
             )
         s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
@@ -278,7 +288,7 @@ class PackScene:
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
         if not n_est <= 5e8:  # NaN (inf / inf) is refused too
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
                 "shrink base/height or grow the radii"
             )
@@ -320,7 +330,9 @@ class PackScene:
     def from_dict(cls, d: dict) -> PackScene:
         """From a flat dict (a TOML document); `preset = "4.3"` starts from a preset."""
         if not isinstance(d, Mapping):
-            raise GranpackError(f"invalid scene = {d!r}: expected a table (dict) of scene keys")
+            raise InvalidParameterError(
+                f"invalid scene = {d!r}: expected a table (dict) of scene keys"
+            )
         d = dict(d)
         known = [f.name for f in dataclasses.fields(cls)] + ["preset"]
         unknown_keys("scene", d, known)
@@ -334,13 +346,17 @@ class PackScene:
             base = dict(PRESETS[name])
         if "material" in d:
             if not isinstance(d["material"], dict):
-                raise GranpackError("invalid material: expected a table of material constants")
+                raise InvalidParameterError(
+                    "invalid material: expected a table of material constants"
+                )
             unknown_keys("material", d["material"], _MATERIAL_KEYS)
             mat = dict(base.get("material", Material()).to_dict())
             mat.update(d.pop("material"))
             d["material"] = _material_table(mat)
         if "base" in d and not isinstance(d["base"], list | tuple):
-            raise GranpackError(f"invalid base = {d['base']!r}: expected a list of lengths (m)")
+            raise InvalidParameterError(
+                f"invalid base = {d['base']!r}: expected a list of lengths (m)"
+            )
         base.update(d)
         return cls(**base)
 
@@ -348,14 +364,16 @@ class PackScene:
     def from_toml(cls, path: str | Path) -> PackScene:
         """Reads a scene from a TOML file (flat keys, a [material] table)."""
         if not isinstance(path, str | os.PathLike):
-            raise GranpackError(f"invalid path = {path!r}: expected a file name")
+            raise InvalidParameterError(f"invalid path = {path!r}: expected a file name")
         try:
             with open(path, "rb") as f:
                 doc = tomllib.load(f)
         except tomllib.TOMLDecodeError as exc:
-            raise GranpackError(f"invalid scene file {path}: {exc}") from None
+            raise FileFormatError(f"invalid scene file {path}: {exc}", path=path) from None
         except UnicodeDecodeError as exc:
-            raise GranpackError(f"invalid scene file {path}: not UTF-8 text ({exc})") from None
+            raise FileFormatError(
+                f"invalid scene file {path}: not UTF-8 text ({exc})", path=path
+            ) from None
         except OSError as exc:
             raise GranpackError(f"cannot read scene file {path}: {exc.strerror}") from None
         return cls.from_dict(doc)
@@ -367,12 +385,12 @@ class PackScene:
             if isinstance(text, bytes | bytearray):
                 text = bytes(text).decode()
             if not isinstance(text, str):
-                raise GranpackError(f"invalid text = {text!r}: expected TOML text (str)")
+                raise InvalidParameterError(f"invalid text = {text!r}: expected TOML text (str)")
             return cls.from_dict(tomllib.loads(text))
         except UnicodeDecodeError as exc:
-            raise GranpackError(f"invalid scene TOML: not UTF-8 text ({exc})") from None
+            raise InvalidParameterError(f"invalid scene TOML: not UTF-8 text ({exc})") from None
         except tomllib.TOMLDecodeError as exc:
-            raise GranpackError(f"invalid scene TOML: {exc}") from None
+            raise InvalidParameterError(f"invalid scene TOML: {exc}") from None
 
     def to_dict(self) -> dict:
         """A flat dict that `from_dict` reads back to an equal scene."""

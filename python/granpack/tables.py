@@ -36,7 +36,7 @@ from pathlib import Path
 
 import polars as pl
 
-from ._validate import GranpackError
+from ._validate import InvalidParameterError
 from .microstructure import Microstructure
 from .pack import atomic_write
 
@@ -92,7 +92,7 @@ def _row(result) -> dict:
         return result.to_dict()
     if isinstance(result, Mapping):
         return dict(result)
-    raise GranpackError(
+    raise InvalidParameterError(
         f"invalid result = {type(result).__name__}: expected a Microstructure or a dict "
         "from Microstructure.to_dict()"
     )
@@ -113,7 +113,7 @@ def ensemble_table(results: Sequence[Microstructure | Mapping]) -> pl.DataFrame:
         of the rows (a key missing from some rows is null there). No summary rows.
     """
     if isinstance(results, Mapping | str) or not isinstance(results, Sequence):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid results = {type(results).__name__}: expected a sequence of "
             "Microstructure or dicts"
         )
@@ -128,7 +128,7 @@ def ensemble_table(results: Sequence[Microstructure | Mapping]) -> pl.DataFrame:
     try:
         return pl.from_dicts(rows, infer_schema_length=None)
     except (TypeError, ValueError, pl.exceptions.PolarsError) as exc:
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid results: rows are not flat dicts of scalars ({exc})"
         ) from None
 
@@ -160,16 +160,18 @@ def summary(
     """
     labels = tuple(labels)
     if len(labels) != 3 or not all(isinstance(s, str) for s in labels):
-        raise GranpackError(f"invalid labels = {labels!r}: expected three strings")
+        raise InvalidParameterError(f"invalid labels = {labels!r}: expected three strings")
     out: dict[str, list] = {"statistic": list(labels)}
     for col in columns:
         if col not in df.columns:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid column {col!r}: not in the table (columns: {', '.join(df.columns)})"
             )
         s = df[col]
         if not (s.dtype.is_numeric() or s.dtype == pl.Null):
-            raise GranpackError(f"invalid column {col!r}: dtype {s.dtype}, expected numbers")
+            raise InvalidParameterError(
+                f"invalid column {col!r}: dtype {s.dtype}, expected numbers"
+            )
         s = s.cast(pl.Float64).drop_nulls()
         mean = s.mean() if len(s) else None
         std = s.std(ddof=1) if len(s) >= 2 else None
@@ -219,7 +221,7 @@ def paper_values(table: str, notes: bool = False) -> pl.DataFrame:
     long = _paper_long().filter(pl.col("table") == name)
     if long.height == 0:
         known = ", ".join(f"table{k}" for k in range(2, 14))
-        raise GranpackError(f"invalid table = {table!r}: the paper's tables are {known}")
+        raise InvalidParameterError(f"invalid table = {table!r}: the paper's tables are {known}")
     if notes:
         return long
     rows = list(dict.fromkeys(long["row"].to_list()))
@@ -233,21 +235,25 @@ def paper_values(table: str, notes: bool = False) -> pl.DataFrame:
 
 def _check_results(results) -> dict[tuple[str, bool], list[dict]]:
     if not isinstance(results, Mapping):
-        raise GranpackError(
+        raise InvalidParameterError(
             f"invalid results = {type(results).__name__}: expected a dict mapping "
             "(preset, rotations) to a sequence of results"
         )
     out = {}
     for key, seq in results.items():
         if not (isinstance(key, tuple) and len(key) == 2):
-            raise GranpackError(f"invalid results key {key!r}: expected (preset, rotations)")
+            raise InvalidParameterError(
+                f"invalid results key {key!r}: expected (preset, rotations)"
+            )
         preset, rot = key
         if preset not in PRESET_TABLES:
-            raise GranpackError(
+            raise InvalidParameterError(
                 f"invalid preset {preset!r}: expected one of {', '.join(PRESET_TABLES)}"
             )
         if not isinstance(rot, bool):
-            raise GranpackError(f"invalid rotations {rot!r} for preset {preset}: expected bool")
+            raise InvalidParameterError(
+                f"invalid rotations {rot!r} for preset {preset}: expected bool"
+            )
         rows = ensemble_table(seq).to_dicts()
         if rows:  # an empty ensemble is the same as a missing one
             out[(preset, rot)] = rows
@@ -398,7 +404,7 @@ def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
         The files written, csv then md for each table, in the mapping's order.
     """
     if not isinstance(tables, Mapping):
-        raise GranpackError(f"invalid tables = {type(tables).__name__}: expected a dict")
+        raise InvalidParameterError(f"invalid tables = {type(tables).__name__}: expected a dict")
     out = Path(out_dir)
     for name, df in tables.items():
         if (
@@ -407,9 +413,11 @@ def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
             or name.startswith(".")
             or any(s in name for s in ("/", "\\", "\0"))
         ):
-            raise GranpackError(f"invalid table name {name!r}: must be a plain file name")
+            raise InvalidParameterError(f"invalid table name {name!r}: must be a plain file name")
         if not isinstance(df, pl.DataFrame):
-            raise GranpackError(f"invalid table {name!r}: {type(df).__name__}, expected polars")
+            raise InvalidParameterError(
+                f"invalid table {name!r}: {type(df).__name__}, expected polars"
+            )
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for name, df in tables.items():

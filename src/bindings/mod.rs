@@ -2,7 +2,8 @@
 //!
 //! Each class wraps a 2D or 3D engine object behind an enum; a macro dispatches on it.
 //! Shapes and values are checked here (and again in the engine); every error reaches
-//! Python as `granpack.GranpackError`, a subclass of `ValueError`.
+//! Python as a subclass of `granpack.GranpackError` (a `ValueError`), mapped from the
+//! engine's error enum in one place (`From<Error> for PyErr`).
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
@@ -11,27 +12,88 @@ use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, Wor
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-create_exception!(
-    granpack,
-    GranpackError,
-    PyValueError,
-    "Any granpack error: invalid input (the message names the parameter and its allowed \
-     range), an unstable time step, a blow-up, RSA saturation."
-);
-
+/// The one place where the engine's errors become Python exceptions: each variant has
+/// its class in `granpack.errors`, and its fields become keyword arguments (and so
+/// attributes) of the exception.
 impl From<Error> for PyErr {
     fn from(e: Error) -> PyErr {
-        GranpackError::new_err(e.to_string())
+        let msg = e.to_string();
+        Python::attach(|py| match typed_error(py, &msg, e) {
+            Ok(err) => err,
+            // only if granpack.errors cannot be imported (a broken install)
+            Err(import_failed) => {
+                let err = PyValueError::new_err(msg);
+                err.set_cause(py, Some(import_failed));
+                err
+            }
+        })
     }
 }
 
+fn typed_error(py: Python<'_>, msg: &str, e: Error) -> PyResult<PyErr> {
+    let kw = PyDict::new(py);
+    let class = match e {
+        Error::InvalidParameter {
+            name,
+            value,
+            expected,
+        } => {
+            kw.set_item("parameter", name)?;
+            kw.set_item("value", (!value.is_empty()).then_some(value))?;
+            kw.set_item("expected", expected)?;
+            "InvalidParameterError"
+        }
+        Error::UnstableTimeStep {
+            dt,
+            critical,
+            r_min,
+        } => {
+            kw.set_item("dt", dt)?;
+            kw.set_item("critical", critical)?;
+            kw.set_item("r_min", r_min)?;
+            "UnstableTimeStepError"
+        }
+        Error::Blowup {
+            step,
+            time,
+            particle,
+            kind,
+            ..
+        } => {
+            kw.set_item("step", step)?;
+            kw.set_item("time", time)?;
+            kw.set_item("particle", particle)?;
+            kw.set_item("kind", kind.name())?;
+            "BlowUpError"
+        }
+        Error::RsaSaturated {
+            layer,
+            reached,
+            target,
+            attempts,
+        } => {
+            kw.set_item("layer", layer)?;
+            kw.set_item("reached", reached)?;
+            kw.set_item("target", target)?;
+            kw.set_item("attempts", attempts)?;
+            "SaturationError"
+        }
+    };
+    let cls = py.import("granpack.errors")?.getattr(class)?;
+    Ok(PyErr::from_value(cls.call((msg,), Some(&kw))?))
+}
+
 fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
-    GranpackError::new_err(format!("invalid {name}: {msg}"))
+    let msg = msg.to_string();
+    PyErr::from(Error::InvalidParameter {
+        name: name.to_string(),
+        value: String::new(),
+        expected: msg,
+    })
 }
 
 /// Reads an (N, D) float64 array into vectors.
@@ -688,11 +750,34 @@ fn rayleigh_time_step(density: f64, young: f64, poisson: f64, r_min: f64) -> PyR
     Ok(m.rayleigh_time_step(r_min))
 }
 
+/// The instruction-set level the hot kernels run at (`x86-64`, `x86-64-v2`, `x86-64-v3`
+/// or `x86-64-v4`; `baseline` off x86-64): the CPU's highest, or `GRANPACK_CPU_LEVEL`.
+#[pyfunction]
+fn cpu_level() -> &'static str {
+    crate::cpu::level().name()
+}
+
+/// The levels this CPU runs, lowest first.
+#[pyfunction]
+fn cpu_levels() -> Vec<&'static str> {
+    crate::cpu::available()
+        .into_iter()
+        .map(|l| l.name())
+        .collect()
+}
+
 /// The native module `granpack._core`.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // A GRANPACK_CPU_LEVEL that names no level, or one this CPU lacks, fails the
+    // import with a message naming the variable (the engine alone would ignore it).
+    if let Some(l) = crate::cpu::level_from_env()? {
+        crate::cpu::set_level(l)?;
+    }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("GranpackError", m.py().get_type::<GranpackError>())?;
+    m.add_function(wrap_pyfunction!(cpu_level, m)?)?;
+    m.add_function(wrap_pyfunction!(cpu_levels, m)?)?;
+
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;

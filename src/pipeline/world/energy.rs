@@ -36,6 +36,7 @@ where
                 step: self.steps,
                 time: self.time,
                 particle: fastest,
+                kind: BlowupKind::Energy,
                 what: format!(
                     "kinetic + potential + elastic energy grew from {e_ref:e} J to {e:e} J \
                      with gravity the only source (fastest particle shown); reduce dt"
@@ -59,7 +60,11 @@ where
                     && p.v[k].iter().all(|c| c.is_finite())
                     && p.w[k].finite())
                 {
-                    return Some((k, "non-finite position, velocity or spin".to_string()));
+                    return Some((
+                        k,
+                        BlowupKind::NonFinite,
+                        "non-finite position, velocity or spin".to_string(),
+                    ));
                 }
                 // A particle that moves more than half its radius in one step can tunnel
                 // through a neighbour without the overlap guard ever seeing it.
@@ -67,6 +72,7 @@ where
                 if step_len > 0.5 * p.r[k] {
                     return Some((
                         k,
+                        BlowupKind::Speed,
                         format!(
                             "speed {:e} m/s moves it {:e} m per step, more than half its \
                              radius {:e} m; reduce dt",
@@ -81,6 +87,7 @@ where
                     if s < 0.0 {
                         return Some((
                             k,
+                            BlowupKind::WallCrossed,
                             format!(
                                 "centre crossed wall {} (coordinate {} = {:e})",
                                 -(wi as i64) - 1,
@@ -92,12 +99,13 @@ where
                 }
                 None
             })
-            .min_by_key(|(k, _)| *k);
-        if let Some((k, what)) = bad {
+            .min_by_key(|(k, _, _)| *k);
+        if let Some((k, kind, what)) = bad {
             return Err(Error::Blowup {
                 step: self.steps,
                 time: self.time,
                 particle: k,
+                kind,
                 what,
             });
         }

@@ -192,6 +192,7 @@ where
                 step: self.steps,
                 time: self.time,
                 particle: i as usize,
+                kind: BlowupKind::Overlap,
                 what: format!(
                     "overlap with particle {j} is {d:e} m = {:.3} of the smaller radius \
                      (limit max_overlap_ratio = {max_ratio}); reduce dt: the contact is not resolved",
@@ -204,6 +205,7 @@ where
                 step: self.steps,
                 time: self.time,
                 particle: q,
+                kind: BlowupKind::WallOverlap,
                 what: format!(
                     "overlap with wall {} is {d:e} m = {:.3} of its radius \
                      (limit max_overlap_ratio = {max_ratio})",

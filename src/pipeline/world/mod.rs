@@ -22,7 +22,7 @@ use crate::dynamics::block::{
     PairRecord, BLOCK, BLOCK_SHIFT,
 };
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
-use crate::error::{check_range, Error, Result};
+use crate::error::{check_range, BlowupKind, Error, Result};
 use crate::geometry::grid::{bin_starts, counting_sort};
 use crate::geometry::{neighbor_pairs, neighbor_pairs_active};
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
