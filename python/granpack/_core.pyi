@@ -2,28 +2,80 @@
 
 Users call the documented Python layer (`granpack.Simulation`, `granpack.generate`,
 `granpack.microstructure`); these are the raw entry points it wraps. Arrays are float64
-(int64 for indices), C-contiguous; every error is a `GranpackError` (a `ValueError`).
+(int64 for indices), C-contiguous; every error is a subclass of
+`granpack.errors.GranpackError` (a `ValueError`). `mypy` and `stubtest granpack._core`
+check these stubs in CI.
 """
 
-from typing import Any
+from typing import Literal, Self, TypeAlias, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "__version__",
+    "cpu_level",
+    "cpu_levels",
+    "Simulation",
+    "LayerPacker",
+    "find_contacts",
+    "rayleigh_time_step",
+]
+
 __version__: str
 
-class GranpackError(ValueError):
-    """Invalid input (naming the parameter and its range), unstable dt, blow-up, RSA
-    saturation."""
+Material: TypeAlias = tuple[float, float, float, float, float]
+"""density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""
+Box: TypeAlias = tuple[list[float], list[float]]
+"""(lo, hi) corners (m); hi[vertical] may be inf (open top)."""
+Inertia2D: TypeAlias = Literal["sphere", "disc"]
+"""2D mass model: a sphere's mass and inertia, or a disc of unit thickness."""
+RadiusLawName: TypeAlias = Literal["constant", "gaussian"]
+CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
 
-Material = tuple[float, float, float, float, float]  # density, young, poisson, damping, friction
-Box = tuple[list[float], list[float]]  # (lo, hi); hi[vertical] may be inf (open top)
+Float64Array: TypeAlias = npt.NDArray[np.float64]
+Int64Array: TypeAlias = npt.NDArray[np.int64]
 
+class ContactArrays(TypedDict):
+    """One row per contact; j < 0 is a wall (-1 the floor)."""
+
+    i: Int64Array
+    j: Int64Array
+    normal: Float64Array
+    overlap: Float64Array
+    force_normal: Float64Array
+    force_tangential: Float64Array
+    branch: Float64Array
+
+class LayerReport(TypedDict):
+    """What one layer of the layer loop did."""
+
+    layer: int
+    added: int
+    total: int
+    phi_rsa: float
+    height: float
+    steps: int
+    kinetic_energy: float
+    wall_seconds: float
+    frozen: int
+
+class PackerState(TypedDict):
+    """The particle arrays of a layer loop, and its clock (s)."""
+
+    positions: Float64Array
+    velocities: Float64Array
+    spins: Float64Array
+    radii: Float64Array
+    layer: Int64Array
+    time: float
+
+@final
 class Simulation:
     """A DEM world in 2 or 3 dimensions (see granpack.Simulation)."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         dim: int,
         material: Material,
         dt: float,
@@ -33,8 +85,8 @@ class Simulation:
         walls: Box | None,
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
-        inertia_2d: str = "sphere",
-    ) -> None: ...
+        inertia_2d: Inertia2D = "sphere",
+    ) -> Self: ...
     @property
     def dim(self) -> int: ...
     def add_particles(
@@ -72,15 +124,16 @@ class Simulation:
     def potential_energy(self) -> float: ...
     def elastic_energy(self) -> float: ...
     def critical_time_step(self) -> float: ...
-    def contacts(self) -> dict[str, npt.NDArray[Any]]:
+    def contacts(self) -> ContactArrays:
         """Columns i, j, normal, overlap, force_normal, force_tangential, branch."""
     def __len__(self) -> int: ...
 
+@final
 class LayerPacker:
     """The layer loop of Algorithm 1 (see granpack.generate)."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         dim: int,
         material: Material,
         dt: float,
@@ -89,7 +142,7 @@ class LayerPacker:
         rotations: bool,
         base: list[float],
         height: float,
-        radii: tuple[str, float, float, float, float],  # law, mean, std, min, max
+        radii: tuple[RadiusLawName, float, float, float, float],  # law, mean, std, min, max
         h_layer: float,
         phi_layer: float,
         settle_time: float,
@@ -99,29 +152,36 @@ class LayerPacker:
         max_layers: int = 10_000,
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
-        inertia_2d: str = "sphere",
+        inertia_2d: Inertia2D = "sphere",
         adaptive_settle: float | None = None,
         freeze_depth: float | None = None,
         freeze_speed: float = 1e-3,
         freeze_force: float = 0.1,
         settle_dt: float | None = None,
-    ) -> None: ...
+    ) -> Self: ...
     @property
     def done(self) -> bool: ...
     @property
     def height(self) -> float: ...
-    def next_layer(self) -> dict[str, float | int]:
+    def next_layer(self) -> LayerReport:
         """One RSA layer and its jamming run (GIL released); the layer's report."""
-    def state(self) -> dict[str, Any]:
+    def state(self) -> PackerState:
         """positions, velocities, spins, radii, layer, time."""
-    def contacts(self) -> dict[str, npt.NDArray[Any]]: ...
+    def contacts(self) -> ContactArrays: ...
 
 def find_contacts(
     positions: npt.NDArray[np.float64],
     radii: npt.NDArray[np.float64],
     walls: Box | None = None,
-) -> dict[str, npt.NDArray[Any]]:
+) -> ContactArrays:
     """Geometric contacts (overlap > 0) from the cell grid; forces zero."""
 
 def rayleigh_time_step(density: float, young: float, poisson: float, r_min: float) -> float:
     """pi r_min sqrt(rho / G) / (0.1631 nu + 0.8766) (s)."""
+
+def cpu_level() -> CpuLevel:
+    """The instruction-set level the hot kernels run at: the CPU's highest, or the one
+    `GRANPACK_CPU_LEVEL` names."""
+
+def cpu_levels() -> list[CpuLevel]:
+    """The levels this CPU runs, lowest first."""

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +46,7 @@ class Contacts:
     branch: np.ndarray
 
     @classmethod
-    def from_dict(cls, d: dict) -> Contacts:
+    def from_dict(cls, d: Mapping[str, Any]) -> Contacts:
         """Builds the table from a dict of arrays with the column names above."""
         return cls(**{f.name: np.asarray(d[f.name]) for f in fields(cls)})
 

@@ -91,6 +91,11 @@ class Simulation:
         2D mass model: a sphere confined to the plane (default) or a unit-thickness disc.
     """
 
+    dim: int
+    material: Material
+    _inertia_2d: str
+    _sim: _core.Simulation
+
     def __init__(
         self,
         dim: int = 3,

@@ -26,6 +26,7 @@ Where packs run
 from __future__ import annotations
 
 import concurrent.futures as cf
+import functools
 import multiprocessing as mp
 import os
 import queue as queue_mod
@@ -34,6 +35,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -133,7 +135,7 @@ class Progress:
                 "or a callable"
             )
         self.mode = "callback" if self.callback is not None else mode
-        self.bar = None
+        self.bar: Any = None  # a tqdm bar in "bar" mode
         self.total = 0
         self.done = 0
         self.running: dict[str, float] = {}  # label -> fraction of the target height
@@ -330,7 +332,7 @@ def _run_here(pending: list[PackTask], prog: Progress) -> None:
     for t in pending:
         try:
             pack = generate(
-                t.scene, progress=lambda rep, t=t: prog.layer(t.label, t.scene.height, rep)
+                t.scene, progress=functools.partial(prog.layer, t.label, t.scene.height)
             )
         except GranpackError as exc:
             raise exc.with_prefix(f"{t.label}: ") from None

@@ -297,7 +297,7 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     if s.dim == 3:
         bounds = [(0.0, s.base[0]), (0.0, s.base[1]), (0.0, pack.height)]
     else:
-        half = float(np.max(pack.radii)) if n else s.r_max
+        half = float(np.max(pack.radii)) if n else float(s.r_max or 0.0)
         bounds = [(0.0, s.base[0]), (0.0, pack.height), (-half, half)]
     # A particle touching the top sits exactly on H_top; nothing is outside the box.
     out = io.StringIO()

@@ -1162,7 +1162,7 @@ def microstructure(
     x, r = _as_particles(positions, radii)
     n, d = x.shape
     binned = bool(binned)
-    nb = _n_bins(n_bins, d)
+    nb: int | None = _n_bins(n_bins, d)
     if not binned:
         nb = None
     margin = as_real("core_margin", core_margin, 0.0, unit="m")

@@ -14,6 +14,7 @@ import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
 
@@ -117,7 +118,8 @@ class Pack:
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
-        np.savez_compressed(buf, **arrays)
+        # (numpy's stub types the keyword arrays as its allow_pickle flag)
+        np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]
         return atomic_write(path, buf.getvalue())
 
 
@@ -282,8 +284,10 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
     s = scene
     gravity = [0.0] * s.dim
     gravity[s.vertical] = -s.gravity
+    law: tuple[Literal["constant", "gaussian"], float, float, float, float]
     law = ("constant", s.r_mean, 0.0, s.r_mean, s.r_mean)
     if s.radius_law == "gaussian":
+        assert s.r_min is not None and s.r_max is not None  # set by __post_init__
         law = ("gaussian", s.r_mean, s.r_std, s.r_min, s.r_max)
     return _core.LayerPacker(
         s.dim,
@@ -341,7 +345,7 @@ def generate(
         bar = tqdm(total=round(scene.height, 6), unit="m", desc="layers", leave=False)
     try:
         while not packer.done:
-            rep = packer.next_layer()
+            rep: dict[str, Any] = dict(packer.next_layer())
             reports.append(rep)
             if bar is not None:
                 bar.n = round(min(rep["height"], scene.height), 6)

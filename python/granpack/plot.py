@@ -370,7 +370,9 @@ def force_chain_figure(pack, title: str | None = None, max_width: float = 3.0) -
         widths = max_width * fn[keep] / fmax
         order = np.argsort(widths)  # strongest on top
         ax.add_collection(
-            LineCollection(segs[order], linewidths=widths[order], colors="k", capstyle="round")
+            LineCollection(
+                list(segs[order]), linewidths=widths[order], colors="k", capstyle="round"
+            )
         )
     _walls(ax, base[0], height)
     ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
@@ -416,7 +418,7 @@ def phi_histogram_figure(
         sd = f" ± {v.std(ddof=1):.4f}" if v.size > 1 else ""
         ax.hist(
             v,
-            bins=edges,
+            bins=edges.tolist(),
             color=col,
             alpha=0.45,
             label=f"{label}: {v.mean():.4f}{sd} (n = {v.size})" if v.size else label,

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from numbers import Integral
 from pathlib import Path
+from typing import Literal
 
 import tomli_w
 
@@ -146,7 +147,7 @@ class PackScene:
     dim: int = 2
     base: tuple[float, ...] = (1.0,)
     height: float = 0.5
-    radius_law: str = "constant"
+    radius_law: Literal["constant", "gaussian"] = "constant"
     r_mean: float = 0.01
     r_std: float = 0.0
     r_min: float | None = None
@@ -161,7 +162,7 @@ class PackScene:
     rotations: bool = True
     seed: int = 0
     stream: int = 0
-    inertia_2d: str = "sphere"
+    inertia_2d: Literal["sphere", "disc"] = "sphere"
     skin_ratio: float = 0.2
     max_overlap_ratio: float = 0.5
     max_attempts: int = 1_000_000
@@ -311,6 +312,7 @@ class PackScene:
         FAST_SETTLE_DT_RAYLEIGH of it (unset where that is not larger than dt). The
         physics constants are untouched; `benchmarks/fast_vs_full.py` measures how far
         the ensemble statistics move (see the README)."""
+        assert self.r_min is not None  # set by __post_init__
         crit = self.material.critical_time_step(self.r_min)
         dt = max(self.dt, FAST_DT_RAYLEIGH * crit)
         settle_dt = FAST_SETTLE_DT_RAYLEIGH * crit

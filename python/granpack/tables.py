@@ -33,6 +33,7 @@ import math
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
+from typing import cast
 
 import polars as pl
 
@@ -173,8 +174,9 @@ def summary(
                 f"invalid column {col!r}: dtype {s.dtype}, expected numbers"
             )
         s = s.cast(pl.Float64).drop_nulls()
-        mean = s.mean() if len(s) else None
-        std = s.std(ddof=1) if len(s) >= 2 else None
+        # a Float64 column's mean and std are floats (or None when empty)
+        mean = cast("float | None", s.mean()) if len(s) else None
+        std = cast("float | None", s.std(ddof=1)) if len(s) >= 2 else None
         cv = None if std is None or not mean else std / mean
         out[col] = [mean, std, cv]
     return pl.DataFrame(out, schema={"statistic": pl.Utf8, **{c: pl.Float64 for c in columns}})
@@ -197,7 +199,7 @@ def _paper_long() -> pl.DataFrame:
     )
 
 
-def paper_values(table: str, notes: bool = False) -> pl.DataFrame:
+def paper_values(table: str | int, notes: bool = False) -> pl.DataFrame:
     """The paper's printed numbers for one of its tables 2-13.
 
     Parameters
