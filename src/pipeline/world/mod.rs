@@ -855,7 +855,7 @@ where
         // particle's net force is needed.
         let decide = self
             .freeze
-            .is_some_and(|f| (self.steps + 1) % f.interval == 0);
+            .is_some_and(|f| (self.steps + 1).is_multiple_of(f.interval));
         let suspicious = self.compute_forces_inner(decide, true, team)?;
         if decide {
             team.pause();
@@ -866,7 +866,7 @@ where
         // Positions leave the box or turn non-finite only after a large or non-finite
         // velocity, which the cheap flag catches; the full check runs then, and at
         // intervals.
-        if suspicious || self.steps % 1024 == 0 {
+        if suspicious || self.steps.is_multiple_of(1024) {
             team.pause();
             self.check_state()?;
             self.check_energy()?;
