@@ -6,6 +6,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 """
 
 from ._core import __version__ as __version__
+from ._core import cpu_level, cpu_levels
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -37,4 +38,6 @@ __all__ = [
     "load_pack",
     "microstructure",
     "__version__",
+    "cpu_level",
+    "cpu_levels",
 ]

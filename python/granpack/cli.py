@@ -162,7 +162,13 @@ def build_parser() -> argparse.ArgumentParser:
         "jamming), and their microstructure.",
         epilog="Start with: granpack paper --quick",
     )
-    parser.add_argument("--version", action="version", version=f"granpack {__version__}")
+    from ._core import cpu_level
+
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"granpack {__version__} (kernels for {cpu_level()})",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
