@@ -394,52 +394,20 @@ where
             .map_init(
                 || Box::new(Geometry::<D>::default()),
                 |g, (k, own)| {
-                    let (plo, phi) = (cut[k], cut[k + 1]);
-                    let b0 = block_cut[k];
-                    let mut s = Sweep::default();
-                    let mut q = q_cut[k];
-                    let q_end = q_cut[k + 1];
-                    // After block bi, the particles whose pairs all lie before the
-                    // sweep's position; a piece without blocks takes its particles
-                    // (none with pairs) in one go.
-                    for bi in 0..own.len().max(1) {
-                        let done = if bi < own.len() {
-                            let base = (b0 + bi) * BLOCK;
-                            let lanes = plo.saturating_sub(base)..(phi - base).min(BLOCK);
-                            let done = base + lanes.end;
-                            if !lanes.is_empty() {
-                                // SAFETY: the pairs of this piece involve no particle
-                                // gathered before the sweep has passed them (below).
-                                let b = unsafe {
-                                    pair_block(&mut own[bi], g, base, lanes, ij, &pin, &law)
-                                };
-                                s.bad_pair = s.bad_pair.or(b);
-                            }
-                            done
-                        } else {
-                            phi
-                        };
-                        // SAFETY (at): q < q_end <= n, and i_active has n + 1 entries.
-                        while q < q_end && unsafe { at(gin.i_active, q + 1) } as usize <= done {
-                            // SAFETY: q's pairs up to the sweep's position are computed.
-                            unsafe {
-                                visit::<D, TORQUE, KICK, FROZEN>(
-                                    &gin,
-                                    out,
-                                    own,
-                                    b0,
-                                    (a0, plo),
-                                    skip_frozen,
-                                    q,
-                                    &mut s,
-                                )
-                            };
-                            q += 1;
-                        }
+                    let piece = Piece {
+                        pairs: cut[k]..cut[k + 1],
+                        particles: q_cut[k]..q_cut[k + 1],
+                        b0: block_cut[k],
+                        a0,
+                        skip_frozen,
+                    };
+                    // SAFETY: the pieces' blocks and particles are disjoint, and each
+                    // piece gathers a particle only once the sweep has passed its pairs.
+                    unsafe {
+                        sweep_piece::<D, TORQUE, KICK, FROZEN>(
+                            own, g, &piece, ij, &pin, &law, &gin, out,
+                        )
                     }
-                    // the last block ends at phi: these have pairs in the next piece
-                    s.deferred.extend(q as u32..q_end as u32);
-                    s
                 },
             )
             .collect();
@@ -457,18 +425,8 @@ where
             .collect();
         let late = late
             .par_chunks(64)
-            .map(|qs| {
-                let mut acc = Gathered::default();
-                for &q in qs {
-                    // SAFETY: each particle is deferred once, and nothing else runs.
-                    unsafe {
-                        gather_one::<D, TORQUE, KICK, FROZEN>(
-                            &gin, out, blocks, 0, q as usize, &mut acc,
-                        )
-                    };
-                }
-                acc
-            })
+            // SAFETY: each particle is deferred once, and nothing else runs.
+            .map(|qs| unsafe { gather_listed::<D, TORQUE, KICK, FROZEN>(&gin, out, blocks, qs) })
             .reduce(Gathered::default, Gathered::merge);
         let all = swept.iter().fold(late, |a, s| a.merge(s.gathered));
         (bad_pair, all.bad_wall, all.suspicious)
@@ -638,6 +596,43 @@ where
     acc
 }
 
+crate::cpu::multiversion! {
+/// The gather of the particles listed in `qs` (see [`gather_range`]); compiled for each
+/// instruction-set level (see [`crate::cpu`]).
+///
+/// # Safety
+/// As for [`gather_one`], for every particle of `qs`.
+unsafe fn gather_listed [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+    blocks: &[PairBlock<D>],
+    qs: &[u32],
+) -> Gathered where [Dim<D>: Spatial<D>] => gather_listed_impl [D, TORQUE, KICK, FROZEN]
+}
+
+#[inline(always)]
+unsafe fn gather_listed_impl<
+    const D: usize,
+    const TORQUE: bool,
+    const KICK: bool,
+    const FROZEN: bool,
+>(
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+    blocks: &[PairBlock<D>],
+    qs: &[u32],
+) -> Gathered
+where
+    Dim<D>: Spatial<D>,
+{
+    let mut acc = Gathered::default();
+    for &q in qs {
+        // SAFETY: as the caller guarantees.
+        unsafe { gather_one::<D, TORQUE, KICK, FROZEN>(gin, out, blocks, 0, q as usize, &mut acc) };
+    }
+    acc
+}
+
 /// What one piece of the force sweep leaves: the first pair too deep, the first
 /// too-deep wall contact, whether a kick looked unsafe, and the particles to gather
 /// after the sweep.
@@ -646,6 +641,102 @@ struct Sweep {
     bad_pair: Option<usize>,
     gathered: Gathered,
     deferred: Vec<u32>,
+}
+
+/// One piece of the force sweep: its pairs, its particles (those whose active pairs
+/// start in it), its first block, the active run's start and whether frozen particles
+/// are skipped.
+struct Piece {
+    pairs: std::ops::Range<usize>,
+    particles: std::ops::Range<usize>,
+    b0: usize,
+    a0: usize,
+    skip_frozen: bool,
+}
+
+crate::cpu::multiversion! {
+/// The sweep over one piece (see [`World::forces`]): each block's pairs, then the
+/// particles whose pairs all lie before the sweep's position; the rest are deferred.
+/// Compiled for each instruction-set level (see [`crate::cpu`]).
+///
+/// # Safety
+/// The piece owns `own` (its blocks); no other piece gathers a particle with a pair in
+/// this piece before the sweep has passed it.
+unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
+    own: &mut [PairBlock<D>],
+    g: &mut Geometry<D>,
+    piece: &Piece,
+    ij: &[[u32; 2]],
+    pin: &PairIn<D>,
+    law: &LawPass,
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+) -> Sweep where [Dim<D>: Spatial<D>] => sweep_piece_impl [D, TORQUE, KICK, FROZEN]
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+unsafe fn sweep_piece_impl<
+    const D: usize,
+    const TORQUE: bool,
+    const KICK: bool,
+    const FROZEN: bool,
+>(
+    own: &mut [PairBlock<D>],
+    g: &mut Geometry<D>,
+    piece: &Piece,
+    ij: &[[u32; 2]],
+    pin: &PairIn<D>,
+    law: &LawPass,
+    gin: &GatherIn<D>,
+    out: GatherOut<D>,
+) -> Sweep
+where
+    Dim<D>: Spatial<D>,
+{
+    let (plo, phi) = (piece.pairs.start, piece.pairs.end);
+    let (b0, a0, skip_frozen) = (piece.b0, piece.a0, piece.skip_frozen);
+    let mut s = Sweep::default();
+    let mut q = piece.particles.start;
+    let q_end = piece.particles.end;
+    // After block bi, the particles whose pairs all lie before the sweep's position; a
+    // piece without blocks takes its particles (none with pairs) in one go.
+    for bi in 0..own.len().max(1) {
+        let done = if bi < own.len() {
+            let base = (b0 + bi) * BLOCK;
+            let lanes = plo.saturating_sub(base)..(phi - base).min(BLOCK);
+            let done = base + lanes.end;
+            if !lanes.is_empty() {
+                // SAFETY: the pairs of this piece involve no particle gathered before
+                // the sweep has passed them (below).
+                let b = unsafe { pair_block_impl(&mut own[bi], g, base, lanes, ij, pin, law) };
+                s.bad_pair = s.bad_pair.or(b);
+            }
+            done
+        } else {
+            phi
+        };
+        // SAFETY (at): q < q_end <= n, and i_active has n + 1 entries.
+        while q < q_end && unsafe { at(gin.i_active, q + 1) } as usize <= done {
+            // SAFETY: q's pairs up to the sweep's position are computed.
+            unsafe {
+                visit::<D, TORQUE, KICK, FROZEN>(
+                    gin,
+                    out,
+                    own,
+                    b0,
+                    (a0, plo),
+                    skip_frozen,
+                    q,
+                    &mut s,
+                )
+            };
+            q += 1;
+        }
+    }
+    // the last block ends at phi: these have pairs in the next piece
+    s.deferred.extend(q as u32..q_end as u32);
+    s
 }
 
 /// A raw pointer that may cross threads: the force sweep writes disjoint particles
