@@ -27,11 +27,20 @@ def _git(*args: str) -> str:
 
 
 def cpu_model() -> str:
-    """The CPU's model name, as /proc/cpuinfo gives it (platform's guess elsewhere)."""
+    """The CPU's model name with its family and model numbers, as /proc/cpuinfo gives them
+    (virtual machines often report a bare "Intel Xeon Processor"; the numbers tell the
+    generations apart). platform's guess elsewhere."""
     try:
+        info = {}
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
+            key, _, value = line.partition(":")
+            if not key.strip():
+                break  # the first processor is enough
+            info.setdefault(key.strip(), value.strip())
+        if "model name" in info:
+            return (
+                f"{info['model name']} (family {info.get('cpu family')}, model {info.get('model')})"
+            )
     except OSError:
         pass
     return platform.processor() or platform.machine()

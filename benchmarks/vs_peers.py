@@ -38,6 +38,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -94,11 +95,15 @@ def read_dump(path: Path, dim: int) -> tuple[np.ndarray, np.ndarray]:
 def analyse(positions, radii, dim: int) -> dict:
     """phi and Z of a final pack, by granpack's analysis in the paper's unit box."""
     import granpack as gp
+    from granpack.microstructure import MicrostructureWarning
 
     lo = np.zeros(dim)
     hi = np.ones(dim)
     hi[-1] = np.inf
-    m = gp.microstructure(positions=positions, radii=radii, box=(lo, hi))
+    with warnings.catch_warnings():
+        # a --quick pack is lower than the core window: phi_core is then NaN, as it says
+        warnings.simplefilter("ignore", MicrostructureWarning)
+        m = gp.microstructure(positions=positions, radii=radii, box=(lo, hi))
     return {"phi": float(m.phi), "phi_core": float(m.phi_core), "z": float(m.z)}
 
 
