@@ -65,6 +65,8 @@ def manifest(seeds=None, extra: dict | None = None, argv: list[str] | None = Non
         "seeds": seeds,
         "granpack_version": version,
         "python": platform.python_version(),
+        # other work on the machine slows a timing down: say how busy it was at the end
+        "load_average_1_5_15_min": [round(x, 2) for x in os.getloadavg()],
         **(extra or {}),
     }
 
