@@ -11,7 +11,7 @@ where in a step the contact begins).
 
 The stable-step estimate (Rayleigh) bounds dt by the elastic wave speed; it says
 nothing about how many steps a collision at the landing speed gets. That number is what
-limits dt when the statistics of a pack must not change (see the README, "Speed").
+limits dt when the statistics of a pack must not change (docs/performance.md, "The fast settings").
 
     python benchmarks/collision_dt.py --preset 4.3 --out benchmarks/results/collision_dt
 """
