@@ -19,7 +19,7 @@ Results go to ``--out`` (default ``benchmarks/results/vs_peers/``): ``vs_peers.c
 ``vs_peers.md`` (the table the README quotes) and ``manifest.json`` (commit, CPU model,
 date, command line, seeds, versions).
 
-    python benchmarks/vs_peers.py            # the paper's settings: about 4 minutes
+    python benchmarks/vs_peers.py            # the paper's settings: 4-5 minutes on 2 cores
     python benchmarks/vs_peers.py --quick    # peers -var maxlay 2, granpack 2 layers
 
 A job whose peer is not installed is skipped with a message; ``--require-peers`` makes
