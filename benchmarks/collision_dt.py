@@ -11,9 +11,9 @@ where in a step the contact begins).
 
 The stable-step estimate (Rayleigh) bounds dt by the elastic wave speed; it says
 nothing about how many steps a collision at the landing speed gets. That number is what
-limits dt when the statistics of a pack must not change (see the README, "Speed").
+limits dt when the statistics of a pack must not change (docs/performance.md, "The fast settings").
 
-    python benchmarks/collision_dt.py --preset 4.3 --out benchmarks/results
+    python benchmarks/collision_dt.py --preset 4.3 --out benchmarks/results/collision_dt
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import polars as pl
+from manifest import write_manifest
 
 import granpack as gp
 from granpack.pack import atomic_write
@@ -118,6 +119,11 @@ def main(argv: list[str] | None = None) -> None:
     df = pl.DataFrame(rows)
     a.out.mkdir(parents=True, exist_ok=True)
     atomic_write(a.out / f"collision_dt_{a.preset}.csv", df.write_csv().encode())
+    write_manifest(
+        a.out,
+        extra={"phases_of_first_touch": PHASES},
+        name=f"manifest_{a.preset}.json",
+    )
     with pl.Config(tbl_rows=-1, tbl_cols=-1, float_precision=4):
         print(f"landing speed {v0:.3f} m/s, Rayleigh step {rayleigh:.3g} s")
         print(df.drop("preset", "landing_speed"))

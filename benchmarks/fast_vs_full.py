@@ -11,7 +11,7 @@ jamming per layer, no freezing) and the same number with each faster variant:
 - ``fast``: `PackScene.fast()` (adaptive settling, freezing, and in 3D a larger dt);
 - ``fast+dt``: `PackScene.fast()` with dt = `--dt-fraction` of the Rayleigh estimate;
 - ``fast-paper-dt``: `PackScene.fast()` with the scene's own dt (the fast settings of
-  sessions 2-14).
+  before 2026-12-01).
 
 Packs of one setting use the master seed and streams 0..n-1, like `granpack paper`.
 For each variant it reports the wall time per pack and the difference of the mean phi,
@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 import polars as pl
+from manifest import write_manifest
 
 import granpack as gp
 from granpack.pack import atomic_write
@@ -181,6 +182,7 @@ def main(argv: list[str] | None = None) -> None:
         pl.read_csv(a.reference, schema_overrides={"preset": pl.String}) if a.reference else None
     )
     a.out.mkdir(parents=True, exist_ok=True)
+    write_manifest(a.out, seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"})
     wanted = ["full"] + [v for v in a.variants if v != "full"]
     for name in a.presets:
         base = gp.PackScene.preset(name)

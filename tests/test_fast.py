@@ -130,7 +130,7 @@ def test_fast_time_step_keeps_the_3d_statistics():
     paper's for 4.3) and settle_dt = 0.75 of it once each layer has landed: on a
     reduced 4.3 scene the mean packing fraction and coordination number of 8 fast packs
     lie within one standard deviation (ddof = 1) of the mean of 8 full-fidelity packs
-    of the same seed and streams (session 16: -0.06 and +0.14 sd), in well under half
+    of the same seed and streams (measured -0.06 and +0.14 sd), in well under half
     the steps (37 %). Fixed seed: deterministic."""
     scene = gp.PackScene.preset("4.3").replace(base=(0.3, 0.3), height=0.2, seed=3)
     (phi_full, z_full, steps_full), (phi_fast, z_fast, steps_fast) = (

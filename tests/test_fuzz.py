@@ -1,4 +1,4 @@
-"""Fuzzing of every entry point that takes outside input (issue 7): TOML scene text and
+"""Fuzzing of every entry point that takes outside input: TOML scene text and
 files, scene dicts, Material and Simulation keywords, the array arguments of
 `Simulation.add_particles`, and pack files (random, truncated, corrupted, doctored).
 

@@ -1,4 +1,4 @@
-"""Stress tests of the DEM engine (issue 7): random valid scenes never produce NaN,
+"""Stress tests of the DEM engine: random valid scenes never produce NaN,
 never lose a particle through a wall and never gain energy beyond what the contacts can
 store; elastic collisions conserve energy to a derived bound; a settled pack stays
 still over 10^6 steps; a dt sweep up to and past the Rayleigh estimate shows where the

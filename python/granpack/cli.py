@@ -490,7 +490,7 @@ def _case_dir(example: str, rotations: bool) -> str:
 
 
 def cmd_paper(args, console: _Console) -> int:
-    from . import plot, report
+    from . import mass2d, plot, report
     from .ensemble import ensemble_tasks, run_tasks
     from .scene import PackScene
 
@@ -514,14 +514,24 @@ def cmd_paper(args, console: _Console) -> int:
             scene, n_packs, out / "packs" / _case_dir(ex, rot), args.seed, label
         )
 
+    # The 2D cases again under the other mass convention (docs/physics.md): cheap beside
+    # the 3D cases, and the paper does not say which convention it used.
+    other = mass2d.other_convention_tasks(scenes, n_packs, out / "packs", args.seed)
+    other_tasks = [t for ts in other.values() for t in ts]
+
     t0 = time.perf_counter()
     console.say(
         f"granpack paper: examples {' '.join(examples)}, rotations ON and OFF, "
-        f"{n_packs} pack(s) each ({len(tasks)} packs) -> {out}"
+        f"{n_packs} pack(s) each ({len(tasks)} packs"
+        + (f", and {len(other_tasks)} under the other 2D mass convention" if other_tasks else "")
+        + f") -> {out}"
         + (" [quick: fewer packs than the paper's 10, same physics]" if args.quick else "")
     )
     run_tasks(
-        tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
+        tasks + other_tasks,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        progress=console.progress_mode(),
     )
     t_packs = time.perf_counter() - t0
 
@@ -571,6 +581,22 @@ def cmd_paper(args, console: _Console) -> int:
     table_files = tables.write_tables(paper, out / "tables")
 
     ref_phi = paper_phi()
+    other_phi = {
+        (ex, rot): [
+            rec["phi"]
+            for _, _, rec in _analyze_packs(
+                [t.path for t in ts],
+                out / "micro" / mass2d.case_dir(ex, rot, ts[0].scene.inertia_2d),
+                console,
+            )
+        ]
+        for (ex, rot), ts in other.items()
+    }
+    mass_2d = mass2d.convention_table(
+        scenes, {c: [r["phi"] for r in records[c]] for c in other}, other_phi, ref_phi
+    )
+    if mass_2d.height:
+        table_files += tables.write_tables({"mass_2d": mass_2d}, out / "tables")
     for ex in examples:
         ours = {
             f"rotations {'ON' if rot else 'OFF'}": [r["phi"] for r in records[ex, rot]]
@@ -599,6 +625,7 @@ def cmd_paper(args, console: _Console) -> int:
         pack_time=t_packs,
         dev_changes=_dev_note(args),
         seed=args.seed,
+        mass_2d=mass_2d,
     )
     console.say(f"report: {rep}")
     return 0

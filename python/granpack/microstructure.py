@@ -1,8 +1,9 @@
 """Microstructure of a pack: packing fraction, coordination, fabric and contact-force tensors.
 
-The definitions are those of the seed paper, section 3, read as DESIGN.md ("Microstructure")
-says; D is the dimension (2: discs, vertical y; 3: spheres, vertical z). Every quantity is
-computed with numpy over whole arrays (no Python loop over particles or contacts).
+The definitions are those of the paper's section 3, read as the documentation's
+microstructure page gives them (docs/microstructure.md); D is the dimension (2: discs,
+vertical y; 3: spheres, vertical z). Every quantity is computed with numpy over whole
+arrays (no Python loop over particles or contacts).
 
 Entry points
 ------------
@@ -256,7 +257,8 @@ def phi_d(eigenvalues) -> float:
 
 
 def anisotropy_measures(eigenvalues, z: float) -> dict[str, float]:
-    """The anisotropy measures of the paper's Table 1 (printed garbled; read as DESIGN.md).
+    """The anisotropy measures of the paper's Table 1 (printed garbled; read as
+    docs/microstructure.md gives it).
 
     Parameters
     ----------
@@ -785,7 +787,7 @@ class Microstructure:
         "phi_centres",
         "Solid volume over base x (max(z_i) - floor): the packing fraction with the height "
         "measured at the highest centre instead of the highest top (-). The paper's tables "
-        "are consistent with this reading (see the README).",
+        "are consistent with this reading (docs/physics.md).",
     )
     box = _field(
         "box",
@@ -807,7 +809,7 @@ class Microstructure:
     phi_core_centres = _field(
         "phi_core_centres",
         "The peers' interior fraction (-): whole volumes of the particles whose centres lie in "
-        "the core window, over the window's volume (shared/peers/analyze_dump.py). Biased by "
+        "the core window, over the window's volume (the peers' analyze_dump.py). Biased by "
         "the particles cut by the window's faces; use phi_core for the exact value.",
     )
     void_ratio = _field("void_ratio", "Void ratio e = (1 - phi)/phi (-), from the bulk phi.")

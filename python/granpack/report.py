@@ -37,6 +37,12 @@ _TABLE_TOPICS = {
 }
 
 
+def _default_2d_convention() -> str:
+    from .scene import PackScene
+
+    return PackScene.preset("4.1").inertia_2d
+
+
 def _rel(path: Path, base: Path) -> str:
     return Path(os.path.relpath(Path(path).resolve(), Path(base).resolve())).as_posix()
 
@@ -114,6 +120,7 @@ def paper_report(
     pack_time: float,
     dev_changes: Mapping | None = None,
     seed: int = 0,
+    mass_2d=None,
 ) -> Path:
     """Writes ``out_dir/report.md`` for ``granpack paper`` and returns its path.
 
@@ -130,6 +137,8 @@ def paper_report(
         (example, "phi"): path}.
     wall_time, pack_time : seconds for everything and for the packs.
     dev_changes : development options in force, {what: value text} (flagged loudly).
+    mass_2d : the 2D cases' phi under both mass conventions
+        (`granpack.mass2d.convention_table`), or None.
     """
     out = Path(out_dir)
     lines = ["# granpack: the paper's section 4, reproduced", ""]
@@ -177,6 +186,13 @@ def paper_report(
         "phi = solid volume / (base × H_top), H_top = max(z + r). The paper gives no "
         "contact counts, only the empirical Z(e) of its eqs. 16-19 (in tables 3-13).",
         "",
+    ]
+    if mass_2d is not None and mass_2d.height:
+        from .mass2d import report_lines
+
+        csv = out / "tables" / "mass_2d.csv"
+        lines += report_lines(mass_2d, _default_2d_convention(), _rel(csv, out))
+    lines += [
         "## Tables",
         "",
     ]

@@ -47,7 +47,7 @@ where
 }
 
 /// Lane `l` of a block, as [`lane_force`], with the torque of the pair's tangential
-/// force on the end of radius `r` (m): -(r - d/2) n x f_t. Up to session 11 the law
+/// force on the end of radius `r` (m): -(r - d/2) n x f_t. Until 2026-11-23 (bec5e4f) the law
 /// stored this product for both ends; the gather now forms it from the same factors in
 /// the same order, so the sums keep their bits; the pair record is 24 bytes smaller.
 #[inline(always)]

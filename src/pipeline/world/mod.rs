@@ -184,7 +184,7 @@ pub struct FreezeConfig {
     pub interval: u64,
 }
 
-/// The contacts in force, in the column layout of DESIGN.md.
+/// The contacts in force, in the column layout of `granpack.Contacts` (docs/microstructure.md).
 #[derive(Clone, Debug, Default)]
 pub struct Contacts<const D: usize> {
     /// First particle.

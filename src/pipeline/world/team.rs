@@ -6,7 +6,7 @@
 //! each loop paid the hand-off to the idle worker (which waits in `sched_yield` or
 //! asleep), and on the project's 2-core machine two threads ran example 4.1 only 5 %
 //! faster than one (3.13-3.18 s against 3.31-3.38 s; the team: 2.90-2.92 s on two
-//! threads; session 13, HISTORY.md).
+//! threads; 2026-11-23 (672f9b9) in HISTORY.md).
 //!
 //! How: a *segment* is a run of loops (phases) between two calls into rayon (pair-list
 //! rebuilds, freeze decisions, checks). At its first phase with more than one item the
