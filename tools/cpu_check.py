@@ -22,7 +22,8 @@ from granpack import _core
 
 
 def bed(dim: int, n_side: int, layers: int) -> tuple[np.ndarray, np.ndarray]:
-    """A jittered lattice of particles just above the floor, overlapping a little, so that the first steps push them apart."""
+    """A jittered lattice of particles just above the floor, overlapping a little, so
+    that the first steps push them apart."""
     rng = np.random.default_rng(1)
     axes = [np.arange(n_side)] * (dim - 1) + [np.arange(layers)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
