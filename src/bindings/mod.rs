@@ -30,6 +30,25 @@ impl From<Error> for PyErr {
     }
 }
 
+/// Wall time between two checks for signals (Ctrl-C) during a long native call.
+const SIGNAL_CHECK_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// A poll for the engine's long loops: attaches to the interpreter and runs its
+/// signal handlers (Ctrl-C raises KeyboardInterrupt there). Returns false, and keeps
+/// the exception in `raised`, when a handler raised: the loop then stops and the
+/// caller returns that exception.
+fn signal_poll(raised: &mut Option<PyErr>) -> impl FnMut() -> bool + '_ {
+    move || {
+        Python::attach(|py| match py.check_signals() {
+            Ok(()) => true,
+            Err(e) => {
+                *raised = Some(e);
+                false
+            }
+        })
+    }
+}
+
 fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
     GranpackError::new_err(format!("invalid {name}: {msg}"))
 }
@@ -302,18 +321,28 @@ impl Simulation {
         Ok(())
     }
 
-    /// Advances `n` steps with the GIL released.
+    /// Advances `n` steps with the GIL released; Ctrl-C stops it within about 0.1 s
+    /// (KeyboardInterrupt, the steps taken so far kept).
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
         let inner = &mut self.inner;
-        py.detach(|| with_world!(inner, w, _D, w.step_n(n)))?;
-        Ok(())
+        let mut raised = None;
+        py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_world!(
+                inner,
+                w,
+                _D,
+                w.step_n_polled(n, SIGNAL_CHECK_EVERY, &mut poll)
+            )
+        })?;
+        raised.map_or(Ok(()), Err)
     }
 
-    /// Advances `seconds` of simulated time with the GIL released.
+    /// Advances `seconds` of simulated time with the GIL released; Ctrl-C stops it as
+    /// in `step`.
     fn run(&mut self, py: Python<'_>, seconds: f64) -> PyResult<()> {
-        let inner = &mut self.inner;
-        py.detach(|| with_world!(inner, w, _D, w.run(seconds)))?;
-        Ok(())
+        let n = with_world!(&self.inner, w, _D, w.steps_for(seconds))?;
+        self.step(py, n)
     }
 
     #[getter]
@@ -535,10 +564,20 @@ impl LayerPacker {
     }
 
     /// Places and settles one layer (GIL released); returns its report as a dict.
+    /// Ctrl-C stops the layer within about 0.1 s (KeyboardInterrupt); the packer is
+    /// then spent.
     fn next_layer<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let inner = &mut self.inner;
-        let rep = py.detach(|| with_packer!(inner, p, _D, p.next_layer()))?;
-        report_to_py(py, &rep)
+        let mut raised = None;
+        let rep = py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_packer!(inner, p, _D, p.next_layer_polled(&mut poll))
+        })?;
+        match (rep, raised) {
+            (Some(rep), _) => report_to_py(py, &rep),
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(GranpackError::new_err("the layer was stopped midway")),
+        }
     }
 
     /// Particle arrays: positions, radii, velocities, spins, layer.
@@ -592,6 +631,19 @@ fn find_contacts<'py>(
             }
             if !x.iter().all(|p| p.iter().all(|c| c.is_finite())) {
                 return Err(bad("positions", "must be finite (m)"));
+            }
+            for k in 0..$D {
+                let (lo, hi) = x
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                        (l.min(p[k]), h.max(p[k]))
+                    });
+                if x.len() > 1 && !(hi - lo).is_finite() {
+                    return Err(bad(
+                        "positions",
+                        format!("axis {k} spans [{lo:e}, {hi:e}] m, whose length overflows"),
+                    ));
+                }
             }
             let box_ = match walls {
                 Some((lo, hi)) => Some((
@@ -693,6 +745,14 @@ fn rayleigh_time_step(density: f64, young: f64, poisson: f64, r_min: f64) -> PyR
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("GranpackError", m.py().get_type::<GranpackError>())?;
+    m.add(
+        "MAX_STEPS_PER_CALL",
+        crate::pipeline::world::MAX_STEPS_PER_CALL,
+    )?;
+    m.add(
+        "MAX_STEPS_PER_LAYER",
+        crate::pipeline::pack::MAX_STEPS_PER_LAYER,
+    )?;
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
