@@ -10,7 +10,7 @@ from ._core import __version__ as __version__
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .microstructure import microstructure
-from .pack import Pack, generate, load_pack
+from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .scene import PRESETS, PackScene
 
 __all__ = [
@@ -23,6 +23,7 @@ __all__ = [
     "PRESETS",
     "generate",
     "load_pack",
+    "UnsettledPackWarning",
     "microstructure",
     "__version__",
 ]
