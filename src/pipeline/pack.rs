@@ -111,8 +111,8 @@ where
                 "settle_time",
                 self.settle_time,
                 &format!(
-                    "with dt = {:e} s that is {:e} steps per layer; at most \
-                     {MAX_STEPS_PER_LAYER:e} (settle_time <= {:e} s)",
+                    "with dt = {:e} s that is {:.3e} steps per layer; at most \
+                     {MAX_STEPS_PER_LAYER:e} (settle_time <= {:.3e} s)",
                     self.sim.dt,
                     self.settle_time / self.sim.dt,
                     MAX_STEPS_PER_LAYER * self.sim.dt

@@ -871,7 +871,7 @@ where
                 "seconds",
                 seconds,
                 &format!(
-                    "with dt = {:e} s that is {n:e} steps; at most {MAX_STEPS_PER_CALL} \
+                    "with dt = {:e} s that is {n:.3e} steps; at most {MAX_STEPS_PER_CALL} \
                      steps per call (seconds <= {:e})",
                     self.cfg.dt,
                     MAX_STEPS_PER_CALL as Real * self.cfg.dt
