@@ -14,6 +14,7 @@ import io
 import json
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -385,6 +386,15 @@ def test_written_files_respect_the_umask(tmp_path, mask):
     finally:
         os.umask(old)
     assert path.stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for target in (fifo, tmp_path):
+        with pytest.raises(gp.GranpackError, match="not a regular file"):
+            atomic_write(target, b"x")
+    assert stat.S_ISFIFO(fifo.stat().st_mode) and tmp_path.is_dir()
 
 
 # -- messages ----------------------------------------------------------------------------------

@@ -7,6 +7,7 @@ import json
 import lzma
 import math
 import os
+import stat
 import struct
 import tempfile
 import time
@@ -149,6 +150,13 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     so a reader never sees a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        mode = path.stat().st_mode
+    except OSError:  # missing (the usual case) or unreadable: the rename decides
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        # a rename would replace a device (/dev/null), a pipe or a folder, not write to it
+        raise GranpackError(f"cannot write {path}: not a regular file")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
