@@ -134,8 +134,13 @@ if what == "simulation":
     sim = gp.Simulation(dim=3, dt=1e-5, box=((0, 0, 0), (1, 1, float("inf"))))
     sim.add_particles([[0.1 * k + 0.05, 0.5, 0.05] for k in range(9)], np.full(9, 0.02))
     job = lambda: sim.run(1e4)
-else:
+elif what == "generate":
     scene = gp.PackScene.preset("4.1").replace(base=(0.2,), height=0.06, settle_time=1e3)
+    job = lambda: gp.generate(scene)
+else:  # a layer past RSA saturation in a narrow box, allowed a billion attempts (minutes)
+    scene = gp.PackScene.preset("4.1").replace(
+        base=(0.1,), phi_layer=0.54, max_attempts=10**9, settle_time=0.0
+    )
     job = lambda: gp.generate(scene)
 print("started", flush=True)
 t0 = time.monotonic()
@@ -146,10 +151,11 @@ except KeyboardInterrupt:
 """
 
 
-@pytest.mark.parametrize("what", ["simulation", "generate"])
+@pytest.mark.parametrize("what", ["simulation", "generate", "rsa"])
 def test_ctrl_c_stops_a_long_native_call(what):
-    """Simulation.run and a pack's jamming run check for signals: Ctrl-C stops a call
-    that would run for hours within a fraction of a second."""
+    """Simulation.run, a pack's jamming run and its random sequential addition check
+    for signals: Ctrl-C stops a call that would run for hours within a fraction of a
+    second."""
     p = subprocess.Popen(
         [sys.executable, "-c", _INTERRUPTIBLE, what], stdout=subprocess.PIPE, text=True
     )

@@ -6,7 +6,7 @@ use crate::error::{check_range, Error, Result};
 use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
-use crate::pipeline::rsa::{place_layer, LayerSpec};
+use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
 use crate::pipeline::world::{FreezeConfig, SimConfig, World};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -309,7 +309,19 @@ where
             existing: (self.world.positions(), self.world.radii()),
             layer,
         };
-        let (x, r) = place_layer(&spec, &mut self.rng)?;
+        // The placement polls on every few thousand failed attempts; Python is asked
+        // only every POLL_EVERY of wall time.
+        let mut last = Instant::now();
+        let mut gated = || {
+            if last.elapsed() < POLL_EVERY {
+                return true;
+            }
+            last = Instant::now();
+            poll()
+        };
+        let Some((x, r)) = place_layer_polled(&spec, &mut self.rng, &mut gated)? else {
+            return self.stop();
+        };
         // Store the layer in Morton order: neighbours in space become neighbours in
         // memory, which keeps the pair loop in cache. Particle ids follow this order.
         let order = morton_order(&x, 2.0 * self.cfg.radii.r_max());
