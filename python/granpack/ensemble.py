@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ._validate import GranpackError, as_int
-from .pack import Pack, UnsettledPackWarning, generate, load_pack, settling_issue
+from .pack import NEWER_FORMAT, Pack, UnsettledPackWarning, generate, load_pack, settling_issue
 from .scene import PackScene
 
 __all__ = [
@@ -334,7 +334,7 @@ def _existing(task: PackTask) -> bool:
         # failing every later step that reads it).
         scene = load_pack(task.path).scene
     except GranpackError as exc:
-        if "upgrade granpack" in str(exc):
+        if NEWER_FORMAT in str(exc):
             raise GranpackError(f"{exc}; or use another output folder") from None
         # Not a readable pack (written by something else, or damaged on disk): it is
         # replaced, since granpack itself never leaves partial files.

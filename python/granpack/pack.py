@@ -37,6 +37,10 @@ __all__ = [
 
 FORMAT_VERSION = 1
 
+#: Said by `load_pack` of a pack written in a newer format (and only then), so that
+#: callers can tell "a pack this version cannot read" from a damaged file.
+NEWER_FORMAT = "upgrade granpack to read it"
+
 #: A pack counts as unsettled when its particles' mean translational kinetic energy
 #: exceeds this fraction of m g r (each particle's own): settled packs of the presets
 #: end near 1e-8, the tests' short runs below 0.01, and a last layer still landing
@@ -243,7 +247,7 @@ def load_pack(path: str | Path) -> Pack:
     if isinstance(version, int) and not isinstance(version, bool) and version > FORMAT_VERSION:
         raise GranpackError(
             f"cannot read pack {path}: written in pack format version {version}; this "
-            f"granpack reads version {FORMAT_VERSION}: upgrade granpack to read it"
+            f"granpack reads version {FORMAT_VERSION}: {NEWER_FORMAT}"
         )
     if version != FORMAT_VERSION:
         raise GranpackError(
