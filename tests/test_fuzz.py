@@ -17,6 +17,7 @@ import dataclasses
 import io
 import json
 import math
+import warnings
 import zipfile
 
 import numpy as np
@@ -437,7 +438,10 @@ def pack_bytes(tmp_path_factory) -> bytes:
     scene = gp.PackScene.preset("4.1").replace(
         base=(0.12,), height=0.03, h_layer=0.03, settle_time=0.02, seed=1
     )
-    pack = gp.generate(scene)
+    # 0.02 s per layer keeps the fixture fast; the pack is a file to damage, not a
+    # settled pack, and the warning that says so is expected
+    with pytest.warns(gp.UnsettledPackWarning, match="settle_time"):
+        pack = gp.generate(scene)
     layers = [{**rep, "wall_seconds": 0.0} for rep in pack.layers]
     path = tmp_path_factory.mktemp("pack") / "pack.npz"
     dataclasses.replace(pack, layers=layers, wall_time=0.0).save(path)
@@ -559,3 +563,228 @@ def test_doctored_pack_archives(tmp_path, pack_bytes):
     for path in (None, 3, b"\x00"):
         with pytest.raises(gp.GranpackError, match="path"):
             gp.load_pack(path)
+
+
+# -- damaged arrays in a pack whose records are intact --------------------------------------
+ARRAY_KEYS = [
+    "positions",
+    "radii",
+    "velocities",
+    "spins",
+    "layer",
+    "contacts.i",
+    "contacts.j",
+    "contacts.normal",
+    "contacts.overlap",
+    "contacts.force_normal",
+    "contacts.force_tangential",
+    "contacts.branch",
+]
+DAMAGE = hnp.arrays(
+    dtype=st.sampled_from([np.float64, np.float32, np.int64, np.int8, np.uint8, np.bool_]),
+    shape=hnp.array_shapes(min_dims=0, max_dims=3, max_side=6),
+    elements=None,
+)
+
+
+@FEW
+@given(st.sampled_from(ARRAY_KEYS), DAMAGE, st.integers(0, 2**16))
+def test_pack_files_with_damaged_arrays(tmp_path_factory, pack_bytes, key, damage, seed):
+    """One array of a pack replaced (any dtype, shape and values, the scene and meta
+    records intact); also the same array with a few entries poked (NaN, huge values,
+    indices out of range). Either the pack loads and is sound, or the refusal names the
+    file; a rerun over it either trusts a sound pack or makes it again."""
+    from granpack.ensemble import PackTask, _existing
+
+    tmp = tmp_path_factory.mktemp("damaged")
+    good = unpack(pack_bytes)
+    rng = np.random.default_rng(seed)
+    poked = good[key].copy()
+    flat = poked.reshape(-1)
+    if flat.size:
+        floaty = poked.dtype.kind == "f"
+        bad = [np.nan, np.inf, -1.0, 1e308] if floaty else [-(2**40), 2**40, -7, 10**6]
+        for q in rng.integers(0, flat.size, size=min(3, flat.size)):
+            flat[q] = bad[rng.integers(len(bad))]
+    for members in ({**good, key: damage}, {**good, key: poked}):
+        pack = load_bytes(tmp, archive(members))
+        scene = gp.PackScene.from_toml_string(bytes(good["scene.toml"]).decode())
+        kept = _existing(PackTask(scene, tmp / "p.npz", "#0"))
+        assert kept == (pack is not None)
+        if pack is not None:
+            assert np.all(pack.contacts.i != pack.contacts.j)
+            assert np.all((pack.contacts.j >= -5) & (pack.contacts.j < len(pack)))
+
+
+# -- the analysis arrays -------------------------------------------------------------------
+ANALYSIS_FLOATS = st.one_of(
+    st.floats(-2.0, 2.0),
+    st.sampled_from([0.0, 1e-320, 1e-300, 1e-150, 1e150, 1e300, 1.7e308, -1.7e308]),
+)
+
+
+@st.composite
+def analysis_input(draw):
+    dim = draw(st.sampled_from([2, 3]))
+    n = draw(st.integers(1, 12))
+    x = draw(hnp.arrays(np.float64, (n, dim), elements=ANALYSIS_FLOATS))
+    r = draw(hnp.arrays(np.float64, (n,), elements=st.one_of(ANALYSIS_FLOATS, st.just(0.1))))
+    kw = {"positions": x, "radii": r}
+    if draw(st.booleans()):
+        lo = draw(hnp.arrays(np.float64, (dim,), elements=ANALYSIS_FLOATS))
+        hi = draw(hnp.arrays(np.float64, (dim,), elements=ANALYSIS_FLOATS))
+        kw["box"] = (lo, hi)
+    if draw(st.booleans()):
+        m = draw(st.integers(0, 6))
+        kw["contacts"] = {
+            "i": draw(hnp.arrays(np.int64, (m,), elements=st.integers(-2, n))),
+            "j": draw(hnp.arrays(np.int64, (m,), elements=st.integers(-6, n))),
+            "normal": draw(hnp.arrays(np.float64, (m, dim), elements=ANALYSIS_FLOATS)),
+            "force_normal": draw(hnp.arrays(np.float64, (m,), elements=ANALYSIS_FLOATS)),
+        }
+    kw["core_margin"] = draw(st.sampled_from([0.0, 0.1, 1e300]))
+    return kw
+
+
+@FUZZ
+@given(analysis_input())
+def test_microstructure_of_random_arrays(kw):
+    """Any positions, radii, box and contacts: finite, meaningful numbers or a
+    GranpackError, never another exception (ZeroDivisionError, OverflowError, a hang
+    in the cell grid)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        try:
+            m = gp.microstructure(**kw)
+        except gp.GranpackError:
+            return
+    assert 0.0 < m.phi and math.isfinite(m.phi)
+    assert math.isfinite(m.void_ratio) and m.void_ratio > -1.0
+    assert math.isfinite(m.z) and m.z >= 0.0
+
+
+# -- the command line ----------------------------------------------------------------------
+class _Accepted(Exception):
+    """Raised in place of the pack runs: the arguments got as far as the work."""
+
+
+def _no_runs(*args, **kwargs):
+    raise _Accepted
+
+
+@pytest.fixture(scope="module")
+def cli_files(tmp_path_factory, pack_bytes) -> dict[str, str]:
+    """Files of every kind for the fuzzed command lines to name."""
+    d = tmp_path_factory.mktemp("cli")
+    (d / "pack.npz").write_bytes(pack_bytes)
+    (d / "cut.npz").write_bytes(pack_bytes[: len(pack_bytes) // 2])
+    (d / "scene.toml").write_text('preset = "4.1"\nbase = [0.2]\nheight = 0.06\n')
+    (d / "bad.toml").write_text("dim = [[[[[[1]]]]]]\n" + "r_mean = " + "[" * 3000)
+    (d / "xyzr.txt").write_text("0 0 0.1\n0.5 0 0.1\n")
+    (d / "far.txt").write_text("1e308 1 0.1\n-1e308 1 0.1\n")
+    (d / "overlap.txt").write_text("0 0 0.1\n0.001 0 0.1\n")
+    (d / "junk.data").write_bytes(b"\x00\xffLAMMPS\n3 atoms\n")
+    (d / "empty.txt").write_text("")
+    return {k: str(d / k) for k in (p.name for p in d.iterdir())} | {"dir": str(d)}
+
+
+CLI_WORDS = st.sampled_from(
+    [
+        "generate",
+        "paper",
+        "analyze",
+        "export",
+        "4.1",
+        "4.3",
+        "--packs",
+        "--seed",
+        "--rotations",
+        "--out",
+        "--workers",
+        "--scheduler",
+        "--fast",
+        "--settle-time",
+        "--scale",
+        "--format",
+        "--dim",
+        "--box",
+        "--json",
+        "--figures",
+        "--examples",
+        "--quick",
+        "-q",
+        "--no-figures",
+        "--help",
+        "on",
+        "off",
+        "vtk",
+        "csv",
+        "lammps",
+        "0",
+        "1",
+        "2",
+        "3",
+        "-1",
+        "1e12",
+        "1e-300",
+        "nan",
+        "inf",
+        "-inf",
+        "99999999999999999999",
+        "9" * 400,
+        "tcp://127.0.0.1:1",
+        "tcp://x",
+        "",
+        "\x00",
+        "é",
+    ]  # fmt: skip
+)
+
+
+@settings(FUZZ, max_examples=120)
+@given(st.data())
+def test_random_command_lines(cli_files, data):
+    """Random command lines over the four commands, naming files of every kind: each
+    ends in an exit status, an argparse exit, or the start of the pack runs (replaced
+    here by a stub), never in a traceback."""
+    import contextlib
+    from unittest import mock
+
+    from granpack.cli import main
+
+    files = st.sampled_from(sorted(cli_files.values()))
+    words = st.one_of(CLI_WORDS, files)
+    command = data.draw(st.sampled_from(["generate", "paper", "analyze", "export", "--bogus"]))
+    first = data.draw(st.one_of(files, st.sampled_from(["4.1", "4.3", "x"])))
+    argv = [command, first, *data.draw(st.lists(words, max_size=6))]
+    if command in ("generate", "export") and data.draw(st.booleans()):
+        argv += ["--out", data.draw(st.one_of(files, st.just(cli_files["dir"] + "/out")))]
+    sink = io.StringIO()
+    with (
+        mock.patch("granpack.ensemble.run_tasks", _no_runs),
+        contextlib.chdir(cli_files["dir"]),
+        contextlib.redirect_stdout(sink),
+        contextlib.redirect_stderr(sink),
+        warnings.catch_warnings(),
+    ):
+        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        try:
+            rc = main(argv)
+        except SystemExit as exc:  # argparse: --help, or a usage error
+            assert exc.code in (0, 2), (argv, exc.code)
+            return
+        except _Accepted:
+            return
+    assert rc in (0, 1, 2), (argv, rc)
+    assert "Traceback" not in sink.getvalue()
+    if rc == 2:
+        assert len(sink.getvalue()) < 1000, argv
+
+
+# -- deeply nested TOML --------------------------------------------------------------------
+@FEW
+@given(st.integers(1, 5000), st.sampled_from(["[", "{a = "]), st.sampled_from(SCENE_KEYS))
+def test_toml_nested_to_any_depth(depth, opener, key):
+    closer = "]" if opener == "[" else "}"
+    text = f"{key} = " + opener * depth + "1" + closer * depth + "\n"
+    attempt(lambda: gp.PackScene.from_toml_string(text), key, "scene", "nested")

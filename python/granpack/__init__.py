@@ -18,7 +18,7 @@ from .errors import (
     UnstableTimeStepError,
 )
 from .microstructure import microstructure
-from .pack import Pack, generate, load_pack
+from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .scene import PRESETS, PackScene
 
 __all__ = [
@@ -36,6 +36,7 @@ __all__ = [
     "PRESETS",
     "generate",
     "load_pack",
+    "UnsettledPackWarning",
     "microstructure",
     "__version__",
     "cpu_level",

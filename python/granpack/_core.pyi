@@ -14,6 +14,8 @@ import numpy.typing as npt
 
 __all__ = [
     "__version__",
+    "MAX_STEPS_PER_CALL",
+    "MAX_STEPS_PER_LAYER",
     "cpu_level",
     "cpu_levels",
     "Simulation",
@@ -23,6 +25,11 @@ __all__ = [
 ]
 
 __version__: str
+
+MAX_STEPS_PER_CALL: int
+"""Most steps one `Simulation.step` or `Simulation.run` call takes (1e10)."""
+MAX_STEPS_PER_LAYER: float
+"""Most DEM steps one layer's jamming run may take (settle_time / dt; 1e8)."""
 
 Material: TypeAlias = tuple[float, float, float, float, float]
 """density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""

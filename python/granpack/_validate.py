@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import reprlib
 from collections.abc import Iterable
 from numbers import Integral, Real
 
@@ -20,7 +21,26 @@ __all__ = [
     "as_bool",
     "as_array",
     "unknown_keys",
+    "short_repr",
 ]
+
+# Error messages quote the value they refuse; a huge or deeply nested value (a list of
+# millions of numbers in a scene file) is shown cut down, never echoed whole.
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel = 3
+_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = _SHORT.maxset = 6
+_SHORT.maxstring = 60
+_SHORT.maxother = 60
+_SHORT.maxlong = 40
+
+
+def short_repr(value: object) -> str:
+    """repr(value) cut to about 80 characters, for error messages."""
+    try:
+        text = _SHORT.repr(value)
+    except Exception:  # a repr that fails (or recurses) still gets a name
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= 100 else text[:60] + "..." + text[-20:]
 
 
 def as_real(
@@ -37,7 +57,7 @@ def as_real(
     """Returns `value` as a float in the given range or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Real | np.floating | np.integer):
         raise InvalidParameterError(
-            f"invalid {name} = {value!r}: must be a real number{unit_txt(unit)}"
+            f"invalid {name} = {short_repr(value)}: must be a real number{unit_txt(unit)}"
         )
     v = float(value)
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
@@ -60,11 +80,13 @@ def unit_txt(unit: str) -> str:
 def as_int(name: str, value: object, lo: int, hi: int | None = None) -> int:
     """Returns `value` as an int in [lo, hi] or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Integral | np.integer):
-        raise InvalidParameterError(f"invalid {name} = {value!r}: must be an integer")
+        raise InvalidParameterError(f"invalid {name} = {short_repr(value)}: must be an integer")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         upper = "inf" if hi is None else str(hi)
-        raise InvalidParameterError(f"invalid {name} = {v}: must lie in [{lo}, {upper}]")
+        raise InvalidParameterError(
+            f"invalid {name} = {short_repr(v)}: must lie in [{lo}, {upper}]"
+        )
     return v
 
 
@@ -72,7 +94,7 @@ def as_bool(name: str, value: object) -> bool:
     """Accepts True/False (and numpy bools) only."""
     if isinstance(value, bool | np.bool_):
         return bool(value)
-    raise InvalidParameterError(f"invalid {name} = {value!r}: must be true or false")
+    raise InvalidParameterError(f"invalid {name} = {short_repr(value)}: must be true or false")
 
 
 def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -109,10 +131,12 @@ def unknown_keys(where: str, given: Iterable[str], known: Iterable[str]) -> None
     known = list(known)
     for key in given:
         if not isinstance(key, str):
-            raise GranpackError(f"unknown {where} key {key!r}: keys are names (strings)")
+            raise InvalidParameterError(
+                f"unknown {where} key {short_repr(key)}: keys are names (strings)"
+            )
         if key not in known:
             close = difflib.get_close_matches(key, known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise GranpackError(
-                f"unknown {where} key {key!r}{hint} (known: {', '.join(sorted(known))})"
+            raise InvalidParameterError(
+                f"unknown {where} key {short_repr(key)}{hint} (known: {', '.join(sorted(known))})"
             )

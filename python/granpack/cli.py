@@ -13,20 +13,28 @@ Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``
 Dask cluster; the results are the same for the same master seed. Every finished pack is
 on disk at once, and running the same command again skips what is there.
 
-Bad input gives one line on stderr and exit status 2; an interrupted run exits with 130.
+Bad input gives one line on stderr and exit status 2; an interrupted run exits with 130
+(Ctrl-C) or 143 (SIGTERM), after the same clean stop: the packs in progress are
+stopped, the finished ones are on disk. One run at a time writes into an output folder
+(a second one is refused while the first holds the folder's lock), and no command
+writes over one of its own input files.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import importlib
 import json
 import math
+import os
 import re
+import signal
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -42,13 +50,34 @@ QUICK_PACKS = 2
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 128 + signal.SIGTERM
+#: Longest error message printed whole; longer ones are cut in the middle.
+MAX_MESSAGE = 600
+#: The lock file of an output folder (see `_locked`).
+LOCK_NAME = ".granpack.lock"
+
+
+class _Terminated(KeyboardInterrupt):
+    """Raised by the SIGTERM handler: a batch scheduler's stop is handled like Ctrl-C."""
 
 
 class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage error as one line (no usage dump, no traceback)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
+        message = _cut(message)
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _cut(message: str, limit: int = MAX_MESSAGE) -> str:
+    """A message cut in the middle when longer than `limit` (a huge value in it is not
+    echoed whole)."""
+    if len(message) <= limit:
+        return message
+    return (
+        f"{message[: limit - 100]} ...[{len(message) - limit + 40} characters]... "
+        + (message[-60:])
+    )
 
 
 class _Console:
@@ -91,26 +120,63 @@ def _on_off(value: str) -> bool:
         return True
     if v in ("off", "false", "no", "0"):
         return False
-    raise argparse.ArgumentTypeError(f"invalid value {value!r}: use on or off")
+    raise argparse.ArgumentTypeError(f"invalid value {_short(value)!r}: use on or off")
+
+
+def _short(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _positive_int(value: str) -> int:
     try:
         v = int(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid value {value!r}: expected an integer") from None
+        raise argparse.ArgumentTypeError(
+            f"invalid value {_short(value)!r}: expected an integer"
+        ) from None
     if v < 1:
-        raise argparse.ArgumentTypeError(f"invalid value {v}: must be >= 1")
+        raise argparse.ArgumentTypeError(f"invalid value {_short(str(v))}: must be >= 1")
     return v
+
+
+def _count(hi: int, what: str):
+    """An argparse type: an integer in [1, hi]; the bound keeps a typo (an extra digit
+    or twenty) from starting a run that never ends."""
+
+    def parse(value: str) -> int:
+        v = _positive_int(value)
+        if v > hi:
+            raise argparse.ArgumentTypeError(
+                f"invalid value {_short(str(v))}: {what} must lie in [1, {hi}]"
+            )
+        return v
+
+    return parse
+
+
+def _packs(value: str) -> int:
+    from .ensemble import MAX_PACKS
+
+    return _count(MAX_PACKS, "packs")(value)
+
+
+def _workers(value: str) -> int:
+    from .ensemble import max_workers
+
+    return _count(max_workers(), "workers (four per core)")(value)
 
 
 def _seed(value: str) -> int:
     try:
         v = int(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid seed {value!r}: expected an integer") from None
+        raise argparse.ArgumentTypeError(
+            f"invalid seed {_short(value)!r}: expected an integer"
+        ) from None
     if not 0 <= v < 2**64:
-        raise argparse.ArgumentTypeError(f"invalid seed {v}: must lie in [0, 2^64 - 1]")
+        raise argparse.ArgumentTypeError(
+            f"invalid seed {_short(str(v))}: must lie in [0, 2^64 - 1]"
+        )
     return v
 
 
@@ -118,16 +184,18 @@ def _positive_float(value: str) -> float:
     try:
         v = float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid value {value!r}: expected a number") from None
+        raise argparse.ArgumentTypeError(
+            f"invalid value {_short(value)!r}: expected a number"
+        ) from None
     if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"invalid value {value!r}: must be > 0")
+        raise argparse.ArgumentTypeError(f"invalid value {_short(value)!r}: must be > 0")
     return v
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--workers",
-        type=_positive_int,
+        type=_workers,
         default=None,
         help="local worker processes (default: one per core)",
     )
@@ -180,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the pictures (figures/) and report.md under --out.",
     )
     g.add_argument("scene", metavar="SCENE", help="preset name (4.1, 4.2, 4.3, 4.4) or TOML file")
-    g.add_argument("--packs", type=_positive_int, default=1, help="ensemble size (default 1)")
+    g.add_argument("--packs", type=_packs, default=1, help="ensemble size (default 1)")
     g.add_argument("--seed", type=_seed, default=None, help="master seed (default: the scene's, 0)")
     g.add_argument(
         "--rotations",
@@ -208,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pp.add_argument(
         "--packs",
-        type=_positive_int,
+        type=_packs,
         default=None,
         help=f"packs per case (default {PAPER_PACKS}, as in the paper; {QUICK_PACKS} with --quick)",
     )
@@ -314,6 +382,75 @@ def _dev_note(args) -> dict:
     return note
 
 
+@contextlib.contextmanager
+def _locked(out: Path) -> Iterator[None]:
+    """Holds the output folder's lock (an exclusive flock on out/.granpack.lock) while
+    a run writes into it: a second run into the same folder is refused at once, instead
+    of mixing its packs, tables and report with the first one's. The kernel drops the
+    lock when the process ends, however it ends."""
+    import fcntl
+
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / LOCK_NAME
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+                raise
+            try:
+                holder = os.pread(fd, 64, 0).decode(errors="replace").strip()
+            except OSError:
+                holder = ""
+            who = f" (process {holder})" if holder.isdigit() else ""
+            raise GranpackError(
+                f"another granpack run{who} is writing into {out}; wait for it to finish "
+                "or choose another --out"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _refuse_overwrite(target: Path, source: Path, what: str) -> None:
+    """Refuses to write `target` when it is the input file `source` itself."""
+    if _same_file(target, source):
+        raise GranpackError(
+            f"{what} {target} is the input file {source}: it would be overwritten; "
+            "choose another output"
+        )
+
+
+@contextlib.contextmanager
+def _unsettled_as_notes(console: _Console) -> Iterator[None]:
+    """UnsettledPackWarnings raised while a run makes its packs become console notes
+    (one line per kind, with the packs it concerns), not warnings with a source line."""
+    from .pack import UnsettledPackWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnsettledPackWarning)
+        try:
+            yield
+        finally:
+            for w in caught:
+                if issubclass(w.category, UnsettledPackWarning):
+                    label, _, message = str(w.message).partition(": ")
+                    console.note(f"unsettled pack: {message}", label)
+                else:
+                    warnings.warn(w.message, w.category, stacklevel=2)
+            console.flush_notes()
+
+
 def _fresh(target: Path, source: Path) -> bool:
     """True if `target` exists and is not older than `source` (work to skip on rerun)."""
     return target.exists() and target.stat().st_mtime >= source.stat().st_mtime
@@ -413,11 +550,6 @@ def _pack_figures(pack, path: Path, fig_dir: Path, label: str) -> list[Path]:
 
 
 def cmd_generate(args, console: _Console) -> int:
-    from . import plot, report
-    from .ensemble import ensemble_tasks, run_tasks
-    from .pack import atomic_write
-
-    tables = importlib.import_module("granpack.tables")
     scene, name = _scene_from_arg(args.scene)
     if args.rotations is not None:
         scene = scene.replace(rotations=args.rotations)
@@ -429,17 +561,37 @@ def cmd_generate(args, console: _Console) -> int:
     seed = scene.seed if args.seed is None else args.seed
     scene = scene.replace(seed=seed, stream=0)
     out = args.out if args.out is not None else Path(f"granpack-{name}")
-    out.mkdir(parents=True, exist_ok=True)
+    scene_text = scene.to_toml().encode()
+    scene_file = out / "scene.toml"
+    # The resolved scene goes to out/scene.toml: when that is the scene file given (a
+    # rerun from the folder's own record), it is rewritten only if unchanged.
+    source = Path(args.scene)
+    if _same_file(scene_file, source) and source.read_bytes() != scene_text:
+        raise GranpackError(
+            f"--out {out} would overwrite the scene file {source} with the resolved scene "
+            "(out/scene.toml); choose another --out"
+        )
+    with _locked(out):
+        return _generate_into(args, console, scene, name, seed, out, scene_file, scene_text)
 
+
+def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
+    from . import plot, report
+    from .ensemble import ensemble_tasks, run_tasks
+    from .pack import atomic_write
+
+    tables = importlib.import_module("granpack.tables")
     t0 = time.perf_counter()
     tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
     console.say(f"granpack generate: {args.packs} pack(s) of {name} -> {out}")
-    paths = run_tasks(
-        tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
-    )
+    with _unsettled_as_notes(console):
+        paths = run_tasks(
+            tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
+        )
     # Written once the packs are there: a refused run (another scene's packs in the
     # folder) leaves the folder's scene.toml as it was.
-    atomic_write(out / "scene.toml", scene.to_toml().encode())
+    if not (scene_file.exists() and scene_file.read_bytes() == scene_text):
+        atomic_write(scene_file, scene_text)
     results = _analyze_packs(paths, out / "micro", console)
     ms = [m for _, m, _ in results]
     records = [rec for _, _, rec in results]
@@ -490,6 +642,11 @@ def _case_dir(example: str, rotations: bool) -> str:
 
 
 def cmd_paper(args, console: _Console) -> int:
+    with _locked(args.out):
+        return _paper_into(args, console)
+
+
+def _paper_into(args, console: _Console) -> int:
     from . import mass2d, plot, report
     from .ensemble import ensemble_tasks, run_tasks
     from .scene import PackScene
@@ -497,7 +654,6 @@ def cmd_paper(args, console: _Console) -> int:
     tables = importlib.import_module("granpack.tables")
     n_packs = args.packs if args.packs is not None else (QUICK_PACKS if args.quick else PAPER_PACKS)
     out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
     examples = sorted(set(args.examples), key=list(PAPER_EXAMPLES).index)
     cases = [(ex, rot) for ex in examples for rot in (True, False)]
 
@@ -527,12 +683,13 @@ def cmd_paper(args, console: _Console) -> int:
         + f") -> {out}"
         + (" [quick: fewer packs than the paper's 10, same physics]" if args.quick else "")
     )
-    run_tasks(
-        tasks + other_tasks,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        progress=console.progress_mode(),
-    )
+    with _unsettled_as_notes(console):
+        run_tasks(
+            tasks + other_tasks,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=console.progress_mode(),
+        )
     t_packs = time.perf_counter() - t0
 
     console.say("microstructure, tables and figures ...")
@@ -722,6 +879,8 @@ def cmd_analyze(args, console: _Console) -> int:
         subject = pack
         if subject is None:
             subject = SimpleNamespace(positions=kwargs["positions"], radii=kwargs["radii"])
+        for suffix in ("", "_normals", "_forces"):
+            _refuse_overwrite(args.figures / f"{args.file.stem}{suffix}.png", args.file, "figure")
         made = [
             plot.save(
                 plot.pack_figure(subject, title=args.file.name),
@@ -769,11 +928,12 @@ def cmd_export(args, console: _Console) -> int:
     fmt = args.format
     if fmt is None and args.out is None:
         raise GranpackError("give --format (vtk, lammps, csv, parquet) or an --out file name")
-    pack = load_pack(args.pack)
     out = args.out
     if out is None:
         out = args.pack.with_suffix(FORMATS[fmt])
-    files = export(pack, out, fmt)
+    _refuse_overwrite(out, args.pack, "--out")
+    pack = load_pack(args.pack)
+    files = export(pack, out, fmt, refuse=[args.pack])
     for f in files:
         console.say(str(f))
     return 0
@@ -795,24 +955,44 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     console = _Console(getattr(args, "quiet", False))
+    previous = _handle_sigterm()
     try:
         return _COMMANDS[args.command](args, console)
     except GranpackError as exc:
-        print(f"granpack {args.command}: error: {exc}", file=sys.stderr)
+        print(f"granpack {args.command}: error: {_cut(str(exc))}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         where = getattr(args, "out", None)
-        hint = f" in {where}" if where else ""
+        hint = f" in {where}" if where and args.command in ("generate", "paper") else ""
+        how = "terminated (SIGTERM)" if isinstance(exc, _Terminated) else "interrupted"
         print(
-            f"granpack {args.command}: interrupted; finished packs are on disk{hint}; "
+            f"granpack {args.command}: {how}; finished packs are on disk{hint}; "
             "run the same command again to continue",
             file=sys.stderr,
         )
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
     except OSError as exc:
         target = f" {exc.filename}" if getattr(exc, "filename", None) else ""
         print(f"granpack {args.command}: error:{target} {exc.strerror or exc}", file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
+def _handle_sigterm():
+    """Makes SIGTERM (a batch scheduler's stop, `kill`) stop a run the way Ctrl-C does:
+    the packs in progress are stopped, the worker processes ended, the finished packs
+    kept, and a message printed. Returns the previous handler (None where the handler
+    cannot be set: not the main thread)."""
+    try:
+        return signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:
+        return None
 
 
 if __name__ == "__main__":  # python -m granpack.cli

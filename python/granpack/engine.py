@@ -9,10 +9,13 @@ from numbers import Integral
 import numpy as np
 
 from . import _core
-from ._validate import InvalidParameterError, as_array, as_bool, as_real
+from ._validate import InvalidParameterError, as_array, as_bool, as_real, short_repr
 from .contacts import Contacts
 
-__all__ = ["Material", "Simulation"]
+__all__ = ["Material", "Simulation", "MAX_STEPS_PER_CALL"]
+
+#: Most steps one `Simulation.step` or `Simulation.run` call takes.
+MAX_STEPS_PER_CALL = _core.MAX_STEPS_PER_CALL
 
 
 @dataclass(frozen=True)
@@ -201,13 +204,21 @@ class Simulation:
         self._sim.add_particles(x, r, v, w)
 
     def step(self, n: int = 1) -> None:
-        """Advances n steps (the GIL is released meanwhile)."""
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n < 2**64:
-            raise InvalidParameterError(f"invalid n = {n!r}: must be an integer in [0, 2^64)")
+        """Advances n steps, at most `MAX_STEPS_PER_CALL` (1e10) per call. The GIL is
+        released meanwhile; Ctrl-C stops the run within about 0.1 s (KeyboardInterrupt,
+        with the steps taken so far kept)."""
+        limit = _core.MAX_STEPS_PER_CALL
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n <= limit:
+            raise InvalidParameterError(
+                f"invalid n = {short_repr(n)}: must be an integer in [0, {limit}] "
+                "(steps per call; call again to go on)"
+            )
         self._sim.step(int(n))
 
     def run(self, seconds: float) -> None:
-        """Advances `seconds` of simulated time, rounded to whole steps."""
+        """Advances `seconds` of simulated time, rounded to whole steps; refused when
+        that is more than `MAX_STEPS_PER_CALL` steps (a tiny dt). Ctrl-C stops it as in
+        `step`."""
         self._sim.run(as_real("seconds", seconds, 0, unit="s"))
 
     @property

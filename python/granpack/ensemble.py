@@ -26,24 +26,45 @@ Where packs run
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import functools
 import multiprocessing as mp
 import os
 import queue as queue_mod
 import signal
+import socket
 import sys
+import threading
+import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ._validate import GranpackError, InvalidParameterError, as_int
-from .pack import Pack, generate
+from .pack import NEWER_FORMAT, Pack, UnsettledPackWarning, generate, load_pack, settling_issue
 from .scene import PackScene
 
-__all__ = ["PackTask", "ensemble_tasks", "run_tasks", "run_ensemble", "pack_path", "Progress"]
+__all__ = [
+    "PackTask",
+    "ensemble_tasks",
+    "run_tasks",
+    "run_ensemble",
+    "pack_path",
+    "Progress",
+    "MAX_PACKS",
+    "max_workers",
+]
+
+#: Most packs of one ensemble: the task list is built up front, and pack files are
+#: numbered pack_000 .. pack_99999.
+MAX_PACKS = 100_000
+
+
+def max_workers() -> int:
+    """Most local worker processes: four per core (more only add memory and switching)."""
+    return 4 * (os.cpu_count() or 1)
 
 
 @dataclass(frozen=True)
@@ -66,7 +87,7 @@ def ensemble_tasks(
 ) -> list[PackTask]:
     """The tasks of an ensemble: pack k uses ``scene.replace(seed=seed, stream=k)`` and
     goes to ``pack_path(out_dir, k)``. `seed` defaults to ``scene.seed``."""
-    n_packs = as_int("n_packs", n_packs, 1)
+    n_packs = as_int("n_packs", n_packs, 1, MAX_PACKS)
     seed = scene.seed if seed is None else as_int("seed", seed, 0, 2**64 - 1)
     prefix = f"{label} " if label else ""
     return [
@@ -236,15 +257,48 @@ class Progress:
 _LAYER_QUEUE = None
 
 
-def _init_worker(layer_queue, threads: int) -> None:
+#: Linux prctl option: the signal a process gets when its parent dies.
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent(parent: int) -> None:
+    """Makes this worker exit when `parent` (the process that runs the ensemble) dies,
+    even by SIGKILL: otherwise the workers, and the resource tracker that waits for
+    them, live on and hold the parent's stdout and stderr (``granpack ... | tee log``
+    never ends). On Linux the kernel sends SIGKILL at the parent's death (prctl
+    PR_SET_PDEATHSIG); everywhere a watchdog thread checks the parent twice a second."""
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass  # the watchdog below still runs
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent:
+                os._exit(1)
+            time.sleep(0.5)
+
+    # the parent may have died before prctl took effect: the first check is immediate
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=watch, name="granpack-parent-watchdog", daemon=True).start()
+
+
+def _init_worker(layer_queue, threads: int, parent: int | None = None) -> None:
     """Runs once in each spawned worker, before any pack: the engine's thread pool is
     created lazily on first use, so the thread count set here takes effect."""
     global _LAYER_QUEUE
     _LAYER_QUEUE = layer_queue
     os.environ["RAYON_NUM_THREADS"] = str(threads)
     # Ctrl-C reaches the whole process group; the parent handles it (it stops the
-    # workers), so the workers ignore it instead of each printing a traceback.
+    # workers), so the workers ignore it instead of each printing a traceback. SIGTERM
+    # keeps its default: the parent terminates the workers with it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent is not None:
+        _die_with_parent(parent)
 
 
 def _build_in_worker(scene: PackScene, label: str) -> Pack:
@@ -254,26 +308,38 @@ def _build_in_worker(scene: PackScene, label: str) -> Pack:
         if q is not None:
             q.put((label, rep))
 
-    return generate(scene, progress=report)
+    return _generate_quietly(scene, report)
+
+
+def _generate_quietly(scene: PackScene, progress=False) -> Pack:
+    """generate() without its UnsettledPackWarning: the process that saves the pack
+    checks it again (`_finish`) and warns there, where the caller sees it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnsettledPackWarning)
+        return generate(scene, progress=progress)
 
 
 def _build_plain(scene: PackScene) -> Pack:
     """The Dask task: a pack from its scene (no progress; the pack travels back)."""
-    return generate(scene)
+    return _generate_quietly(scene)
 
 
 def _existing(task: PackTask) -> bool:
-    """True if the task's file holds a pack of the same scene; raises if it holds another
-    scene; False if missing or unreadable (then it is made again)."""
+    """True if the task's file holds a whole pack of the same scene; raises if it holds
+    another scene, or a pack of a newer format; False if missing or damaged (then it is
+    made again)."""
     if not task.path.exists():
         return False
     try:
-        with np.load(task.path, allow_pickle=False) as z:
-            text = bytes(z["scene.toml"]).decode()
-        scene = PackScene.from_toml_string(text)
-    except Exception:
-        # A file that is not a readable pack (written by something else, or damaged on
-        # disk) is replaced: granpack itself never leaves partial files.
+        # The whole pack is read and checked, not only its scene record: a file whose
+        # arrays were damaged on disk is made again instead of being trusted (and
+        # failing every later step that reads it).
+        scene = load_pack(task.path).scene
+    except GranpackError as exc:
+        if NEWER_FORMAT in str(exc):
+            raise GranpackError(f"{exc}; or use another output folder") from None
+        # Not a readable pack (written by something else, or damaged on disk): it is
+        # replaced, since granpack itself never leaves partial files.
         return False
     if scene != task.scene:
         raise GranpackError(
@@ -295,7 +361,7 @@ def run_tasks(
     task order). Parameters as in `run_ensemble`."""
     tasks = list(tasks)
     if workers is not None:
-        workers = as_int("workers", workers, 1)
+        workers = as_int("workers", workers, 1, max_workers())
     prog = progress if isinstance(progress, Progress) else Progress(progress)
     pending = []
     for t in tasks:
@@ -325,14 +391,17 @@ def run_tasks(
 
 def _finish(task: PackTask, pack: Pack, prog: Progress) -> None:
     pack.save(task.path)
+    issue = settling_issue(pack)
+    if issue is not None:
+        warnings.warn(f"{task.label}: {issue}", UnsettledPackWarning, stacklevel=2)
     prog.pack(task, pack)
 
 
 def _run_here(pending: list[PackTask], prog: Progress) -> None:
     for t in pending:
         try:
-            pack = generate(
-                t.scene, progress=functools.partial(prog.layer, t.label, t.scene.height)
+            pack = _generate_quietly(
+                t.scene, functools.partial(prog.layer, t.label, t.scene.height)
             )
         except GranpackError as exc:
             raise exc.with_prefix(f"{t.label}: ") from None
@@ -346,7 +415,7 @@ def _run_pool(pending: list[PackTask], n_workers: int, threads: int, prog: Progr
         max_workers=n_workers,
         mp_context=ctx,
         initializer=_init_worker,
-        initargs=(layer_queue, threads),
+        initargs=(layer_queue, threads, os.getpid()),
     )
     futures = {pool.submit(_build_in_worker, t.scene, t.label): t for t in pending}
     by_label = {t.label: t for t in pending}
@@ -407,6 +476,7 @@ def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
         ) from None
     own = not isinstance(scheduler, Client)
     if own:
+        _check_scheduler_address(scheduler)
         try:
             client = Client(scheduler, timeout="10s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
@@ -435,3 +505,42 @@ def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
             client.cancel([f for f in futures if not f.done()])
         if own:
             client.close()
+
+
+#: Seconds to wait for a scheduler's port to answer before giving up.
+SCHEDULER_CONNECT_TIMEOUT = 3.0
+
+
+def _check_scheduler_address(address) -> None:
+    """Refuses a scheduler address that is malformed or whose port does not answer, in
+    a few seconds and one line, before Dask's own connection (which retries for its
+    whole timeout and then raises a long traceback)."""
+    text = address if isinstance(address, str) else None
+    if text is None:
+        raise InvalidParameterError(
+            f"invalid scheduler = {type(address).__name__}: expected an address such as "
+            "tcp://host:8786 or a distributed.Client"
+        )
+    shown = text if len(text) <= 80 else text[:60] + "..."
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    if scheme not in ("tcp", "tls"):
+        # inproc://, ucx:// and the like: no cheap check, Dask's own connect decides
+        return
+    host, colon, port_text = rest.rstrip("/").rpartition(":")
+    host = host.strip("[]")
+    if not colon or not host or not port_text.isdigit() or not 0 < int(port_text) < 65536:
+        raise InvalidParameterError(
+            f"invalid scheduler address {shown!r}: expected tcp://HOST:PORT with a port in "
+            "[1, 65535] (e.g. tcp://10.0.0.1:8786)"
+        )
+    try:
+        with socket.create_connection((host, int(port_text)), SCHEDULER_CONNECT_TIMEOUT):
+            pass
+    except (OSError, UnicodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise GranpackError(
+            f"cannot connect to the Dask scheduler {shown!r}: {reason or type(exc).__name__} "
+            f"(no answer within {SCHEDULER_CONNECT_TIMEOUT:g} s); is it running?"
+        ) from None

@@ -43,6 +43,8 @@ from __future__ import annotations
 import base64
 import io
 import math
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -70,7 +72,9 @@ _VTK_VERTEX = 1
 _VTK_LINE = 3
 
 
-def export(pack: Pack, path: str | Path, format: str | None = None) -> list[Path]:
+def export(
+    pack: Pack, path: str | Path, format: str | None = None, *, refuse: Sequence = ()
+) -> list[Path]:
     """Writes `pack` in one of `FORMATS` and returns the files written.
 
     Parameters
@@ -81,6 +85,9 @@ def export(pack: Pack, path: str | Path, format: str | None = None) -> list[Path
         (``<stem>.particles.csv``, ``<stem>.contacts.csv``).
     format : {"vtk", "lammps", "csv", "parquet"}, optional
         Default: from the suffix of `path` (.vtu/.vtk, .data/.lmp, .csv, .parquet).
+    refuse : sequence of paths
+        Files that must not be overwritten (the pack file read, say): an output that is
+        one of them is a GranpackError before anything is written.
     """
     path = Path(path)
     if format is None:
@@ -89,6 +96,14 @@ def export(pack: Pack, path: str | Path, format: str | None = None) -> list[Path
         raise InvalidParameterError(
             f"invalid format = {format!r}: choose one of {', '.join(FORMATS)}"
         )
+    targets = _table_paths(path, FORMATS[format]) if format in ("csv", "parquet") else (path,)
+    for target in targets:
+        for source in map(Path, refuse):
+            if _same_file(target, source):
+                raise GranpackError(
+                    f"the export would overwrite its input {source} ({target} is that "
+                    "file); choose another --out"
+                )
     if format == "vtk":
         return [write_vtk(pack, path)]
     if format == "lammps":
@@ -96,6 +111,13 @@ def export(pack: Pack, path: str | Path, format: str | None = None) -> list[Path
     if format == "csv":
         return write_csv(pack, path)
     return write_parquet(pack, path)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def _format_from_suffix(path: Path) -> str:

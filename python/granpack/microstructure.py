@@ -1004,6 +1004,21 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
         raise InvalidParameterError(
             f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5"
         )
+    if m and np.any(i == j):
+        k = int(np.argmax(i == j))
+        raise InvalidParameterError(
+            f"invalid contacts: contact {k} joins particle {int(i[k])} to itself (i == j)"
+        )
+    if m:
+        # a pair listed twice (as (i, j) or (j, i)) would count twice in Z and the fabric
+        lo_ = np.where(j >= 0, np.minimum(i, j), i)
+        hi_ = np.where(j >= 0, np.maximum(i, j), j)
+        pairs = np.unique(np.stack([lo_, hi_], axis=1), axis=0, return_counts=True)
+        if np.any(pairs[1] > 1):
+            a, b = pairs[0][int(np.argmax(pairs[1] > 1))]
+            raise InvalidParameterError(
+                f"invalid contacts: the pair ({int(a)}, {int(b)}) is listed more than once"
+            )
     zeros_d = np.zeros((m, d))
     full = {
         "i": i,
@@ -1074,6 +1089,22 @@ def _as_particles(positions, radii):
         k = int(np.argmin(np.where(np.isfinite(r), r, -np.inf)))
         raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)")
     return np.ascontiguousarray(x), np.ascontiguousarray(r)
+
+
+def _check_overlaps(pairs: Contacts, r: np.ndarray) -> None:
+    """Refuses interpenetrating particles: an overlap beyond the smaller radius puts a
+    centre inside the other particle, and phi and Z then mean nothing (phi above 1)."""
+    if len(pairs) == 0:
+        return
+    ratio = pairs.overlap / np.minimum(r[pairs.i], r[pairs.j])
+    k = int(np.argmax(ratio))
+    if ratio[k] > 1.0:
+        i, j = int(pairs.i[k]), int(pairs.j[k])
+        raise InvalidParameterError(
+            f"invalid positions: particles {i} and {j} overlap by {pairs.overlap[k]:.4g} m, "
+            f"more than the smaller radius {min(r[i], r[j]):.4g} m (overlap ratio "
+            f"{ratio[k]:.3g}; at most 1): not a valid pack"
+        )
 
 
 def _find_contacts(x, r, walls) -> Contacts:
@@ -1169,7 +1200,19 @@ def microstructure(
         nb = None
     margin = as_real("core_margin", core_margin, 0.0, unit="m")
 
-    h_top = float(np.max(x[:, -1] + r))
+    with np.errstate(over="ignore", under="ignore"):
+        vol = math.pi * r * r if d == 2 else 4.0 / 3.0 * math.pi * r * r * r
+        solid = float(np.sum(vol))
+        h_top = float(np.max(x[:, -1] + r))
+    if not (np.all(np.isfinite(vol)) and np.all(vol > 0.0) and math.isfinite(solid)):
+        k = int(np.argmax(~(np.isfinite(vol) & (vol > 0.0))))
+        raise InvalidParameterError(
+            f"invalid radii[{k}] = {r[k]}: the particle volume is {vol[k]:.3g} and the total "
+            f"{solid:.3g}; volumes must be finite and > 0 (radii within about 1e-100 to "
+            "1e100 m)"
+        )
+    if not math.isfinite(h_top):
+        raise InvalidParameterError("invalid positions: the pack's top max(z + r) overflows")
     if box is None:
         lo = np.min(x - r[:, None], axis=0)
         hi_h = np.max(x[:, :-1] + r[:, None], axis=0)
@@ -1182,18 +1225,31 @@ def microstructure(
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     hi = np.array([*hi_h, h_top])
+    with np.errstate(over="ignore", under="ignore"):
+        box_volume = float(np.prod(hi - lo))
+    if not (math.isfinite(box_volume) and box_volume > 0.0):
+        raise InvalidParameterError(
+            f"invalid positions: the box from {lo.tolist()} to {hi.tolist()} m has volume "
+            f"{box_volume:.3g}; coordinates must span a finite box of volume > 0"
+        )
 
     if contacts is None:
         c = _find_contacts(x, r, walls)
         contacts_given = False
+        geometric = c
     else:
         c = _as_contacts(contacts, n, d)
         contacts_given = True
+        geometric = _find_contacts(x, r, None)
+    _check_overlaps(geometric.particle_pairs(), r)
 
     # -- packing fraction ---------------------------------------------------------------
-    vol = math.pi * r * r if d == 2 else 4.0 / 3.0 * math.pi * r**3
-    box_volume = float(np.prod(hi - lo))
-    phi = float(np.sum(vol) / box_volume)
+    phi = float(solid / box_volume)
+    if not phi > 0.0:
+        raise InvalidParameterError(
+            f"invalid positions/radii: solid volume {solid:.3g} in a box of {box_volume:.3g} "
+            "gives phi = 0 (underflow); rescale the coordinates and radii"
+        )
     h_centres = float(np.max(x[:, -1])) - lo[-1]
     phi_centres = (
         float(np.sum(vol) / (box_volume / (hi[-1] - lo[-1]) * h_centres))

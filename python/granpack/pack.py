@@ -5,10 +5,13 @@ from __future__ import annotations
 import io
 import json
 import lzma
+import math
 import os
+import stat
 import struct
 import tempfile
 import time
+import warnings
 import zipfile
 import zlib
 from collections.abc import Callable
@@ -19,13 +22,38 @@ from typing import Any, Literal
 import numpy as np
 
 from . import _core
-from ._validate import FileFormatError, GranpackError, InvalidParameterError
+from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
 from .contacts import Contacts
 from .scene import PackScene
 
-__all__ = ["Pack", "generate", "load_pack", "atomic_write"]
+__all__ = [
+    "Pack",
+    "generate",
+    "load_pack",
+    "atomic_write",
+    "UnsettledPackWarning",
+    "settling_issue",
+    "fall_time",
+]
 
 FORMAT_VERSION = 1
+
+#: Said by `load_pack` of a pack written in a newer format (and only then), so that
+#: callers can tell "a pack this version cannot read" from a damaged file.
+NEWER_FORMAT = "upgrade granpack to read it"
+
+#: A pack counts as unsettled when its particles' mean translational kinetic energy
+#: exceeds this fraction of m g r (each particle's own): settled packs of the presets
+#: end near 1e-8, the tests' short runs below 0.01, and a last layer still landing
+#: above 0.05.
+UNSETTLED_KE_RATIO = 0.05
+
+
+class UnsettledPackWarning(UserWarning):
+    """`generate` returned a pack that has not come to rest: its last layer had less
+    settle_time than it needs to fall through its slab, or its particles still move
+    (mean kinetic energy above `UNSETTLED_KE_RATIO` m g r). Its microstructure is then
+    that of a pack in motion; give a longer settle_time."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,17 +156,41 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     so a reader never sees a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        mode = path.stat().st_mode
+    except OSError:  # missing (the usual case) or unreadable: the rename decides
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        # a rename would replace a device (/dev/null), a pipe or a folder, not write to it
+        raise GranpackError(f"cannot write {path}: not a regular file")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
+            # mkstemp creates the file 0600; the result gets the mode any other new
+            # file would, 0666 less the umask
+            os.fchmod(f.fileno(), 0o666 & ~_umask())
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _umask() -> int:
+    """The process's umask, read without changing it where the system tells it."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)  # elsewhere: set and restore (not thread-safe, but brief)
+    os.umask(mask)
+    return mask
 
 
 def load_pack(path: str | Path) -> Pack:
@@ -180,10 +232,38 @@ def load_pack(path: str | Path) -> Pack:
         raise FileFormatError(
             f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
+    if "meta.json" not in data:
+        raise FileFormatError(
+            f"cannot read pack {path}: not a granpack pack (an .npz archive without the "
+            f"pack record meta.json; members: {short_repr(sorted(data))})",
+            path=path,
+        )
     try:
         meta = json.loads(_text(data, "meta.json"))
-        if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
-            raise ValueError("not a granpack pack file")
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+        raise FileFormatError(
+            f"cannot read pack {path}: damaged pack record ({exc})", path=path
+        ) from None
+    if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
+        raise FileFormatError(
+            f"cannot read pack {path}: not a granpack pack (its meta.json does not say "
+            "format = granpack-pack)",
+            path=path,
+        )
+    version = meta.get("version")
+    if isinstance(version, int) and not isinstance(version, bool) and version > FORMAT_VERSION:
+        raise FileFormatError(
+            f"cannot read pack {path}: written in pack format version {version}; this "
+            f"granpack reads version {FORMAT_VERSION}: {NEWER_FORMAT}",
+            path=path,
+        )
+    if version != FORMAT_VERSION:
+        raise FileFormatError(
+            f"cannot read pack {path}: damaged pack record (format version "
+            f"{short_repr(version)}; expected {FORMAT_VERSION})",
+            path=path,
+        )
+    try:
         scene = PackScene.from_toml_string(_text(data, "scene.toml"))
         contacts = Contacts.from_dict(
             {k.split(".", 1)[1]: v for k, v in data.items() if k.startswith("contacts.")}
@@ -255,6 +335,14 @@ def _check_arrays(data: dict, dim: int, contacts: Contacts) -> None:
         a = getattr(contacts, key)
         if a.shape != shape or a.dtype.kind not in ("iu" if key in "ij" else "f"):
             raise ValueError(f"'contacts.{key}' has shape {a.shape} and dtype {a.dtype}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"'contacts.{key}' holds non-finite values")
+    i, j = contacts.i, contacts.j
+    if m and (i.min() < 0 or i.max() >= n or j.min() < -5 or j.max() >= n):
+        raise ValueError(f"'contacts.i' or 'contacts.j' names a particle outside [0, {n - 1}]")
+    if np.any(i == j):
+        k = int(np.argmax(i == j))
+        raise ValueError(f"contact {k} joins particle {int(i[k])} to itself")
 
 
 #: Bytes per particle to budget: the engine's peak is about 1.2 kB per sphere
@@ -317,6 +405,47 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
     )
 
 
+def fall_time(scene: PackScene) -> float:
+    """Time (s) a particle at the top of a layer's slab needs to reach its bottom: free
+    fall sqrt(2 h_layer / g), or, when drag is strong, h_layer over the terminal speed
+    m g / c_D of the lightest particle, whichever is longer."""
+    t = math.sqrt(2.0 * scene.h_layer / scene.gravity)
+    if scene.drag > 0.0:
+        r = scene.r_min
+        assert r is not None  # set by PackScene.__post_init__
+        disc = scene.dim == 2 and scene.inertia_2d == "disc"
+        vol = math.pi * r * r if disc else 4.0 / 3.0 * math.pi * r * r * r
+        v_terminal = scene.material.density * vol * scene.gravity / scene.drag
+        t = max(t, scene.h_layer / v_terminal) if v_terminal > 0 else math.inf
+    return t
+
+
+def settling_issue(pack: Pack) -> str | None:
+    """Why `pack` has not come to rest (see `UnsettledPackWarning`), or None."""
+    scene = pack.scene
+    t_fall = fall_time(scene)
+    if scene.settle_time < t_fall:
+        return (
+            f"settle_time = {scene.settle_time:g} s is shorter than the {t_fall:.3g} s a "
+            f"layer needs to fall through its slab (h_layer = {scene.h_layer:g} m, gravity = "
+            f"{scene.gravity:g} m/s^2, drag = {scene.drag:g} N s/m): the last layer is still "
+            "in the air; give settle_time >= the fall time"
+        )
+    if len(pack) == 0:
+        return None
+    with np.errstate(over="ignore", invalid="ignore"):
+        v2 = np.sum(np.asarray(pack.velocities, dtype=float) ** 2, axis=1)
+        ratio = float(np.mean(0.5 * v2 / (scene.gravity * pack.radii)))
+    if not ratio <= UNSETTLED_KE_RATIO:
+        vmax = float(np.sqrt(np.max(v2)))
+        return (
+            f"the particles still move at the end (mean kinetic energy {ratio:.3g} m g r, "
+            f"above {UNSETTLED_KE_RATIO} m g r; fastest {vmax:.3g} m/s): the pack has not "
+            f"settled in settle_time = {scene.settle_time:g} s; give a longer settle_time"
+        )
+    return None
+
+
 def generate(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
@@ -331,6 +460,12 @@ def generate(
         False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
         each layer's report dict (layer, added, total, phi_rsa, height, steps,
         kinetic_energy, wall_seconds).
+
+    Warns
+    -----
+    UnsettledPackWarning
+        The pack has not come to rest (see `settling_issue`): settle_time shorter than
+        the fall time through a layer's slab, or particles still moving at the end.
     """
     if not isinstance(scene, PackScene):
         raise InvalidParameterError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
@@ -358,7 +493,7 @@ def generate(
             bar.close()
     state = packer.state()
     contacts = Contacts.from_dict(packer.contacts())
-    return Pack(
+    pack = Pack(
         scene=scene,
         positions=state["positions"],
         radii=state["radii"],
@@ -370,3 +505,7 @@ def generate(
         layers=reports,
         wall_time=time.perf_counter() - t0,
     )
+    issue = settling_issue(pack)
+    if issue is not None:
+        warnings.warn(issue, UnsettledPackWarning, stacklevel=2)
+    return pack

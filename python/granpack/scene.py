@@ -15,6 +15,7 @@ from typing import Literal
 
 import tomli_w
 
+from . import _core
 from ._validate import (
     FileFormatError,
     GranpackError,
@@ -22,6 +23,7 @@ from ._validate import (
     as_bool,
     as_int,
     as_real,
+    short_repr,
     unknown_keys,
 )
 from .engine import Material
@@ -35,6 +37,13 @@ RSA_SATURATION = {2: 0.547, 3: 0.384}
 
 _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 
+#: Most DEM steps per layer (settle_time / dt); the paper's runs take 1e4.
+MAX_STEPS_PER_LAYER = _core.MAX_STEPS_PER_LAYER
+#: Most consecutive failed RSA placements (max_attempts); default 1e6.
+MAX_ATTEMPTS = 10**9
+#: Most layers (max_layers); default 1e4.
+MAX_LAYERS = 10**6
+
 
 def _material_table(table: Mapping) -> Material:
     """A Material from a scene's material table; a bad entry is named as it is written
@@ -42,10 +51,20 @@ def _material_table(table: Mapping) -> Material:
     unknown_keys("material", table, _MATERIAL_KEYS)
     try:
         return Material(**table)
-    except GranpackError as exc:
+    except InvalidParameterError as exc:
         # every Material check raises "invalid <key> = ..." (`as_real`)
-        raise GranpackError(str(exc).replace("invalid ", "invalid material.", 1)) from None
+        raise InvalidParameterError(
+            str(exc).replace("invalid ", "invalid material.", 1),
+            parameter=f"material.{exc.parameter}",
+            value=exc.value,
+            expected=exc.expected,
+        ) from None
 
+
+_TOO_DEEP = (
+    "values are nested too deeply (a scene holds numbers, strings, flat lists and one "
+    "[material] table)"
+)
 
 #: Adaptive settling tolerance of `PackScene.fast()` (kinetic energy per moving particle
 #: over m g r).
@@ -177,24 +196,25 @@ class PackScene:
         s = object.__setattr__
         dim = self.dim
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
-            raise InvalidParameterError(f"invalid dim = {self.dim!r}: must be 2 or 3")
+            raise InvalidParameterError(f"invalid dim = {short_repr(self.dim)}: must be 2 or 3")
         s(self, "dim", int(self.dim))
         try:
             base = tuple(self.base)
         except TypeError:
             raise InvalidParameterError(
-                f"invalid base = {self.base!r}: expected {self.dim - 1} lengths (m)"
+                f"invalid base = {short_repr(self.base)}: expected {self.dim - 1} lengths (m)"
             ) from None
         if len(base) != self.dim - 1:
             raise InvalidParameterError(
-                f"invalid base = {self.base!r}: expected {self.dim - 1} length(s) (m) "
+                f"invalid base = {short_repr(self.base)}: expected {self.dim - 1} length(s) (m) "
                 f"for dim = {self.dim}"
             )
         s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
         s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
         if self.radius_law not in ("constant", "gaussian"):
             raise InvalidParameterError(
-                f"invalid radius_law = {self.radius_law!r}: must be 'constant' or 'gaussian'"
+                f"invalid radius_law = {short_repr(self.radius_law)}: "
+                "must be 'constant' or 'gaussian'"
             )
         s(self, "r_mean", as_real("r_mean", self.r_mean, 0, lo_open=True, unit="m"))
         s(self, "r_std", as_real("r_std", self.r_std, 0, unit="m"))
@@ -217,7 +237,8 @@ class PackScene:
         for b in self.base:
             if b < 2 * self.r_max:
                 raise InvalidParameterError(
-                    f"invalid base = {self.base}: every length must be at least one particle "
+                    f"invalid base = {short_repr(self.base)}: every length must be at least "
+                    "one particle "
                     f"diameter 2 r_max = {2 * self.r_max} (m)"
                 )
         s(self, "h_layer", as_real("h_layer", self.h_layer, 0, lo_open=True, unit="m"))
@@ -240,7 +261,7 @@ class PackScene:
                 s(self, "material", _material_table(self.material))
             else:
                 raise InvalidParameterError(
-                    f"invalid material = {self.material!r}: must be a Material"
+                    f"invalid material = {short_repr(self.material)}: must be a Material"
                 )
         s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
         crit = self.material.critical_time_step(self.r_min)
@@ -250,14 +271,26 @@ class PackScene:
                 f"{crit:.4g} s estimated for r_min = {self.r_min:g} m"
             )
         s(self, "settle_time", as_real("settle_time", self.settle_time, 0, unit="s"))
-        s(self, "gravity", as_real("gravity", self.gravity, unit="m/s^2"))
+        # gravity is a magnitude along -vertical: zero or a negative value would leave the
+        # layers in the air (or lift them), a "pack" that is no pack
+        s(
+            self,
+            "gravity",
+            as_real(
+                "gravity",
+                self.gravity,
+                0,
+                lo_open=True,
+                unit="m/s^2; a magnitude, the pull is along -vertical",
+            ),
+        )
         s(self, "drag", as_real("drag", self.drag, 0, unit="N s/m"))
         s(self, "rotations", as_bool("rotations", self.rotations))
         s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
         s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
         if self.inertia_2d not in ("sphere", "disc"):
             raise InvalidParameterError(
-                f"invalid inertia_2d = {self.inertia_2d!r}: must be 'sphere' or 'disc'"
+                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'"
             )
         s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
         s(
@@ -265,8 +298,10 @@ class PackScene:
             "max_overlap_ratio",
             as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True),
         )
-        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, 2**64 - 1))
-        s(self, "max_layers", as_int("max_layers", self.max_layers, 1, 2**64 - 1))
+        # Both bound work: a saturated layer retries max_attempts times, and a pack that
+        # never grows runs max_layers jamming runs before it gives up.
+        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, MAX_ATTEMPTS))
+        s(self, "max_layers", as_int("max_layers", self.max_layers, 1, MAX_LAYERS))
         if self.settle_tol is not None:
             s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
         if self.settle_dt is not None:
@@ -293,14 +328,22 @@ class PackScene:
                 f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
                 "shrink base/height or grow the radii"
             )
+        # Checked after the particle count, the more basic of the two: both grow without
+        # bound as the radii and dt shrink.
+        if self.settle_time / self.dt > MAX_STEPS_PER_LAYER:
+            raise InvalidParameterError(
+                f"invalid settle_time = {self.settle_time:g} s: with dt = {self.dt:g} s that is "
+                f"{self.settle_time / self.dt:.3g} steps per layer; at most "
+                f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)"
+            )
 
     # -- construction ---------------------------------------------------------------
     @classmethod
     def preset(cls, name: str) -> PackScene:
         """The paper's examples "4.1", "4.2" (2D) and "4.3", "4.4" (3D)."""
         if not isinstance(name, str) or name not in PRESETS:
-            raise GranpackError(
-                f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
+            raise InvalidParameterError(
+                f"unknown preset {short_repr(name)}: choose one of {', '.join(sorted(PRESETS))}"
             )
         return cls(**PRESETS[name])
 
@@ -333,7 +376,7 @@ class PackScene:
         """From a flat dict (a TOML document); `preset = "4.3"` starts from a preset."""
         if not isinstance(d, Mapping):
             raise InvalidParameterError(
-                f"invalid scene = {d!r}: expected a table (dict) of scene keys"
+                f"invalid scene = {short_repr(d)}: expected a table (dict) of scene keys"
             )
         d = dict(d)
         known = [f.name for f in dataclasses.fields(cls)] + ["preset"]
@@ -342,8 +385,8 @@ class PackScene:
         if "preset" in d:
             name = d.pop("preset")
             if not isinstance(name, str) or name not in PRESETS:
-                raise GranpackError(
-                    f"unknown preset {name!r}: choose one of {', '.join(sorted(PRESETS))}"
+                raise InvalidParameterError(
+                    f"unknown preset {short_repr(name)}: choose one of {', '.join(sorted(PRESETS))}"
                 )
             base = dict(PRESETS[name])
         if "material" in d:
@@ -357,7 +400,7 @@ class PackScene:
             d["material"] = _material_table(mat)
         if "base" in d and not isinstance(d["base"], list | tuple):
             raise InvalidParameterError(
-                f"invalid base = {d['base']!r}: expected a list of lengths (m)"
+                f"invalid base = {short_repr(d['base'])}: expected a list of lengths (m)"
             )
         base.update(d)
         return cls(**base)
@@ -366,10 +409,12 @@ class PackScene:
     def from_toml(cls, path: str | Path) -> PackScene:
         """Reads a scene from a TOML file (flat keys, a [material] table)."""
         if not isinstance(path, str | os.PathLike):
-            raise InvalidParameterError(f"invalid path = {path!r}: expected a file name")
+            raise InvalidParameterError(f"invalid path = {short_repr(path)}: expected a file name")
         try:
             with open(path, "rb") as f:
                 doc = tomllib.load(f)
+        except RecursionError:
+            raise FileFormatError(f"invalid scene file {path}: {_TOO_DEEP}", path=path) from None
         except tomllib.TOMLDecodeError as exc:
             raise FileFormatError(f"invalid scene file {path}: {exc}", path=path) from None
         except UnicodeDecodeError as exc:
@@ -387,12 +432,17 @@ class PackScene:
             if isinstance(text, bytes | bytearray):
                 text = bytes(text).decode()
             if not isinstance(text, str):
-                raise InvalidParameterError(f"invalid text = {text!r}: expected TOML text (str)")
-            return cls.from_dict(tomllib.loads(text))
+                raise InvalidParameterError(
+                    f"invalid text = {short_repr(text)}: expected TOML text (str)"
+                )
+            doc = tomllib.loads(text)
+        except RecursionError:
+            raise InvalidParameterError(f"invalid scene TOML: {_TOO_DEEP}") from None
         except UnicodeDecodeError as exc:
             raise InvalidParameterError(f"invalid scene TOML: not UTF-8 text ({exc})") from None
         except tomllib.TOMLDecodeError as exc:
             raise InvalidParameterError(f"invalid scene TOML: {exc}") from None
+        return cls.from_dict(doc)
 
     def to_dict(self) -> dict:
         """A flat dict that `from_dict` reads back to an equal scene."""

@@ -12,7 +12,7 @@ use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, Wor
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -85,6 +85,25 @@ fn typed_error(py: Python<'_>, msg: &str, e: Error) -> PyResult<PyErr> {
     };
     let cls = py.import("granpack.errors")?.getattr(class)?;
     Ok(PyErr::from_value(cls.call((msg,), Some(&kw))?))
+}
+
+/// Wall time between two checks for signals (Ctrl-C) during a long native call.
+const SIGNAL_CHECK_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// A poll for the engine's long loops: attaches to the interpreter and runs its
+/// signal handlers (Ctrl-C raises KeyboardInterrupt there). Returns false, and keeps
+/// the exception in `raised`, when a handler raised: the loop then stops and the
+/// caller returns that exception.
+fn signal_poll(raised: &mut Option<PyErr>) -> impl FnMut() -> bool + '_ {
+    move || {
+        Python::attach(|py| match py.check_signals() {
+            Ok(()) => true,
+            Err(e) => {
+                *raised = Some(e);
+                false
+            }
+        })
+    }
 }
 
 fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
@@ -364,18 +383,28 @@ impl Simulation {
         Ok(())
     }
 
-    /// Advances `n` steps with the GIL released.
+    /// Advances `n` steps with the GIL released; Ctrl-C stops it within about 0.1 s
+    /// (KeyboardInterrupt, the steps taken so far kept).
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
         let inner = &mut self.inner;
-        py.detach(|| with_world!(inner, w, _D, w.step_n(n)))?;
-        Ok(())
+        let mut raised = None;
+        py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_world!(
+                inner,
+                w,
+                _D,
+                w.step_n_polled(n, SIGNAL_CHECK_EVERY, &mut poll)
+            )
+        })?;
+        raised.map_or(Ok(()), Err)
     }
 
-    /// Advances `seconds` of simulated time with the GIL released.
+    /// Advances `seconds` of simulated time with the GIL released; Ctrl-C stops it as
+    /// in `step`.
     fn run(&mut self, py: Python<'_>, seconds: f64) -> PyResult<()> {
-        let inner = &mut self.inner;
-        py.detach(|| with_world!(inner, w, _D, w.run(seconds)))?;
-        Ok(())
+        let n = with_world!(&self.inner, w, _D, w.steps_for(seconds))?;
+        self.step(py, n)
     }
 
     #[getter]
@@ -597,10 +626,21 @@ impl LayerPacker {
     }
 
     /// Places and settles one layer (GIL released); returns its report as a dict.
+    /// Ctrl-C stops the layer within about 0.1 s (KeyboardInterrupt); the packer is
+    /// then spent.
     fn next_layer<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let inner = &mut self.inner;
-        let rep = py.detach(|| with_packer!(inner, p, _D, p.next_layer()))?;
-        report_to_py(py, &rep)
+        let mut raised = None;
+        let rep = py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_packer!(inner, p, _D, p.next_layer_polled(&mut poll))
+        })?;
+        match (rep, raised) {
+            (Some(rep), _) => report_to_py(py, &rep),
+            (None, Some(e)) => Err(e),
+            // (unreachable: the poll stops a layer only when a handler raised)
+            (None, None) => Err(PyRuntimeError::new_err("the layer was stopped midway")),
+        }
     }
 
     /// Particle arrays: positions, radii, velocities, spins, layer.
@@ -654,6 +694,19 @@ fn find_contacts<'py>(
             }
             if !x.iter().all(|p| p.iter().all(|c| c.is_finite())) {
                 return Err(bad("positions", "must be finite (m)"));
+            }
+            for k in 0..$D {
+                let (lo, hi) = x
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                        (l.min(p[k]), h.max(p[k]))
+                    });
+                if x.len() > 1 && !(hi - lo).is_finite() {
+                    return Err(bad(
+                        "positions",
+                        format!("axis {k} spans [{lo:e}, {hi:e}] m, whose length overflows"),
+                    ));
+                }
             }
             let box_ = match walls {
                 Some((lo, hi)) => Some((
@@ -778,6 +831,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cpu_level, m)?)?;
     m.add_function(wrap_pyfunction!(cpu_levels, m)?)?;
 
+    m.add(
+        "MAX_STEPS_PER_CALL",
+        crate::pipeline::world::MAX_STEPS_PER_CALL,
+    )?;
+    m.add(
+        "MAX_STEPS_PER_LAYER",
+        crate::pipeline::pack::MAX_STEPS_PER_LAYER,
+    )?;
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;

@@ -41,7 +41,15 @@ impl<const D: usize> CellGrid<D> {
         let max_cells = (8 * n + 64) as f64;
         let mut cell = min_cell.max(1e-300);
         let mut dims = [1usize; D];
+        // An extent that overflows (coordinates near +-1e308) would make the cell size
+        // NaN and the loop below endless: one cell then holds everything.
+        let finite = (0..D).all(|k| (hi[k] - lo[k]).is_finite());
         loop {
+            if !finite || !cell.is_finite() {
+                cell = Real::INFINITY;
+                dims = [1usize; D];
+                break;
+            }
             let mut total = 1.0f64;
             for k in 0..D {
                 let m = ((hi[k] - lo[k]) / cell).floor() + 1.0;
@@ -417,6 +425,16 @@ pub fn morton_order<const D: usize>(x: &[Vector<D>], cell: Real) -> Vec<usize> {
 #[cfg(test)]
 mod morton_tests {
     use super::*;
+
+    /// Coordinates whose extent overflows (+-1e308) end in one cell, not in an endless
+    /// search for a cell size.
+    #[test]
+    fn overflowing_extent_gives_one_cell() {
+        let x = vec![Vector::<2>::new(1e308, 1.0), Vector::<2>::new(-1e308, 1.0)];
+        assert!(neighbor_pairs(&x, &[0.1, 0.1]).is_empty());
+        let g = CellGrid::build(&x, 0.2);
+        assert_eq!(g.members().len(), 2);
+    }
 
     #[test]
     fn morton_order_is_a_permutation_grouping_cells() {

@@ -6,11 +6,18 @@ use crate::error::{check_range, Error, Result};
 use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
-use crate::pipeline::rsa::{place_layer, LayerSpec};
+use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
 use crate::pipeline::world::{FreezeConfig, SimConfig, World};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+/// Most DEM steps of one layer's jamming run (settle_time / dt): 1e4 in the paper;
+/// beyond this bound a scene is refused before any work starts.
+pub const MAX_STEPS_PER_LAYER: Real = 1e8;
+
+/// Wall time between two calls of the poll of [`Packer::next_layer_polled`].
+const POLL_EVERY: Duration = Duration::from_millis(100);
 
 /// Time (s) a pack built with freezing relaxes after its last layer, all particles
 /// thawed (see [`PackConfig::freeze_depth`]).
@@ -99,6 +106,19 @@ where
             f64::INFINITY,
             false,
         )?;
+        if self.settle_time / self.sim.dt > MAX_STEPS_PER_LAYER {
+            return Err(Error::invalid(
+                "settle_time",
+                self.settle_time,
+                &format!(
+                    "with dt = {:e} s that is {:.3e} steps per layer; at most \
+                     {MAX_STEPS_PER_LAYER:e} (settle_time <= {:.3e} s)",
+                    self.sim.dt,
+                    self.settle_time / self.sim.dt,
+                    MAX_STEPS_PER_LAYER * self.sim.dt
+                ),
+            ));
+        }
         if self.max_attempts == 0 {
             return Err(Error::invalid("max_attempts", 0, "must be >= 1"));
         }
@@ -180,6 +200,8 @@ where
     height: Real,
     layer_of: Vec<u32>,
     reports: Vec<LayerReport>,
+    /// A layer was stopped midway by the poll: the state is no pack any more.
+    stopped: bool,
 }
 
 impl<const D: usize> Packer<D>
@@ -204,6 +226,7 @@ where
             height: 0.0,
             layer_of: Vec::new(),
             reports: Vec::new(),
+            stopped: false,
         })
     }
 
@@ -239,6 +262,26 @@ where
 
     /// Places and settles one layer.
     pub fn next_layer(&mut self) -> Result<LayerReport> {
+        Ok(self
+            .next_layer_polled(&mut || true)?
+            .expect("a poll that never stops"))
+    }
+
+    /// Places and settles one layer like [`Packer::next_layer`], calling `poll` about
+    /// every 0.1 s of wall time during the DEM run; when it returns false the layer
+    /// stops midway and None is returned. The packer then refuses further layers: its
+    /// last layer is neither settled nor reported.
+    pub fn next_layer_polled(
+        &mut self,
+        poll: &mut dyn FnMut() -> bool,
+    ) -> Result<Option<LayerReport>> {
+        if self.stopped {
+            return Err(Error::invalid(
+                "packer",
+                "stopped",
+                "a layer was interrupted midway; start a new pack",
+            ));
+        }
         let start = Instant::now();
         let layer = self.reports.len();
         if layer >= self.cfg.max_layers {
@@ -266,7 +309,19 @@ where
             existing: (self.world.positions(), self.world.radii()),
             layer,
         };
-        let (x, r) = place_layer(&spec, &mut self.rng)?;
+        // The placement polls on every few thousand failed attempts; Python is asked
+        // only every POLL_EVERY of wall time.
+        let mut last = Instant::now();
+        let mut gated = || {
+            if last.elapsed() < POLL_EVERY {
+                return true;
+            }
+            last = Instant::now();
+            poll()
+        };
+        let Some((x, r)) = place_layer_polled(&spec, &mut self.rng, &mut gated)? else {
+            return self.stop();
+        };
         // Store the layer in Morton order: neighbours in space become neighbours in
         // memory, which keeps the pair loop in cache. Particle ids follow this order.
         let order = morton_order(&x, 2.0 * self.cfg.radii.r_max());
@@ -294,7 +349,9 @@ where
         }
         // Each layer lands at the scene's dt (the last one may have ended at settle_dt).
         self.world.set_dt(self.cfg.sim.dt)?;
-        let (mut steps, t_layer) = self.settle()?;
+        let Some((mut steps, t_layer)) = self.settle(poll)? else {
+            return self.stop();
+        };
         self.height = self.measure_height();
         let dt = self.world.config().dt;
         // The steps left of settle_time at the step the settle ended with; in whole steps
@@ -308,7 +365,9 @@ where
             // An adaptive settle may stop a layer while its top particles still roll:
             // harmless below, where the next layer lands on them anyway, but the last
             // layer is the pack's free surface, so it gets the whole settle_time.
-            self.world.step_n(rest)?;
+            if !self.world.step_n_polled(rest, POLL_EVERY, poll)? {
+                return self.stop();
+            }
             steps += rest;
             self.height = self.measure_height();
         }
@@ -317,7 +376,9 @@ where
             // layers above added their weight: thaw everything and let the load spread.
             self.world.set_freeze(None)?;
             let relax = ((FREEZE_RELAX.min(self.cfg.settle_time)) / dt).round() as u64;
-            self.world.step_n(relax)?;
+            if !self.world.step_n_polled(relax, POLL_EVERY, poll)? {
+                return self.stop();
+            }
             steps += relax;
             self.height = self.measure_height();
         }
@@ -333,7 +394,12 @@ where
             frozen: self.world.n_frozen(),
         };
         self.reports.push(rep.clone());
-        Ok(rep)
+        Ok(Some(rep))
+    }
+
+    fn stop(&mut self) -> Result<Option<LayerReport>> {
+        self.stopped = true;
+        Ok(None)
     }
 
     /// Pack height max(z + r) (m).
@@ -350,15 +416,17 @@ where
     /// Runs the jamming stage of one layer: at `sim.dt` until the new layer has had time
     /// to fall through its slab, then at `settle_dt` (when set) for the rest of
     /// `settle_time`, ending early once the layer is quiet (`adaptive_settle`). Returns
-    /// the steps taken and the simulated time (s).
-    fn settle(&mut self) -> Result<(u64, Real)> {
+    /// the steps taken and the simulated time (s), or None when `poll` stopped it.
+    fn settle(&mut self, poll: &mut dyn FnMut() -> bool) -> Result<Option<(u64, Real)>> {
         let dt = self.cfg.sim.dt;
         let total = (self.cfg.settle_time / dt).round() as u64;
         let tol = self.cfg.adaptive_settle;
         let dt2 = self.cfg.settle_dt.filter(|&d| d != dt);
         if tol.is_none() && dt2.is_none() {
-            self.world.step_n(total)?;
-            return Ok((total, total as Real * dt));
+            if !self.world.step_n_polled(total, POLL_EVERY, poll)? {
+                return Ok(None);
+            }
+            return Ok(Some((total, total as Real * dt)));
         }
         // The energy scale m g r of a mean particle, and the time the new layer needs to
         // fall through its slab: the run neither stops nor coarsens its step before that.
@@ -382,11 +450,13 @@ where
         let mut steps = 0u64;
         while steps < total {
             let n = chunk(dt).min(total - steps);
-            self.world.step_n(n)?;
+            if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
+                return Ok(None);
+            }
             steps += n;
             let fallen = steps as Real * dt >= t_fall;
             if fallen && quiet(&self.world) {
-                return Ok((steps, steps as Real * dt));
+                return Ok(Some((steps, steps as Real * dt)));
             }
             if fallen && dt2.is_some() {
                 break;
@@ -394,20 +464,22 @@ where
         }
         let t = steps as Real * dt;
         let Some(dt2) = dt2.filter(|_| steps < total) else {
-            return Ok((steps, t));
+            return Ok(Some((steps, t)));
         };
         self.world.set_dt(dt2)?;
         let total2 = ((self.cfg.settle_time - t) / dt2).round() as u64;
         let mut steps2 = 0u64;
         while steps2 < total2 {
             let n = chunk(dt2).min(total2 - steps2);
-            self.world.step_n(n)?;
+            if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
+                return Ok(None);
+            }
             steps2 += n;
             if quiet(&self.world) {
                 break;
             }
         }
-        Ok((steps + steps2, t + steps2 as Real * dt2))
+        Ok(Some((steps + steps2, t + steps2 as Real * dt2)))
     }
 
     /// Runs the whole loop, calling `progress` after every layer.
@@ -445,6 +517,36 @@ mod tests {
             freeze_force: 0.1,
             settle_dt: None,
         }
+    }
+
+    /// A settle_time of more steps per layer than the bound is refused by name.
+    #[test]
+    fn settle_steps_past_the_bound_are_refused_by_name() {
+        let cfg = PackConfig {
+            settle_time: 1e12,
+            ..small_2d()
+        };
+        let err = Packer::new(cfg)
+            .err()
+            .expect("accepted 1e16 steps per layer");
+        assert!(err.to_string().contains("settle_time"), "{err}");
+        assert!(err.to_string().contains("steps per layer"), "{err}");
+    }
+
+    /// A polled layer is the plain layer; a poll that answers false stops the layer
+    /// midway, and the packer refuses to go on.
+    #[test]
+    fn polled_layer_equals_plain_layer_and_a_stop_is_final() {
+        let mut a = Packer::new(small_2d()).unwrap();
+        let mut b = Packer::new(small_2d()).unwrap();
+        let ra = a.next_layer().unwrap();
+        let rb = b.next_layer_polled(&mut || true).unwrap().unwrap();
+        assert_eq!(ra.steps, rb.steps);
+        assert_eq!(a.world().positions(), b.world().positions());
+        assert!(b.next_layer_polled(&mut || false).unwrap().is_none());
+        assert!(b.world().steps() < a.world().steps() + ra.steps);
+        let err = b.next_layer().unwrap_err();
+        assert!(err.to_string().contains("interrupted"), "{err}");
     }
 
     /// settle_dt must be positive and at most the Rayleigh step; the error names it.

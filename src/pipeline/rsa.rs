@@ -237,6 +237,20 @@ pub fn place_layer<const D: usize>(
     spec: &LayerSpec<'_, D>,
     rng: &mut ChaCha8Rng,
 ) -> Result<(Vec<Vector<D>>, Vec<Real>)> {
+    Ok(place_layer_polled(spec, rng, &mut || true)?.expect("a poll that never stops"))
+}
+
+/// Failed placements between two calls of the poll of [`place_layer_polled`].
+const POLL_ATTEMPTS: u64 = 1 << 14;
+
+/// [`place_layer`], calling `poll` every few thousand failed placements (a layer near
+/// saturation may try `max_attempts` times); None when `poll` returns false. The poll
+/// draws no random numbers: the layer does not depend on it.
+pub fn place_layer_polled<const D: usize>(
+    spec: &LayerSpec<'_, D>,
+    rng: &mut ChaCha8Rng,
+    poll: &mut dyn FnMut() -> bool,
+) -> Result<Option<(Vec<Vector<D>>, Vec<Real>)>> {
     let v = spec.vertical;
     let r_max = spec.radii.r_max();
     let mut slab_volume = spec.h_layer;
@@ -301,6 +315,9 @@ pub fn place_layer<const D: usize>(
                 break;
             }
             failures += 1;
+            if failures.is_multiple_of(POLL_ATTEMPTS) && !poll() {
+                return Ok(None);
+            }
             if failures >= spec.max_attempts {
                 return Err(Error::RsaSaturated {
                     layer: spec.layer,
@@ -311,7 +328,7 @@ pub fn place_layer<const D: usize>(
             }
         }
     }
-    Ok((x, r))
+    Ok(Some((x, r)))
 }
 
 #[cfg(test)]
@@ -379,5 +396,14 @@ mod tests {
         };
         let e = place_layer(&spec, &mut rng).unwrap_err().to_string();
         assert!(e.contains("saturated") && e.contains("0.7"), "{e}");
+        // a poll that answers false stops the attempts before they run out
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mut polls = 0;
+        let stopped = place_layer_polled(&spec, &mut rng, &mut || {
+            polls += 1;
+            false
+        });
+        assert!(matches!(stopped, Ok(None)));
+        assert_eq!(polls, 1);
     }
 }

@@ -34,6 +34,10 @@ mod team;
 
 use team::{Disjoint, Team};
 
+/// Most steps one call may ask for (1e10: hours for a handful of particles, far more
+/// for a pack); beyond it a request is refused by name before any step is taken.
+pub const MAX_STEPS_PER_CALL: u64 = 10_000_000_000;
+
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.
 const CHUNK: usize = 512;
@@ -797,8 +801,16 @@ where
         Ok(())
     }
 
-    /// Advances `n` steps. Stops with an error at the first sign of blow-up.
+    /// Advances `n` steps (at most [`MAX_STEPS_PER_CALL`]). Stops with an error at the
+    /// first sign of blow-up.
     pub fn step_n(&mut self, n: u64) -> Result<()> {
+        if n > MAX_STEPS_PER_CALL {
+            return Err(Error::invalid(
+                "n",
+                n,
+                &format!("must lie in [0, {MAX_STEPS_PER_CALL}] steps per call"),
+            ));
+        }
         self.check_dt()?;
         if self.is_empty() {
             self.steps += n;
@@ -815,10 +827,63 @@ where
         })
     }
 
+    /// Advances `n` steps like [`World::step_n`], in chunks of about `every` of wall
+    /// time, and calls `poll` after each chunk: a caller that must react to an
+    /// interrupt (Ctrl-C) while a long run is under way returns false from it, and the
+    /// run stops there. Returns whether all `n` steps were taken. Chunking changes
+    /// nothing in the results: a step depends on the step counter, never on where a
+    /// call began.
+    pub fn step_n_polled(
+        &mut self,
+        n: u64,
+        every: std::time::Duration,
+        poll: &mut dyn FnMut() -> bool,
+    ) -> Result<bool> {
+        if n > MAX_STEPS_PER_CALL {
+            return self.step_n(n).map(|_| true);
+        }
+        let mut left = n;
+        // A first short chunk measures the step's cost; later chunks aim at `every`.
+        let mut chunk = 16u64;
+        while left > 0 {
+            let k = chunk.min(left);
+            let start = std::time::Instant::now();
+            self.step_n(k)?;
+            left -= k;
+            if !poll() {
+                return Ok(left == 0);
+            }
+            let took = start.elapsed().as_secs_f64().max(1e-9);
+            let aim = (k as f64 * every.as_secs_f64() / took).clamp(1.0, 4.0 * k as f64);
+            chunk = aim as u64;
+        }
+        Ok(true)
+    }
+
+    /// The number of steps in `seconds` of simulated time (rounded), refused by name
+    /// when it is beyond [`MAX_STEPS_PER_CALL`] (a tiny dt would otherwise saturate the
+    /// count and run for ever).
+    pub fn steps_for(&self, seconds: Real) -> Result<u64> {
+        check_range("seconds", seconds, 0.0, true, f64::INFINITY, false)?;
+        let n = (seconds / self.cfg.dt).round();
+        if n > MAX_STEPS_PER_CALL as Real {
+            return Err(Error::invalid(
+                "seconds",
+                seconds,
+                &format!(
+                    "with dt = {:e} s that is {n:.3e} steps; at most {MAX_STEPS_PER_CALL} \
+                     steps per call (seconds <= {:e})",
+                    self.cfg.dt,
+                    MAX_STEPS_PER_CALL as Real * self.cfg.dt
+                ),
+            ));
+        }
+        Ok(n as u64)
+    }
+
     /// Advances by `seconds` of simulated time (rounded to whole steps).
     pub fn run(&mut self, seconds: Real) -> Result<()> {
-        check_range("seconds", seconds, 0.0, true, f64::INFINITY, false)?;
-        let n = (seconds / self.cfg.dt).round() as u64;
+        let n = self.steps_for(seconds)?;
         self.step_n(n)
     }
 
@@ -1277,6 +1342,36 @@ mod tests {
         assert!((w.time() - 3.0 * 0.5 * crit).abs() < 1e-15);
         w.set_dt(2.0 * crit).unwrap();
         assert!(matches!(w.step_n(1), Err(Error::UnstableTimeStep { .. })));
+    }
+
+    /// Steps taken in polled chunks give the same state as one call, a poll that
+    /// answers false stops the run, and step counts past the bound are refused.
+    #[test]
+    fn polled_steps_equal_plain_steps_and_stop_on_request() {
+        let mut a = World::new(two_body_cfg::<3>(0.1)).unwrap();
+        add_head_on_pair(&mut a, 0.01, 0.1, 1e-4);
+        let mut b = World::new(two_body_cfg::<3>(0.1)).unwrap();
+        add_head_on_pair(&mut b, 0.01, 0.1, 1e-4);
+        a.step_n(500).unwrap();
+        let mut polls = 0;
+        let every = std::time::Duration::from_nanos(1);
+        assert!(b
+            .step_n_polled(500, every, &mut || {
+                polls += 1;
+                true
+            })
+            .unwrap());
+        assert!(polls > 1, "{polls}");
+        assert_eq!(a.positions(), b.positions());
+        assert_eq!(a.velocities(), b.velocities());
+        assert_eq!(a.steps(), 500);
+        assert!(!b.step_n_polled(1000, every, &mut || false).unwrap());
+        assert_eq!(b.steps(), 500 + 16);
+        let err = b.step_n(MAX_STEPS_PER_CALL + 1).unwrap_err();
+        assert!(err.to_string().contains("steps per call"), "{err}");
+        let err = b.run(1e300).unwrap_err();
+        assert!(err.to_string().contains("seconds"), "{err}");
+        assert_eq!(b.steps(), 516);
     }
 
     /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
