@@ -7,7 +7,7 @@
 #[path = "../benches/common/mod.rs"]
 mod common;
 
-use _core::math::{AngOps, Dim, Spatial};
+use _core::math::{Dim, Spatial};
 
 fn main() {
     let steps: u64 = std::env::args()
@@ -27,19 +27,7 @@ where
 {
     let mut w = common::settled_world::<D>(1, 20, 1);
     w.step_n(steps).unwrap();
-    // FNV-1a over the bit patterns: any change in any last bit shows.
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let words = w
-        .positions()
-        .iter()
-        .chain(w.velocities())
-        .flat_map(|v| v.iter().map(|c| c.to_bits()))
-        .chain(w.spins().iter().flat_map(|s| {
-            (0..<<Dim<D> as Spatial<D>>::Ang as AngOps>::NCOMP).map(|k| s.comp(k).to_bits())
-        }));
-    for b in words {
-        h = (h ^ b).wrapping_mul(0x0100_0000_01b3);
-    }
+    let h = w.state_checksum();
     println!(
         "{} particles, {} steps, state checksum {h:016x}",
         w.len(),

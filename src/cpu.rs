@@ -196,57 +196,70 @@ pub fn set_level(l: Level) -> Result<()> {
     Ok(())
 }
 
-/// Defines `$name`, which calls the `#[inline(always)]` function `$imp` compiled for the
-/// [`level`] chosen at run time: one copy per level, each inside a `#[target_feature]`
-/// function, so that the whole body (and what it inlines) uses that level's
-/// instructions. The generics are given twice: as declared (`[const D: usize]`) and as
-/// passed on (`[D]`).
+/// Defines the function `$name` with body `$body`, compiled once per level: the body
+/// goes into an `#[inline(always)]` function, and a `#[target_feature]` function per
+/// level calls it, so that the whole body (and what it inlines) uses that level's
+/// instructions; `$name` calls the copy for the [`level`] chosen at run time. The
+/// generics are given twice: as declared (`[const D: usize]`) and as passed on (`[D]`).
+///
+/// ```ignore
+/// crate::cpu::multiversion! {
+/// /// Doc comment of the function.
+/// pub fn kernel [const D: usize] (x: &mut [f64], a: f64) -> () where [] [D] {
+///     for v in x.iter_mut() { *v *= a; }
+/// }
+/// }
+/// ```
 macro_rules! multiversion {
     (
         $(#[$attr:meta])*
         $vis:vis unsafe fn $name:ident [$($gen:tt)*] ($($arg:ident : $ty:ty),* $(,)?)
-            $(-> $ret:ty)? where [$($bound:tt)*] => $imp:ident [$($garg:tt)*]
+            $(-> $ret:ty)? where [$($bound:tt)*] [$($garg:tt)*] $body:block
     ) => {
         $crate::cpu::multiversion!(@def [$(#[$attr])*] [$vis] [unsafe] $name [$($gen)*]
-            ($($arg: $ty),*) [$($ret)?] [$($bound)*] $imp [$($garg)*]);
+            ($($arg: $ty),*) [$($ret)?] [$($bound)*] [$($garg)*] $body);
     };
     (
         $(#[$attr:meta])*
         $vis:vis fn $name:ident [$($gen:tt)*] ($($arg:ident : $ty:ty),* $(,)?)
-            $(-> $ret:ty)? where [$($bound:tt)*] => $imp:ident [$($garg:tt)*]
+            $(-> $ret:ty)? where [$($bound:tt)*] [$($garg:tt)*] $body:block
     ) => {
         $crate::cpu::multiversion!(@def [$(#[$attr])*] [$vis] [] $name [$($gen)*]
-            ($($arg: $ty),*) [$($ret)?] [$($bound)*] $imp [$($garg)*]);
+            ($($arg: $ty),*) [$($ret)?] [$($bound)*] [$($garg)*] $body);
     };
     (@def [$($attr:tt)*] [$vis:vis] [$($unsafety:tt)?] $name:ident [$($gen:tt)*]
-        ($($arg:ident : $ty:ty),*) [$($ret:ty)?] [$($bound:tt)*] $imp:ident [$($garg:tt)*]
+        ($($arg:ident : $ty:ty),*) [$($ret:ty)?] [$($bound:tt)*] [$($garg:tt)*] $body:block
     ) => {
         $($attr)*
         #[inline]
-        #[allow(clippy::too_many_arguments, unused_unsafe)]
+        #[allow(clippy::too_many_arguments, clippy::unused_unit, unused_unsafe)]
         $vis $($unsafety)? fn $name<$($gen)*>($($arg: $ty),*) $(-> $ret)? where $($bound)* {
+            #[inline(always)]
+            #[allow(clippy::too_many_arguments, clippy::needless_range_loop, clippy::unused_unit)]
+            $($unsafety)? fn body<$($gen)*>($($arg: $ty),*) $(-> $ret)? where $($bound)* $body
+
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "sse3,ssse3,sse4.1,sse4.2,popcnt,cmpxchg16b")]
-                #[allow(clippy::too_many_arguments, unused_unsafe)]
+                #[allow(clippy::too_many_arguments, clippy::unused_unit, unused_unsafe)]
                 unsafe fn v2<$($gen)*>($($arg: $ty),*) $(-> $ret)? where $($bound)* {
                     // SAFETY: as for the caller.
-                    unsafe { $imp::<$($garg)*>($($arg),*) }
+                    unsafe { body::<$($garg)*>($($arg),*) }
                 }
                 #[target_feature(enable = "sse3,ssse3,sse4.1,sse4.2,popcnt,cmpxchg16b,\
                     avx,avx2,bmi1,bmi2,f16c,fma,lzcnt,movbe")]
-                #[allow(clippy::too_many_arguments, unused_unsafe)]
+                #[allow(clippy::too_many_arguments, clippy::unused_unit, unused_unsafe)]
                 unsafe fn v3<$($gen)*>($($arg: $ty),*) $(-> $ret)? where $($bound)* {
                     // SAFETY: as for the caller.
-                    unsafe { $imp::<$($garg)*>($($arg),*) }
+                    unsafe { body::<$($garg)*>($($arg),*) }
                 }
                 #[target_feature(enable = "sse3,ssse3,sse4.1,sse4.2,popcnt,cmpxchg16b,\
                     avx,avx2,bmi1,bmi2,f16c,fma,lzcnt,movbe,\
                     avx512f,avx512bw,avx512cd,avx512dq,avx512vl")]
-                #[allow(clippy::too_many_arguments, unused_unsafe)]
+                #[allow(clippy::too_many_arguments, clippy::unused_unit, unused_unsafe)]
                 unsafe fn v4<$($gen)*>($($arg: $ty),*) $(-> $ret)? where $($bound)* {
                     // SAFETY: as for the caller.
-                    unsafe { $imp::<$($garg)*>($($arg),*) }
+                    unsafe { body::<$($garg)*>($($arg),*) }
                 }
                 // SAFETY: `level()` never exceeds what the CPU reports (`detected`).
                 match $crate::cpu::level() {
@@ -257,7 +270,7 @@ macro_rules! multiversion {
                 }
             }
             // SAFETY: as for the caller.
-            unsafe { $imp::<$($garg)*>($($arg),*) }
+            unsafe { body::<$($garg)*>($($arg),*) }
         }
     };
 }

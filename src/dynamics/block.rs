@@ -216,16 +216,7 @@ pub fn geometry_block [const D: usize] (
     lanes: std::ops::Range<usize>,
     rot: bool,
     max_ratio: Real,
-) -> (bool, bool) where [] => geometry_block_impl [D]
-}
-
-#[inline(always)]
-fn geometry_block_impl<const D: usize>(
-    g: &mut Geometry<D>,
-    lanes: std::ops::Range<usize>,
-    rot: bool,
-    max_ratio: Real,
-) -> (bool, bool) {
+) -> (bool, bool) where [] [D] {
     let (lo, hi) = (lanes.start, lanes.end.min(BLOCK));
     let mut bad = false;
     let mut contact = false;
@@ -272,6 +263,7 @@ fn geometry_block_impl<const D: usize>(
     }
     (contact, bad)
 }
+}
 
 /// What [`law_block`] writes for lanes `lanes` when none of them is in contact:
 /// zero history, force, n x f_t and overlap. Cheap when they are zero already (the
@@ -304,20 +296,8 @@ pub fn law_block [const D: usize] (
     c: &LawConsts,
     dt: Real,
     torques: bool,
-) -> () where [] => law_block_impl [D]
-}
-
-// A lane index addresses a dozen columns at once: index loops read best.
-#[allow(clippy::needless_range_loop)]
-#[inline(always)]
-fn law_block_impl<const D: usize>(
-    b: &mut PairBlock<D>,
-    g: &mut Geometry<D>,
-    lanes: std::ops::Range<usize>,
-    c: &LawConsts,
-    dt: Real,
-    torques: bool,
-) {
+) -> () where [] [D] {
+    // A lane index addresses a dozen columns at once: index loops read best.
     let (lo, hi) = (lanes.start, lanes.end.min(BLOCK));
     let mu = c.mu;
     for m in lo..hi {
@@ -368,6 +348,7 @@ fn law_block_impl<const D: usize>(
         });
         write_lane(b, g, m, contact && torques, &ft, &h);
     }
+}
 }
 
 /// The sticking trial of the tangential law for one lane (see [`trial`]).

@@ -334,7 +334,13 @@ where
                     // SAFETY: every pair is computed, and each particle is gathered
                     // once, by this job.
                     unsafe {
-                        gather_range::<D, TORQUE, KICK, FROZEN>(&gin, out, blocks, qs, skip_frozen)
+                        gather_each::<D, TORQUE, KICK, FROZEN, _>(
+                            &gin,
+                            out,
+                            blocks,
+                            qs,
+                            skip_frozen,
+                        )
                     }
                 },
                 Gathered::merge,
@@ -426,7 +432,11 @@ where
         let late = late
             .par_chunks(64)
             // SAFETY: each particle is deferred once, and nothing else runs.
-            .map(|qs| unsafe { gather_listed::<D, TORQUE, KICK, FROZEN>(&gin, out, blocks, qs) })
+            .map(|qs| {
+                let qs = qs.iter().map(|&q| q as usize);
+                // SAFETY: as above.
+                unsafe { gather_each::<D, TORQUE, KICK, FROZEN, _>(&gin, out, blocks, qs, false) }
+            })
             .reduce(Gathered::default, Gathered::merge);
         let all = swept.iter().fold(late, |a, s| a.merge(s.gathered));
         (bad_pair, all.bad_wall, all.suspicious)
@@ -560,31 +570,16 @@ crate::cpu::multiversion! {
 ///
 /// # Safety
 /// As for [`gather_one`], for every particle of `qs`.
-unsafe fn gather_range [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
+unsafe fn gather_each [
+    const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool,
+    I: Iterator<Item = usize>
+] (
     gin: &GatherIn<D>,
     out: GatherOut<D>,
     blocks: &[PairBlock<D>],
-    qs: std::ops::Range<usize>,
+    qs: I,
     skip_frozen: bool,
-) -> Gathered where [Dim<D>: Spatial<D>] => gather_range_impl [D, TORQUE, KICK, FROZEN]
-}
-
-#[inline(always)]
-unsafe fn gather_range_impl<
-    const D: usize,
-    const TORQUE: bool,
-    const KICK: bool,
-    const FROZEN: bool,
->(
-    gin: &GatherIn<D>,
-    out: GatherOut<D>,
-    blocks: &[PairBlock<D>],
-    qs: std::ops::Range<usize>,
-    skip_frozen: bool,
-) -> Gathered
-where
-    Dim<D>: Spatial<D>,
-{
+) -> Gathered where [Dim<D>: Spatial<D>] [D, TORQUE, KICK, FROZEN, I] {
     let mut acc = Gathered::default();
     for q in qs {
         if FROZEN && skip_frozen && gin.fz[q] {
@@ -595,42 +590,6 @@ where
     }
     acc
 }
-
-crate::cpu::multiversion! {
-/// The gather of the particles listed in `qs` (see [`gather_range`]); compiled for each
-/// instruction-set level (see [`crate::cpu`]).
-///
-/// # Safety
-/// As for [`gather_one`], for every particle of `qs`.
-unsafe fn gather_listed [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
-    gin: &GatherIn<D>,
-    out: GatherOut<D>,
-    blocks: &[PairBlock<D>],
-    qs: &[u32],
-) -> Gathered where [Dim<D>: Spatial<D>] => gather_listed_impl [D, TORQUE, KICK, FROZEN]
-}
-
-#[inline(always)]
-unsafe fn gather_listed_impl<
-    const D: usize,
-    const TORQUE: bool,
-    const KICK: bool,
-    const FROZEN: bool,
->(
-    gin: &GatherIn<D>,
-    out: GatherOut<D>,
-    blocks: &[PairBlock<D>],
-    qs: &[u32],
-) -> Gathered
-where
-    Dim<D>: Spatial<D>,
-{
-    let mut acc = Gathered::default();
-    for &q in qs {
-        // SAFETY: as the caller guarantees.
-        unsafe { gather_one::<D, TORQUE, KICK, FROZEN>(gin, out, blocks, 0, q as usize, &mut acc) };
-    }
-    acc
 }
 
 /// What one piece of the force sweep leaves: the first pair too deep, the first
@@ -671,29 +630,7 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
     law: &LawPass,
     gin: &GatherIn<D>,
     out: GatherOut<D>,
-) -> Sweep where [Dim<D>: Spatial<D>] => sweep_piece_impl [D, TORQUE, KICK, FROZEN]
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-unsafe fn sweep_piece_impl<
-    const D: usize,
-    const TORQUE: bool,
-    const KICK: bool,
-    const FROZEN: bool,
->(
-    own: &mut [PairBlock<D>],
-    g: &mut Geometry<D>,
-    piece: &Piece,
-    ij: &[[u32; 2]],
-    pin: &PairIn<D>,
-    law: &LawPass,
-    gin: &GatherIn<D>,
-    out: GatherOut<D>,
-) -> Sweep
-where
-    Dim<D>: Spatial<D>,
-{
+) -> Sweep where [Dim<D>: Spatial<D>] [D, TORQUE, KICK, FROZEN] {
     let (plo, phi) = (piece.pairs.start, piece.pairs.end);
     let (b0, a0, skip_frozen) = (piece.b0, piece.a0, piece.skip_frozen);
     let mut s = Sweep::default();
@@ -709,7 +646,7 @@ where
             if !lanes.is_empty() {
                 // SAFETY: the pairs of this piece involve no particle gathered before
                 // the sweep has passed them (below).
-                let b = unsafe { pair_block_impl(&mut own[bi], g, base, lanes, ij, pin, law) };
+                let b = unsafe { pair_block(&mut own[bi], g, base, lanes, ij, pin, law) };
                 s.bad_pair = s.bad_pair.or(b);
             }
             done
@@ -737,6 +674,7 @@ where
     // the last block ends at phi: these have pairs in the next piece
     s.deferred.extend(q as u32..q_end as u32);
     s
+}
 }
 
 /// A raw pointer that may cross threads: the force sweep writes disjoint particles
@@ -791,22 +729,7 @@ unsafe fn pair_block [const D: usize] (
     ij: &[[u32; 2]],
     p: &PairIn<D>,
     law: &LawPass,
-) -> Option<usize> where [Dim<D>: Spatial<D>] => pair_block_impl [D]
-}
-
-#[inline(always)]
-unsafe fn pair_block_impl<const D: usize>(
-    blk: &mut PairBlock<D>,
-    g: &mut Geometry<D>,
-    base: usize,
-    lanes: std::ops::Range<usize>,
-    ij: &[[u32; 2]],
-    p: &PairIn<D>,
-    law: &LawPass,
-) -> Option<usize>
-where
-    Dim<D>: Spatial<D>,
-{
+) -> Option<usize> where [Dim<D>: Spatial<D>] [D] {
     let (lo, hi) = (lanes.start, lanes.end);
     let rot = law.rot;
     // What each pair's geometry needs, gathered from the two particles; the arithmetic
@@ -855,6 +778,7 @@ where
         clear_lanes(blk, lo..hi);
     }
     bad
+}
 }
 
 /// What the gather reads: particle data, the pair list's index ranges, walls and

@@ -564,6 +564,27 @@ where
         &self.p.m
     }
 
+    /// FNV-1a hash of the bit patterns of every position, velocity and spin: equal
+    /// checksums mean bit-identical states (the determinism checks compare them across
+    /// thread counts and CPU levels).
+    pub fn state_checksum(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let words = self
+            .positions()
+            .iter()
+            .chain(self.velocities())
+            .flat_map(|v| v.iter().map(|c| c.to_bits()))
+            .chain(
+                self.spins()
+                    .iter()
+                    .flat_map(|s| (0..<Ang<D> as AngOps>::NCOMP).map(|k| s.comp(k).to_bits())),
+            );
+        for b in words {
+            h = (h ^ b).wrapping_mul(0x0100_0000_01b3);
+        }
+        h
+    }
+
     /// Sets (or clears) the freezing of settled particles. Clearing it unfreezes all.
     pub fn set_freeze(&mut self, freeze: Option<FreezeConfig>) -> Result<()> {
         if let Some(f) = &freeze {
@@ -1251,26 +1272,7 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
     ii: &[Real],
     dt: Real,
     half: Real,
-) -> bool where [Dim<D>: Spatial<D>] => kick_drift_chunk_impl [D, TORQUE, FROZEN]
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn kick_drift_chunk_impl<const D: usize, const TORQUE: bool, const FROZEN: bool>(
-    s: KickDrift<D>,
-    f: &[Vector<D>],
-    im: &[Real],
-    xr: &[Vector<D>],
-    h: &[Real],
-    fz: &[bool],
-    t: &[Ang<D>],
-    ii: &[Real],
-    dt: Real,
-    half: Real,
-) -> bool
-where
-    Dim<D>: Spatial<D>,
-{
+) -> bool where [Dim<D>: Spatial<D>] [D, TORQUE, FROZEN] {
     let mut moved = false;
     // Every chunk slice cut to one length: the loop then runs without bounds checks.
     let n = s.x.len();
@@ -1291,6 +1293,7 @@ where
         }
     }
     moved
+}
 }
 
 #[cfg(test)]
@@ -1744,28 +1747,6 @@ mod tests {
         assert!(run(true, 3) == two, "sweep, three threads");
     }
 
-    /// FNV-1a over the bit patterns of positions, velocities and spins.
-    fn state_hash<const D: usize>(w: &World<D>) -> u64
-    where
-        Dim<D>: Spatial<D>,
-    {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let words = w
-            .positions()
-            .iter()
-            .chain(w.velocities())
-            .flat_map(|v| v.iter().map(|c| c.to_bits()))
-            .chain(
-                w.spins()
-                    .iter()
-                    .flat_map(|s| (0..<Ang<D> as AngOps>::NCOMP).map(|k| s.comp(k).to_bits())),
-            );
-        for b in words {
-            h = (h ^ b).wrapping_mul(0x0100_0000_01b3);
-        }
-        h
-    }
-
     /// Every instruction-set level the CPU runs gives the same bits, in 3D (two passes
     /// and the sweep, walls, spins, friction) and in 2D. The level is process-wide, and
     /// no other test sets it, so each run below runs at the level it names.
@@ -1791,7 +1772,7 @@ mod tests {
             w.step_n(4000).unwrap();
             let n = w.contacts().unwrap().i.len();
             assert!(n > 100, "the bed is in contact: {n}");
-            state_hash(&w)
+            w.state_checksum()
         };
         let run2 = || {
             let mut cfg = SimConfig::<2>::paper();
@@ -1803,7 +1784,7 @@ mod tests {
             w.step_n(4000).unwrap();
             let n = w.contacts().unwrap().i.len();
             assert!(n > 15, "the 2D bed is in contact: {n}");
-            state_hash(&w)
+            w.state_checksum()
         };
         let before = cpu::level();
         let mut seen = Vec::new();
