@@ -7,7 +7,8 @@ DEM run, for checking that a wheel gives the same bits on every CPU.
 
 The run is small (a few hundred steps: emulators are slow) but takes every hot kernel
 through contacts: a 3D bed of 180 spheres and a 2D one of 60 discs, with friction,
-spins and walls, fall onto their floors. The checksum hashes the bits of the final
+spins and walls, fall onto their floors; then one RSA layer of the presets with Gaussian
+radii (4.2, 4.4) is placed and stepped briefly. The checksum hashes the bits of the final
 positions, velocities and spins; equal checksums mean bit-identical runs.
 """
 
@@ -52,10 +53,27 @@ def run(dim: int, steps: int) -> bytes:
     )
 
 
+def rsa_layer(preset: str) -> bytes:
+    """One RSA layer of a preset with Gaussian radii, and 50 DEM steps on it: the
+    radius sampling and placement (which call libm, whose exp and log glibc picks per
+    CPU) as well as the step."""
+    from granpack.pack import _packer
+
+    scene = gp.PackScene.preset(preset).replace(settle_time=50 * 1e-4, height=0.1)
+    packer = _packer(scene)
+    packer.next_layer()
+    st = packer.state()
+    return b"".join(
+        np.ascontiguousarray(st[k]).tobytes() for k in ("positions", "radii", "velocities")
+    )
+
+
 def main() -> None:
     h = hashlib.sha256()
     for dim in (3, 2):
         h.update(run(dim, 300))
+    for preset in ("4.2", "4.4"):
+        h.update(rsa_layer(preset))
     print(f"level {_core.cpu_level()} checksum {h.hexdigest()[:16]}")
 
 
