@@ -303,8 +303,9 @@ def test_bad_tables_name_the_line_or_column(tmp_path):
     with pytest.raises(gp.FileFormatError, match=r"m\.csv:2: missing column r \(or radius"):
         gp.read_particles(missing)
     bad = tmp_path / "b.csv"
-    bad.write_text("# a comment line\nx,y,z,r\n0,0,0,0.1\n1,1,1,oops\n")
-    with pytest.raises(gp.FileFormatError, match=r"b\.csv:4: column 'r': 'oops' is not a number"):
+    # a comment and a blank line: the message still names the file's line
+    bad.write_text("# a comment line\nx,y,z,r\n0,0,0,0.1\n\n1,1,1,oops\n")
+    with pytest.raises(gp.FileFormatError, match=r"b\.csv:5: column 'r': 'oops' is not a number"):
         gp.read_particles(bad)
     neg = tmp_path / "n.parquet"
     pl.DataFrame({"x": [0.0, 1.0], "y": [0.0, 0.0], "radius": [0.1, -0.1]}).write_parquet(neg)

@@ -735,19 +735,28 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
     names = list(df.columns)
     if fmt == "csv":
         # the file line of each row: the header is the first line that is neither blank
-        # nor a comment, and each later such line is a row
-        text = _read_text(path)
+        # nor a comment; polars makes a row (all null) of each later blank line too, so
+        # those rows are dropped along with their lines
+        all_lines = _read_text(path).splitlines()
         data_lines = [
-            k + 1
-            for k, ln in enumerate(text.splitlines())
-            if ln.strip() and not ln.lstrip().startswith("#")
+            k + 1 for k, ln in enumerate(all_lines) if ln.strip() and not ln.startswith("#")
         ]
-        row_line = data_lines[1:]
+        head_line = data_lines[0] if data_lines else 1
+        row_line = [
+            k + 1 for k in range(head_line, len(all_lines)) if not all_lines[k].startswith("#")
+        ]
+        blank = df.select(pl.all_horizontal(pl.all().is_null())).to_series().to_numpy()
+        if blank.any():
+            df = df.filter(pl.Series(~blank))
+        if len(row_line) == len(blank):
+            row_line = [line for line, b in zip(row_line, blank, strict=True) if not b]
+        else:  # a layout this mapping does not follow: name rows by number instead
+            row_line = []
 
         def where(k: int) -> str:
             return str(row_line[k]) if k < len(row_line) else f"row {k + 1}"
 
-        label = f"{path}:{data_lines[0] if data_lines else 1}"
+        label = f"{path}:{head_line}"
     else:
 
         def where(k: int) -> str:
