@@ -1,7 +1,7 @@
 """read_particles: LAMMPS/LIGGGHTS dumps written by hand (known positions, radii, box,
 ids, snapshots), granpack's own files, CSV and Parquet, format detection, and every
-bad input refused with a FileFormatError that names the line. Where LAMMPS is
-installed, a dump written by LAMMPS itself from granpack's data export is read back."""
+bad input refused with a FileFormatError that names the line. Where LAMMPS and LIGGGHTS
+are installed, the dumps they write of granpack's data export are read back."""
 
 from __future__ import annotations
 
@@ -168,6 +168,13 @@ def test_snapshots_of_different_sizes_each_read_with_its_own_header(tmp_path):
 def pack2d():
     # the small settled 2D pack of the export tests
     scene = gp.PackScene.preset("4.2").replace(base=(0.2,), height=0.08, settle_time=0.5)
+    return gp.generate(scene.replace(seed=11))
+
+
+@pytest.fixture(scope="module")
+def pack3d():
+    # the small settled 3D pack of the export tests
+    scene = gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5)
     return gp.generate(scene.replace(seed=11))
 
 
@@ -373,11 +380,8 @@ write_dump all custom full.dump id type x y z radius modify format float %.17g
 
 
 @pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (no lmp or lmp_serial on PATH)")
-def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d):
-    scene = gp.PackScene.preset("4.4").replace(
-        base=(0.2, 0.2), height=0.1, settle_time=0.5, seed=11
-    )
-    for pack in (pack2d, gp.generate(scene)):
+def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d, pack3d):
+    for pack in (pack2d, pack3d):
         run_dir = tmp_path / f"{pack.dim}d"
         run_dir.mkdir()
         export.export(pack, run_dir / "pack.data")
@@ -405,3 +409,47 @@ def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d):
         m = gp.microstructure(full, core_margin=CORE)
         n_pp = int((pack.contacts.j >= 0).sum())
         assert m.n_contacts == n_pp and m.phi == pytest.approx(pack.phi, rel=1e-12)
+
+
+LIGGGHTS = shutil.which("liggghts")
+
+LIGGGHTS_INPUT = """units si
+atom_style granular
+atom_modify map array
+boundary f f f
+newton off
+communicate single vel yes
+read_data pack.data
+neighbor 0.002 bin
+pair_style gran model hertz tangential history
+fix m1 all property/global youngsModulus peratomtype 1e8
+fix m2 all property/global poissonsRatio peratomtype 0.25
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.9
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+pair_coeff * *
+timestep 1e-6
+run 0
+write_dump all custom pack.dump id type x y z radius mass
+"""
+
+
+@pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)")
+def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
+    pack = pack3d
+    export.export(pack, tmp_path / "pack.data")
+    (tmp_path / "in.dump").write_text(LIGGGHTS_INPUT)
+    done = subprocess.run(
+        [LIGGGHTS, "-in", "in.dump", "-log", "none", "-screen", "none"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    p = gp.read_particles(tmp_path / "pack.dump")
+    # LIGGGHTS writes the rows in its own order, with a mass column and trailing spaces
+    assert p.format == "lammps-dump" and p.dim == 3
+    np.testing.assert_array_equal(p.ids, np.arange(1, len(pack) + 1))
+    np.testing.assert_allclose(p.positions, pack.positions, rtol=5e-6, atol=0)
+    np.testing.assert_allclose(p.radii, pack.radii, rtol=5e-6, atol=0)
+    np.testing.assert_allclose(p.box[1], pack.box[1], rtol=5e-6)
