@@ -19,6 +19,7 @@ from .errors import (
 )
 from .microstructure import microstructure
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
+from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
 
 __all__ = [
@@ -36,6 +37,8 @@ __all__ = [
     "PRESETS",
     "generate",
     "load_pack",
+    "read_particles",
+    "ParticleFile",
     "UnsettledPackWarning",
     "microstructure",
     "__version__",

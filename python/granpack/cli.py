@@ -6,7 +6,7 @@
     granpack paper --out DIR [--packs 10]  # the full reproduction
     granpack generate 4.3 --packs 10 --seed 1 --rotations off --out DIR
     granpack generate my_scene.toml --out DIR
-    granpack analyze DIR/packs/pack_000.npz          # or an "x y (z) r" text file
+    granpack analyze DIR/packs/pack_000.npz          # or a dump, data, text, CSV file
     granpack export DIR/packs/pack_000.npz --format vtk   # vtk | lammps | csv | parquet
 
 Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``, on a
@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import GranpackError, InvalidParameterError
+from .particles import FORMATS
 
 __all__ = ["main", "build_parser"]
 
@@ -299,12 +300,28 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser(
         "analyze",
-        help="microstructure of a saved pack or of an 'x y (z) r' text file",
-        description="Prints the microstructure of a granpack pack (.npz), a LAMMPS data "
-        "file (atom_style sphere, .data) or a plain text file with columns x y r (2D) or "
-        "x y z r (3D) from another code (lines starting with # are comments).",
+        help="microstructure of a saved pack or of particles from another code",
+        description="Prints the microstructure of a granpack pack (.npz), a LAMMPS or "
+        "LIGGGHTS dump custom file (columns x y z or xs ys zs, radius or diameter, id), a "
+        "LAMMPS data file (atom_style sphere), a CSV or Parquet table with columns x y (z) "
+        "and r, radius or diameter, or a plain text file with columns x y r (2D) or "
+        "x y z r (3D; lines starting with # are comments). The format is detected from the "
+        "content and the suffix, and printed.",
     )
     a.add_argument("file", type=Path, metavar="FILE")
+    a.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=None,
+        help="the file's format (default: detected)",
+    )
+    a.add_argument(
+        "--snapshot",
+        type=int,
+        default=-1,
+        metavar="K",
+        help="which snapshot of a dump: 0 the first, -1 the last (default)",
+    )
     a.add_argument("--dim", type=int, choices=(2, 3), default=None, help="dimension of a text file")
     a.add_argument(
         "--box",
@@ -805,30 +822,21 @@ def paper_phi() -> dict[tuple[str, bool], list[float]]:
 # -- analyze -------------------------------------------------------------------------------------
 
 
-def _load_for_analysis(args):
-    """(pack or None, microstructure kwargs) for a pack file, a LAMMPS data file or an
-    x y (z) r text file."""
-    from .export import read_lammps_data
-    from .pack import load_pack
+def _load_for_analysis(args, console: _Console):
+    """(particles, microstructure kwargs) for any file read_particles reads; kwargs
+    replace the file's box when --box is given."""
+    from .particles import detect_format, read_particles
 
     path: Path = args.file
-    if not path.exists():
-        raise GranpackError(f"cannot read {path}: no such file")
-    if path.suffix == ".npz":
-        if args.box is not None or args.dim is not None:
-            raise GranpackError("--box and --dim apply to text and LAMMPS files, not to packs")
-        return load_pack(path), {}
-    box = None
-    if path.suffix in (".data", ".lmp"):
-        d = read_lammps_data(path)
-        dim = args.dim or (2 if np.all(d["positions"][:, 2] == 0) else 3)
-        positions = d["positions"][:, :dim]
-        radii = d["diameter"] / 2
-        lo, hi = d["box"]
-        box = (lo[:dim], hi[:dim])
-    else:
-        ms = _microstructure_module()
-        positions, radii, dim = ms.read_xyzr(path, dim=args.dim)
+    fmt = args.format or detect_format(path)
+    if fmt == "npz" and (args.box is not None or args.dim is not None):
+        raise GranpackError("--box and --dim apply to text and LAMMPS files, not to packs")
+    particles = read_particles(path, format=fmt, snapshot=args.snapshot, dim=args.dim)
+    for note in particles.notes:
+        console.note(note, path.name)
+    if args.box is None:
+        return particles, {}
+    dim = particles.dim
     if args.box is not None:
         if len(args.box) != 2 * dim:
             raise InvalidParameterError(
@@ -839,10 +847,7 @@ def _load_for_analysis(args):
         box = (v[0::2], v[1::2])
         if np.any(box[1] <= box[0]):
             raise InvalidParameterError("invalid --box: every axis needs lo < hi")
-    kwargs = {"positions": positions, "radii": radii}
-    if box is not None:
-        kwargs["box"] = box
-    return None, kwargs
+    return particles, {"positions": particles.positions, "radii": particles.radii, "box": box}
 
 
 def _format_value(v) -> str:
@@ -856,15 +861,22 @@ def _format_value(v) -> str:
 
 
 def cmd_analyze(args, console: _Console) -> int:
-    pack, kwargs = _load_for_analysis(args)
-    if pack is not None:
-        m = _microstructure(console, args.file.name, pack)
-    else:
+    particles, kwargs = _load_for_analysis(args, console)
+    pack = particles.pack
+    if kwargs:
         m = _microstructure(console, args.file.name, **kwargs)
+    else:
+        m = _microstructure(console, args.file.name, particles)
     console.flush_notes()
     d = _jsonable(m.to_dict())
-    n = len(pack) if pack is not None else len(kwargs["radii"])
-    d = {"file": str(args.file), "n_particles": n, **d}
+    head: dict = {"file": str(args.file), "format": particles.format}
+    if particles.format == "lammps-dump":
+        head.update(
+            snapshot=particles.snapshot,
+            n_snapshots=particles.n_snapshots,
+            timestep=particles.timestep,
+        )
+    d = {**head, "n_particles": len(particles), **d}
     if args.json:
         print(_json_text(d), end="")
     elif not args.quiet:
@@ -878,7 +890,7 @@ def cmd_analyze(args, console: _Console) -> int:
 
         subject = pack
         if subject is None:
-            subject = SimpleNamespace(positions=kwargs["positions"], radii=kwargs["radii"])
+            subject = SimpleNamespace(positions=particles.positions, radii=particles.radii)
         for suffix in ("", "_normals", "_forces"):
             _refuse_overwrite(args.figures / f"{args.file.stem}{suffix}.png", args.file, "figure")
         made = [
@@ -894,8 +906,8 @@ def cmd_analyze(args, console: _Console) -> int:
             from .contacts import Contacts
 
             found = _core.find_contacts(
-                np.ascontiguousarray(kwargs["positions"], dtype=np.float64),
-                np.ascontiguousarray(kwargs["radii"], dtype=np.float64),
+                np.ascontiguousarray(particles.positions, dtype=np.float64),
+                np.ascontiguousarray(particles.radii, dtype=np.float64),
                 walls=None,
             )
             contacts = Contacts.from_dict(found)

@@ -1137,8 +1137,10 @@ def microstructure(
 
     Parameters
     ----------
-    pack : granpack.Pack, optional
-        A generated pack (its positions, radii, contacts with forces, and box). Give either
+    pack : granpack.Pack or granpack.ParticleFile, optional
+        A generated pack (its positions, radii, contacts with forces, and box), or what
+        :func:`granpack.read_particles` read from a file (its box, if the file has one;
+        periodic boundaries are not modelled: see ParticleFile.periodic). Give either
         `pack` or `positions` and `radii`, not both.
     positions : (N, D) array, optional
         Centres (m), D = 2 or 3, vertical axis last (y in 2D, z in 3D).
@@ -1188,7 +1190,8 @@ def microstructure(
             positions, radii, contacts, box = pack.positions, pack.radii, pack.contacts, pack.box
         except AttributeError:
             raise InvalidParameterError(
-                f"invalid pack = {type(pack).__name__}: expected a granpack.Pack"
+                f"invalid pack = {type(pack).__name__}: expected a granpack.Pack or the "
+                "result of granpack.read_particles"
             ) from None
     elif positions is None or radii is None:
         raise GranpackError("give a pack, or positions and radii")

@@ -1,0 +1,828 @@
+"""Particles from files written by granpack or by other codes: :func:`read_particles`.
+
+One entry point reads every supported format and says which one it found; the result,
+a :class:`ParticleFile`, goes straight into ``gp.microstructure`` and ``granpack analyze``.
+
+Formats (the names `format=` takes and ``ParticleFile.format`` gives):
+
+- ``"lammps-dump"``: a LAMMPS or LIGGGHTS ``dump custom`` (or ``write_dump ... custom``)
+  text file, one or more snapshots; columns found by name;
+- ``"lammps-data"``: a LAMMPS data file for ``atom_style sphere`` (as granpack's export
+  writes it);
+- ``"xyzr"``: plain text, ``x y z r`` or ``x y r`` a line;
+- ``"csv"``: comma-separated text with a header row naming the columns;
+- ``"parquet"``: a Parquet table with named columns;
+- ``"npz"``: a granpack pack file (``Pack.save``), contacts and forces included.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
+from .contacts import Contacts
+
+if TYPE_CHECKING:
+    from .pack import Pack
+
+__all__ = ["FORMATS", "ParticleFile", "detect_format", "read_particles"]
+
+#: The format names `read_particles` takes and reports.
+FORMATS = ("lammps-dump", "lammps-data", "xyzr", "csv", "parquet", "npz")
+
+# Coordinate columns of a dump, in order of preference: plain, unwrapped, scaled,
+# scaled unwrapped (LAMMPS' names). Scaled ones are fractions of the box.
+_DUMP_COORDS = (("x", "y", "z", False), ("xu", "yu", "zu", False))
+_DUMP_SCALED = (("xs", "ys", "zs", True), ("xsu", "ysu", "zsu", True))
+_RADIUS_NAMES = ("radius", "r")
+_DIAMETER_NAMES = ("diameter", "d")
+_ID_NAMES = ("id",)
+# How many leading lines the content sniffing looks at for a data file's "N atoms".
+_SNIFF_LINES = 40
+_DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
+
+
+class ParticleFile:
+    """The particles of one file (one snapshot of a dump), as :func:`read_particles`
+    returns them. ``gp.microstructure(p)`` analyses it as it does a pack.
+
+    Attributes
+    ----------
+    path : Path
+        The file read.
+    format : str
+        The format found (or given), one of `FORMATS`.
+    dim : int
+        2 or 3.
+    positions : (N, D) float64, read-only
+        Centres (m), sorted by id where the file has ids; vertical axis last (y in 2D).
+    radii : (N,) float64, read-only
+        Radii (m).
+    ids : (N,) int64 or None
+        The file's particle ids, in the order of `positions` (None: the file has none).
+    box : (lo, hi) or None
+        The box corners (D each, m) where the file gives one (a dump's ``BOX BOUNDS``, a
+        data file's header, a pack's scene); the analysis puts its walls there. None: the
+        analysis uses the particles' bounding box, with no walls.
+    periodic : tuple of D bool, or None
+        Periodic axes from a dump's ``BOX BOUNDS`` flags (``pp``). The analysis has no
+        periodic boundaries: it treats every side of the box as a wall and does not
+        count contacts across a periodic side (`notes` says so when an axis is periodic).
+    timestep : int or None
+        A dump snapshot's ``TIMESTEP``.
+    snapshot : int
+        Which snapshot was read (0-based, counted from the start).
+    n_snapshots : int
+        How many the file holds (1 for every format but a dump).
+    contacts : granpack.Contacts or None
+        The contacts with forces of a granpack pack (npz); None otherwise (the analysis
+        then finds the contacts from the geometry and has no forces).
+    pack : granpack.Pack or None
+        The pack itself for a ``.npz`` file.
+    notes : tuple of str
+        What the reader left out or assumed (periodic flags, a dimension it inferred).
+    """
+
+    def __init__(
+        self,
+        *,
+        path: Path,
+        format: str,
+        positions: np.ndarray,
+        radii: np.ndarray,
+        ids: np.ndarray | None = None,
+        box: tuple[np.ndarray, np.ndarray] | None = None,
+        periodic: tuple[bool, ...] | None = None,
+        timestep: int | None = None,
+        snapshot: int = 0,
+        n_snapshots: int = 1,
+        contacts: Contacts | None = None,
+        pack: Pack | None = None,
+        notes: tuple[str, ...] = (),
+    ) -> None:
+        self.path = path
+        self.format = format
+        self.positions = _frozen(np.asarray(positions, dtype=np.float64))
+        self.radii = _frozen(np.asarray(radii, dtype=np.float64))
+        self.dim = int(self.positions.shape[1])
+        self.ids = None if ids is None else _frozen(np.asarray(ids, dtype=np.int64))
+        self.box = None if box is None else (_frozen(box[0]), _frozen(box[1]))
+        self.periodic = periodic
+        self.timestep = timestep
+        self.snapshot = snapshot
+        self.n_snapshots = n_snapshots
+        self.contacts = contacts
+        self.pack = pack
+        self.notes = notes
+
+    def __len__(self) -> int:
+        return int(self.radii.shape[0])
+
+    def __repr__(self) -> str:
+        where = f", snapshot {self.snapshot} of {self.n_snapshots}" if self.n_snapshots > 1 else ""
+        return (
+            f"ParticleFile({str(self.path)!r}, format={self.format!r}, dim={self.dim}, "
+            f"n={len(self)}{where})"
+        )
+
+
+def _frozen(a) -> np.ndarray:
+    # a copy, so that freezing it never freezes the caller's array (a pack's own)
+    a = np.array(a, copy=True, order="C")
+    a.setflags(write=False)
+    return a
+
+
+# --------------------------------------------------------------------------------------
+# format detection
+# --------------------------------------------------------------------------------------
+def _head(path: Path, n: int = 65536) -> bytes:
+    try:
+        with open(path, "rb") as f:
+            return f.read(n)
+    except FileNotFoundError:
+        raise FileFormatError(
+            f"cannot read {path}: no such file", path=path, reason="no such file"
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def detect_format(path) -> str:
+    """The format `read_particles` would read `path` as, one of `FORMATS`.
+
+    A ``.npz`` or ``.parquet`` suffix, or the file's magic bytes (zip, ``PAR1``), decide
+    for the binary formats. Text is told by its content, whatever the suffix: a first
+    line ``ITEM: ...`` is a dump, an ``N atoms`` header line a data file, a first
+    (non-comment) line with a word that is not a number and a comma a CSV header;
+    anything else is ``x y (z) r`` text.
+
+    Raises
+    ------
+    FileFormatError
+        The file cannot be opened.
+    """
+    path = Path(path)
+    head = _head(path)
+    suffix = path.suffix.lower()
+    if suffix == ".npz" or head.startswith(b"PK\x03\x04"):
+        return "npz"
+    if suffix in (".parquet", ".pq") or head.startswith(b"PAR1"):
+        return "parquet"
+    text = head.decode("utf-8", errors="replace")
+    lines = text.splitlines()
+    first = next((ln.strip() for ln in lines if ln.strip()), "")
+    if first.startswith("ITEM:"):
+        return "lammps-dump"
+    # a data file: a title line, then header lines such as "12 atoms" before "Atoms"
+    if _DATA_HEADER.search("\n".join(lines[1:_SNIFF_LINES])):
+        return "lammps-data"
+    body = next((b for ln in lines if (b := ln.split("#", 1)[0].strip())), "")
+    words = body.replace(",", " ").split()
+    if "," in body and any(not _is_float(w) for w in words):
+        return "csv"
+    return "xyzr"
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+# --------------------------------------------------------------------------------------
+# the entry point
+# --------------------------------------------------------------------------------------
+def read_particles(
+    path, format: str | None = None, snapshot: int = -1, *, dim: int | None = None
+) -> ParticleFile:
+    """Reads the particles of a file from granpack or another code.
+
+    Parameters
+    ----------
+    path : str or Path
+    format : str, optional
+        One of `FORMATS` (``"lammps-dump"``, ``"lammps-data"``, ``"xyzr"``, ``"csv"``,
+        ``"parquet"``, ``"npz"``). Default None: found by :func:`detect_format`.
+    snapshot : int
+        Which snapshot of a dump: 0 the first, -1 (default) the last, as Python indexes.
+        Files with one snapshot take 0 or -1.
+    dim : {None, 2, 3}
+        None (default): as the file says. A dump, data file or table is 2D when it has
+        no z column, or when every z is 0 (or, in a dump, the same for every particle
+        with a periodic z, as LAMMPS' 2D is); text follows ``read_xyzr``'s rule. 2 drops
+        a constant z; 3 keeps it.
+
+    Returns
+    -------
+    ParticleFile
+        Positions (sorted by id where the file has ids), radii, box, periodic flags, the
+        format found, and for a dump the snapshot and timestep.
+
+    Notes
+    -----
+    A dump's columns are found by name: ``x y z`` (else ``xu yu zu``, else the scaled
+    ``xs ys zs`` or ``xsu ysu zsu``, which are fractions of the box), ``radius`` (else
+    ``diameter``) and ``id`` (to sort by; optional). Other columns are ignored. Its box
+    is the snapshot's ``BOX BOUNDS`` (orthogonal boxes only), and its flags give
+    `periodic`; granpack's analysis has no periodic boundaries, so they are reported
+    (in `periodic` and `notes`) and otherwise ignored. Snapshots may hold different
+    numbers of particles (a dump written while particles are inserted); each is read
+    with its own header.
+
+    CSV and Parquet tables need columns ``x``, ``y`` (, ``z``) and one of ``r``,
+    ``radius``, ``diameter`` (names in any case; ``id`` optional), as granpack's own
+    CSV and Parquet export writes them.
+
+    Raises
+    ------
+    FileFormatError
+        The file cannot be read as the format: the message names the file, the line (or
+        row) and what was expected there (a truncated dump, a missing column, a row with
+        too few numbers, a radius <= 0, a snapshot that the file does not hold).
+    InvalidParameterError
+        An unknown `format`, a `snapshot` that is not an integer, or `dim` not None, 2, 3.
+    """
+    path = Path(path)
+    if format is not None and format not in FORMATS:
+        raise InvalidParameterError(
+            f"invalid format = {short_repr(format)}: must be one of {', '.join(FORMATS)} "
+            "(or None to detect it)",
+            parameter="format",
+            value=format,
+            expected=", ".join(FORMATS),
+        )
+    if isinstance(snapshot, bool) or not isinstance(snapshot, int | np.integer):
+        raise InvalidParameterError(
+            f"invalid snapshot = {short_repr(snapshot)}: must be an integer (0 the first, "
+            "-1 the last)",
+            parameter="snapshot",
+            value=snapshot,
+        )
+    snapshot = int(snapshot)
+    if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
+        raise InvalidParameterError(
+            f"invalid dim = {short_repr(dim)}: must be None, 2 or 3", parameter="dim", value=dim
+        )
+    fmt = format if format is not None else detect_format(path)
+    try:
+        if fmt == "lammps-dump":
+            return _read_dump(path, snapshot, dim)
+        _single_snapshot(path, snapshot)
+        if fmt == "npz":
+            return _read_npz(path, dim)
+        if fmt == "lammps-data":
+            return _read_data(path, dim)
+        if fmt == "xyzr":
+            return _read_xyzr(path, dim)
+        return _read_table(path, fmt, dim)
+    except FileFormatError:
+        raise
+    except InvalidParameterError:
+        raise
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(
+            f"cannot read {path} as {fmt}: not a text file (byte {exc.start} is not UTF-8)",
+            path=path,
+        ) from None
+    except GranpackError as exc:
+        # the older readers raise the base class for an unreadable file
+        raise FileFormatError(str(exc), path=path) from None
+
+
+def _single_snapshot(path: Path, snapshot: int) -> None:
+    if snapshot not in (0, -1):
+        raise FileFormatError(
+            f"{path}: snapshot = {snapshot} is out of range: the file holds one snapshot (0 or -1)",
+            path=path,
+            reason="snapshot out of range",
+        )
+
+
+def _read_text(path: Path) -> str:
+    try:
+        return path.read_text()
+    except FileNotFoundError:
+        raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(
+            f"cannot read {path}: not a text file (byte {exc.start} is not UTF-8)", path=path
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def _check_values(path: Path, x: np.ndarray, r: np.ndarray, where) -> None:
+    """Refuses non-finite coordinates and radii <= 0; `where(k)` names row k's line."""
+    bad = ~np.all(np.isfinite(x), axis=1)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise FileFormatError(f"{path}:{where(k)}: non-finite coordinate", path=path)
+    bad = ~(np.isfinite(r) & (r > 0.0))
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise FileFormatError(
+            f"{path}:{where(k)}: radius {r[k]} must be finite and > 0 (m)", path=path
+        )
+
+
+def _choose_dim(
+    path: Path, x3: np.ndarray, has_z: bool, dim: int | None, z_periodic: bool = False
+) -> int:
+    """2 or 3 for coordinates x3 (N, 3; z column meaningful only if has_z)."""
+    if not has_z:
+        if dim == 3:
+            raise FileFormatError(f"{path}: dim = 3 needs a z column; the file has none", path=path)
+        return 2
+    z_const = bool(np.all(x3[:, 2] == x3[0, 2]))
+    if dim is None:
+        # LAMMPS' 2D has z = 0 and a periodic z. A constant z alone is not enough: one
+        # layer of equal spheres resting on a floor is 3D with the same z for all
+        return 2 if z_const and (x3[0, 2] == 0.0 or z_periodic) else 3
+    if dim == 2 and not z_const:
+        raise FileFormatError(
+            f"{path}: dim = 2 needs the same z for every particle; z runs from "
+            f"{float(np.min(x3[:, 2]))} to {float(np.max(x3[:, 2]))}",
+            path=path,
+        )
+    return dim
+
+
+def _sorted_by_id(path: Path, ids: np.ndarray, where) -> np.ndarray:
+    """The order that sorts by id; refuses a repeated id, naming both lines."""
+    order = np.argsort(ids, kind="stable")
+    s = ids[order]
+    dup = np.flatnonzero(s[1:] == s[:-1])
+    if dup.size:
+        a, b = sorted((int(order[dup[0]]), int(order[dup[0] + 1])))
+        raise FileFormatError(
+            f"{path}:{where(b)}: id {int(ids[b])} repeats the id of line {where(a)}; ids "
+            "must be unique",
+            path=path,
+        )
+    return order
+
+
+# --------------------------------------------------------------------------------------
+# LAMMPS / LIGGGHTS dump custom
+# --------------------------------------------------------------------------------------
+class _Snapshot:
+    __slots__ = ("start", "timestep", "n", "n_line", "bounds", "flags", "box_line", "cols")
+
+    def __init__(self, start: int) -> None:
+        self.start = start  # 0-based index of its first line
+        self.timestep: int | None = None
+        self.n: int | None = None
+        self.n_line = 0
+        self.bounds: list[tuple[float, float]] | None = None
+        self.flags: list[str] | None = None
+        self.box_line = 0
+        self.cols: tuple[int, list[str]] | None = None  # (0-based line of ITEM: ATOMS, names)
+
+
+def _scan_dump(path: Path, lines: list[str]) -> list[_Snapshot]:
+    """Walks the ITEM blocks of every snapshot, checking their structure (and skipping
+    the atom rows), so that a truncated or inconsistent file is refused whichever
+    snapshot is asked for."""
+    snaps: list[_Snapshot] = []
+    cur: _Snapshot | None = None
+    i = 0
+    n_lines = len(lines)
+
+    def fail(k: int, what: str) -> FileFormatError:
+        found = repr(lines[k].strip()[:60]) if k < n_lines else "the end of the file"
+        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
+
+    def value_line(k: int, what: str, kind=int) -> float | int:
+        if k >= n_lines:
+            raise fail(k, what)
+        words = lines[k].split()
+        try:
+            if len(words) != 1:
+                raise ValueError
+            return kind(words[0])
+        except ValueError:
+            raise fail(k, what) from None
+
+    while i < n_lines:
+        line = lines[i].strip()
+        if not line:
+            # LAMMPS writes no blank lines; tolerate them between snapshots only
+            i += 1
+            continue
+        if not line.startswith("ITEM:"):
+            raise fail(i, "an 'ITEM:' line")
+        item = line[5:].strip()
+        if cur is None or cur.cols is not None:
+            if item not in ("TIMESTEP", "UNITS", "TIME"):
+                raise fail(i, "'ITEM: TIMESTEP' (the start of a snapshot)")
+            cur = _Snapshot(i)
+            snaps.append(cur)
+        if item == "TIMESTEP":
+            if cur.timestep is not None:
+                raise fail(i, f"'ITEM: ATOMS' of the snapshot that starts at line {cur.start + 1}")
+            cur.timestep = int(value_line(i + 1, "the timestep (an integer)"))
+            i += 2
+        elif item in ("UNITS", "TIME"):  # dump_modify units/time yes
+            if i + 1 >= n_lines:
+                raise fail(i + 1, f"the {item.lower()} value")
+            i += 2
+        elif item in ("NUMBER OF ATOMS",):
+            n = int(value_line(i + 1, "the number of atoms (an integer >= 0)"))
+            if n < 0:
+                raise fail(i + 1, "the number of atoms (an integer >= 0)")
+            cur.n, cur.n_line = n, i + 2
+            i += 2
+        elif item.startswith("BOX BOUNDS"):
+            words = item.split()[2:]
+            if words[:3] == ["xy", "xz", "yz"]:
+                raise FileFormatError(
+                    f"{path}:{i + 1}: a triclinic box ({line}); only orthogonal boxes are read",
+                    path=path,
+                )
+            cur.flags = words or None
+            cur.box_line = i + 1
+            bounds = []
+            for k, ax in enumerate("xyz"):
+                j = i + 1 + k
+                what = f"the {ax} bounds: two numbers '{ax}lo {ax}hi'"
+                if j >= n_lines:
+                    raise fail(j, what)
+                w = lines[j].split()
+                if len(w) != 2 or not all(_is_float(v) for v in w):
+                    raise fail(j, what)
+                lo, hi = float(w[0]), float(w[1])
+                if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
+                    raise fail(j, what + " (finite, lo <= hi)")
+                bounds.append((lo, hi))
+            cur.bounds = bounds
+            i += 4
+        elif item.startswith("ATOMS"):
+            names = item.split()[1:]
+            if cur.n is None:
+                raise FileFormatError(
+                    f"{path}:{i + 1}: 'ITEM: ATOMS' before 'ITEM: NUMBER OF ATOMS' in the "
+                    f"snapshot that starts at line {cur.start + 1}",
+                    path=path,
+                )
+            if not names:
+                raise fail(i, "'ITEM: ATOMS' followed by the column names (dump custom)")
+            cur.cols = (i, names)
+            first, end = i + 1, i + 1 + cur.n
+            # a snapshot shorter than its header: the next ITEM line falls inside
+            if end > n_lines or any(ln.startswith("ITEM:") for ln in lines[first:end]):
+                k = next(
+                    (j for j in range(first, min(end, n_lines)) if lines[j].startswith("ITEM:")),
+                    n_lines,
+                )
+                got = k - first
+                raise FileFormatError(
+                    f"{path}:{k + 1}: expected {cur.n} atom rows after line {i + 1} (ITEM: "
+                    f"NUMBER OF ATOMS at line {cur.n_line - 1} says {cur.n}), found {got} "
+                    f"before {'the end of the file' if k >= n_lines else 'the next ITEM'}: "
+                    "a truncated or inconsistent snapshot",
+                    path=path,
+                )
+            if end < n_lines and lines[end].strip() and not lines[end].startswith("ITEM:"):
+                raise FileFormatError(
+                    f"{path}:{end + 1}: expected 'ITEM: TIMESTEP' after the {cur.n} atom rows "
+                    f"that ITEM: NUMBER OF ATOMS (line {cur.n_line - 1}) announces, found a "
+                    "further row: the snapshot holds more atoms than its header says",
+                    path=path,
+                )
+            i = end
+        elif item.startswith("NUMBER OF ENTRIES") or item.startswith("ENTRIES"):
+            raise FileFormatError(
+                f"{path}:{i + 1}: a 'dump local' file ({line}): pair or bond entries, not "
+                "particles",
+                path=path,
+            )
+        else:
+            raise fail(i, "ITEM: TIMESTEP, NUMBER OF ATOMS, BOX BOUNDS or ATOMS")
+    if not snaps:
+        raise FileFormatError(f"{path}: an empty dump (no snapshot)", path=path)
+    last = snaps[-1]
+    if last.cols is None:
+        raise fail(
+            n_lines,
+            "the rest of the snapshot that starts at line "
+            f"{last.start + 1} (up to its ITEM: ATOMS rows): a truncated dump",
+        )
+    for s in snaps:
+        if s.bounds is None or s.timestep is None:
+            raise FileFormatError(
+                f"{path}:{s.start + 1}: the snapshot that starts here has no "
+                f"{'ITEM: BOX BOUNDS' if s.bounds is None else 'ITEM: TIMESTEP'}",
+                path=path,
+            )
+    return snaps
+
+
+def _pick(names: list[str], wanted: tuple[str, ...]) -> int | None:
+    low = [n.strip().lower() for n in names]
+    for w in wanted:
+        if w in low:
+            return low.index(w)
+    return None
+
+
+def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
+    lines = _read_text(path).splitlines()
+    snaps = _scan_dump(path, lines)
+    n_snap = len(snaps)
+    if not -n_snap <= snapshot < n_snap:
+        raise FileFormatError(
+            f"{path}: snapshot = {snapshot} is out of range: the dump holds {n_snap} "
+            f"snapshot{'s' if n_snap > 1 else ''} (0 to {n_snap - 1}, or -{n_snap} to -1)",
+            path=path,
+            reason="snapshot out of range",
+        )
+    k_snap = snapshot % n_snap
+    s = snaps[k_snap]
+    assert s.cols is not None and s.n is not None and s.bounds is not None
+    atoms_line, names = s.cols
+    header = f"{path}:{atoms_line + 1}"
+
+    coord: tuple[int | None, int | None, int | None] | None = None
+    scaled = False
+    for cx, cy, cz, sc in (*_DUMP_COORDS, *_DUMP_SCALED):
+        ix, iy = _pick(names, (cx,)), _pick(names, (cy,))
+        if ix is not None and iy is not None:
+            coord, scaled = (ix, iy, _pick(names, (cz,))), sc
+            break
+    if coord is None:
+        raise FileFormatError(
+            f"{header}: missing columns: expected x y (z), xu yu (zu) or scaled xs ys (zs) "
+            f"in 'ITEM: ATOMS', found {' '.join(names)}",
+            path=path,
+            reason="missing coordinate columns",
+        )
+    i_rad = _pick(names, ("radius",))
+    i_dia = _pick(names, ("diameter",))
+    if i_rad is None and i_dia is None:
+        raise FileFormatError(
+            f"{header}: missing column: expected radius or diameter in 'ITEM: ATOMS', found "
+            f"{' '.join(names)} (add radius to the dump custom command)",
+            path=path,
+            reason="missing radius column",
+        )
+    i_id = _pick(names, _ID_NAMES)
+
+    if s.n == 0:
+        raise FileFormatError(
+            f"{path}:{s.n_line}: snapshot {k_snap} holds no atoms (NUMBER OF ATOMS 0)",
+            path=path,
+        )
+    first = atoms_line + 1
+    ncol = len(names)
+    table = [row.split() for row in lines[first : first + s.n]]
+    for j, t in enumerate(table):
+        if len(t) != ncol:
+            raise FileFormatError(
+                f"{path}:{first + j + 1}: expected {ncol} values ({' '.join(names)}), found "
+                f"{len(t)}",
+                path=path,
+            )
+    want = [c for c in (*coord, i_rad if i_rad is not None else i_dia) if c is not None]
+    if i_id is not None:
+        want.append(i_id)
+    try:
+        a = np.array([[t[c] for c in want] for t in table], dtype=np.float64).reshape(
+            s.n, len(want)
+        )
+    except ValueError:
+        for j, t in enumerate(table):
+            bad = next((t[c] for c in want if not _is_float(t[c])), None)
+            if bad is not None:
+                raise FileFormatError(
+                    f"{path}:{first + j + 1}: {bad!r} is not a number", path=path
+                ) from None
+        raise
+    has_z = coord[2] is not None
+    nc = 3 if has_z else 2
+    x3 = np.zeros((s.n, 3))
+    x3[:, :nc] = a[:, :nc]
+    lo = np.array([b[0] for b in s.bounds])
+    hi = np.array([b[1] for b in s.bounds])
+    if scaled:  # fractions of the box
+        x3[:, :nc] = lo[:nc] + x3[:, :nc] * (hi[:nc] - lo[:nc])
+    r = a[:, nc] if i_rad is not None else a[:, nc] / 2.0
+    ids = None
+    order = np.arange(s.n)
+
+    def where(k: int) -> int:
+        return first + int(order[k]) + 1
+
+    if i_id is not None:
+        raw = a[:, -1]
+        if not np.all(raw == np.round(raw)):
+            k = int(np.argmax(raw != np.round(raw)))
+            raise FileFormatError(
+                f"{path}:{first + k + 1}: id {raw[k]} is not an integer", path=path
+            )
+        ids = raw.astype(np.int64)
+        order = _sorted_by_id(path, ids, lambda k: first + k + 1)
+        ids = ids[order]
+        x3, r = x3[order], r[order]
+    _check_values(path, x3, r, where)
+
+    notes: list[str] = []
+    flags = s.flags
+    z_periodic = flags is not None and len(flags) == 3 and flags[2] == "pp"
+    d = _choose_dim(path, x3, has_z, dim, z_periodic)
+    periodic = None
+    if flags is not None:
+        if len(flags) != 3:
+            raise FileFormatError(
+                f"{path}:{s.box_line}: expected three boundary flags after BOX BOUNDS (such as "
+                f"'pp pp ff'), found {' '.join(flags)}",
+                path=path,
+            )
+        periodic = tuple(f == "pp" for f in flags[:d])
+        axes = [ax for ax, p in zip("xyz", periodic, strict=False) if p]
+        if axes:
+            notes.append(
+                f"periodic in {' and '.join(axes)} (BOX BOUNDS {' '.join(flags)}): the analysis "
+                "has no periodic boundaries; those sides count as walls and contacts across "
+                "them are not found"
+            )
+    return ParticleFile(
+        path=path,
+        format="lammps-dump",
+        positions=x3[:, :d],
+        radii=r,
+        ids=ids,
+        box=(lo[:d], hi[:d]),
+        periodic=periodic,
+        timestep=s.timestep,
+        snapshot=k_snap,
+        n_snapshots=n_snap,
+        notes=tuple(notes),
+    )
+
+
+# --------------------------------------------------------------------------------------
+# the other formats
+# --------------------------------------------------------------------------------------
+def _read_npz(path: Path, dim: int | None) -> ParticleFile:
+    from .pack import load_pack
+
+    pack = load_pack(path)
+    if dim is not None and dim != pack.dim:
+        raise FileFormatError(f"{path}: dim = {dim} asked for a {pack.dim}D pack", path=path)
+    return ParticleFile(
+        path=path,
+        format="npz",
+        positions=np.asarray(pack.positions),
+        radii=np.asarray(pack.radii),
+        box=pack.box,
+        contacts=pack.contacts,
+        pack=pack,
+    )
+
+
+def _read_data(path: Path, dim: int | None) -> ParticleFile:
+    from .export import read_lammps_data
+
+    data = read_lammps_data(path)
+    x3 = data["positions"]
+    ids = data["id"]
+    r = data["diameter"] / 2.0
+    where = lambda k: f" atom id {int(ids[k])}"  # noqa: E731 (the data reader keeps no lines)
+    _check_values(path, x3, r, where)
+    # granpack's 2D data files have z = 0; any constant z is 2D, as in a dump
+    d = _choose_dim(path, x3, True, dim)
+    lo, hi = data["box"]
+    return ParticleFile(
+        path=path,
+        format="lammps-data",
+        positions=x3[:, :d],
+        radii=r,
+        ids=ids,
+        box=(lo[:d], hi[:d]),
+    )
+
+
+def _read_xyzr(path: Path, dim: int | None) -> ParticleFile:
+    from .microstructure import read_xyzr
+
+    x, r, d = read_xyzr(path, dim=dim)
+    return ParticleFile(path=path, format="xyzr", positions=x, radii=r)
+
+
+def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
+    import polars as pl
+
+    try:
+        if fmt == "csv":
+            # every column as text first: a bad value is then found and named by its line
+            df = pl.read_csv(path, infer_schema_length=0, comment_prefix="#")
+        else:
+            df = pl.read_parquet(path)
+    except FileNotFoundError:
+        raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
+    except (OSError, pl.exceptions.PolarsError, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise FileFormatError(f"cannot read {path} as {fmt}: {first[:200]}", path=path) from None
+
+    names = list(df.columns)
+    if fmt == "csv":
+        # the file line of each row: the header is the first line that is neither blank
+        # nor a comment; polars makes a row (all null) of each later blank line too, so
+        # those rows are dropped along with their lines
+        all_lines = _read_text(path).splitlines()
+        data_lines = [
+            k + 1 for k, ln in enumerate(all_lines) if ln.strip() and not ln.startswith("#")
+        ]
+        head_line = data_lines[0] if data_lines else 1
+        row_line = [
+            k + 1 for k in range(head_line, len(all_lines)) if not all_lines[k].startswith("#")
+        ]
+        blank = df.select(pl.all_horizontal(pl.all().is_null())).to_series().to_numpy()
+        if blank.any():
+            df = df.filter(pl.Series(~blank))
+        if len(row_line) == len(blank):
+            row_line = [line for line, b in zip(row_line, blank, strict=True) if not b]
+        else:  # a layout this mapping does not follow: name rows by number instead
+            row_line = []
+
+        def where(k: int) -> str:
+            return str(row_line[k]) if k < len(row_line) else f"row {k + 1}"
+
+        label = f"{path}:{head_line}"
+    else:
+
+        def where(k: int) -> str:
+            return f"row {k}"
+
+        label = str(path)
+
+    ix, iy, iz = _pick(names, ("x",)), _pick(names, ("y",)), _pick(names, ("z",))
+    i_r = _pick(names, _RADIUS_NAMES)
+    i_d = _pick(names, _DIAMETER_NAMES) if i_r is None else None
+    missing = [w for w, c in (("x", ix), ("y", iy)) if c is None]
+    if i_r is None and i_d is None:
+        missing.append("r (or radius, diameter)")
+    if missing:
+        raise FileFormatError(
+            f"{label}: missing column{'s' if len(missing) > 1 else ''} {', '.join(missing)}; "
+            f"found {', '.join(names) or 'none'} (expected x, y, z (3D), r or radius or "
+            "diameter, optional id)",
+            path=path,
+            reason="missing columns",
+        )
+    if len(df) == 0:
+        raise FileFormatError(f"{label}: no rows", path=path)
+    i_id = _pick(names, _ID_NAMES)
+
+    def column(c: int) -> np.ndarray:
+        name = names[c]
+        s = df.get_column(name)
+        if s.dtype == pl.String:  # CSV: every column is read as text
+            s = s.str.strip_chars()
+        try:
+            f = s.cast(pl.Float64, strict=False)
+        except pl.exceptions.PolarsError:
+            raise FileFormatError(
+                f"{label}: column {name!r} ({s.dtype}) is not numeric", path=path
+            ) from None
+        bad = f.is_null().to_numpy()
+        if bad.any():
+            k = int(np.argmax(bad))
+            value = s[k]
+            what = "a missing value" if value is None else f"{str(value)!r} is not a number"
+            raise FileFormatError(f"{path}:{where(k)}: column {name!r}: {what}", path=path)
+        return f.to_numpy().astype(np.float64)
+
+    assert ix is not None and iy is not None  # else refused above as missing
+    has_z = iz is not None
+    x3 = np.zeros((len(df), 3))
+    x3[:, 0], x3[:, 1] = column(ix), column(iy)
+    if iz is not None:
+        x3[:, 2] = column(iz)
+    if i_r is not None:
+        r = column(i_r)
+    else:
+        assert i_d is not None
+        r = column(i_d) / 2.0
+    ids = None
+    if i_id is not None:
+        raw = column(i_id)
+        if not np.all(raw == np.round(raw)):
+            k = int(np.argmax(raw != np.round(raw)))
+            raise FileFormatError(f"{path}:{where(k)}: id {raw[k]} is not an integer", path=path)
+        ids = raw.astype(np.int64)
+        order = _sorted_by_id(path, ids, where)
+        ids, x3, r = ids[order], x3[order], r[order]
+        _check_values(path, x3, r, lambda k: where(int(order[k])))
+    else:
+        _check_values(path, x3, r, where)
+    d = _choose_dim(path, x3, has_z, dim)
+    return ParticleFile(path=path, format=fmt, positions=x3[:, :d], radii=r, ids=ids)

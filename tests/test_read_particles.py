@@ -1,0 +1,455 @@
+"""read_particles: LAMMPS/LIGGGHTS dumps written by hand (known positions, radii, box,
+ids, snapshots), granpack's own files, CSV and Parquet, format detection, and every
+bad input refused with a FileFormatError that names the line. Where LAMMPS and LIGGGHTS
+are installed, the dumps they write of granpack's data export are read back."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import polars as pl
+import pytest
+
+import granpack as gp
+from granpack import export
+from granpack.cli import main
+from granpack.particles import FORMATS, detect_format
+
+# Four spheres in a 1 x 1 x 2 box, no two touching; every value exact in binary so that
+# the reader's output can be compared with ==.
+IDS = np.array([1, 2, 3, 4])
+X0 = np.array([[0.25, 0.25, 0.125], [0.75, 0.25, 0.125], [0.25, 0.75, 0.125], [0.75, 0.75, 0.5]])
+X1 = X0 + np.array([0.0, 0.0, 0.25])
+R = np.array([0.125, 0.0625, 0.125, 0.09375])
+LO, HI = np.array([0.0, 0.0, 0.0]), np.array([1.0, 1.0, 2.0])
+SHUFFLE = [2, 0, 3, 1]  # the order the rows are written in
+CORE = 0.02  # a core window that fits in the small packs below (m)
+
+
+def _f(v) -> str:
+    return repr(float(v))  # the shortest text that reads back to the same double
+
+
+def snapshot(
+    step,
+    x,
+    radii=R,
+    ids=IDS,
+    columns="id type x y z radius vx",
+    flags="pp pp fm",
+    lo=LO,
+    hi=HI,
+    order=SHUFFLE,
+    n=None,
+) -> str:
+    """One dump custom snapshot, as LAMMPS writes it, with the rows in `order`."""
+    names = columns.split()
+    head = [
+        "ITEM: TIMESTEP",
+        str(step),
+        "ITEM: NUMBER OF ATOMS",
+        str(len(order) if n is None else n),
+        f"ITEM: BOX BOUNDS {flags}".rstrip(),
+        *(f"{_f(lo[k])} {_f(hi[k])}" for k in range(3)),
+        "ITEM: ATOMS " + columns,
+    ]
+    rows = []
+    for k in order:
+        value = {
+            "id": str(ids[k]),
+            "type": "1",
+            "x": _f(x[k, 0]),
+            "y": _f(x[k, 1]),
+            "z": _f(x[k, 2]),
+            "xs": _f((x[k, 0] - lo[0]) / (hi[0] - lo[0])),
+            "ys": _f((x[k, 1] - lo[1]) / (hi[1] - lo[1])),
+            "zs": _f((x[k, 2] - lo[2]) / (hi[2] - lo[2])),
+            "radius": _f(radii[k]),
+            "diameter": _f(2 * radii[k]),
+            "vx": "0",
+        }
+        rows.append(" ".join(value[c] for c in names))
+    return "\n".join(head + rows) + "\n"
+
+
+@pytest.fixture
+def two_snapshots(tmp_path):
+    path = tmp_path / "pack.dump"
+    path.write_text(snapshot(0, X0) + snapshot(100, X1))
+    return path
+
+
+def test_dump_last_and_first_snapshot_sorted_by_id(two_snapshots):
+    p = gp.read_particles(two_snapshots)
+    assert p.format == "lammps-dump" and p.dim == 3 and len(p) == 4
+    assert (p.snapshot, p.n_snapshots, p.timestep) == (1, 2, 100)
+    np.testing.assert_array_equal(p.ids, IDS)
+    np.testing.assert_array_equal(p.positions, X1)
+    np.testing.assert_array_equal(p.radii, R)
+    np.testing.assert_array_equal(p.box[0], LO)
+    np.testing.assert_array_equal(p.box[1], HI)
+    assert p.periodic == (True, True, False)
+    assert any("periodic in x and y" in note for note in p.notes)
+
+    first = gp.read_particles(two_snapshots, snapshot=0)
+    assert (first.snapshot, first.timestep) == (0, 0)
+    np.testing.assert_array_equal(first.positions, X0)
+    np.testing.assert_array_equal(gp.read_particles(two_snapshots, snapshot=-2).positions, X0)
+    # the result is read-only, like a pack's arrays
+    with pytest.raises(ValueError):
+        p.positions[0, 0] = 1.0
+
+
+def test_scaled_coordinates_and_diameter_column(tmp_path):
+    lo, hi = np.array([-1.0, -1.0, 0.0]), np.array([3.0, 1.0, 4.0])
+    path = tmp_path / "scaled.dump"
+    path.write_text(snapshot(7, X0, columns="id xs ys zs diameter", lo=lo, hi=hi, flags="ff ff ff"))
+    p = gp.read_particles(path)
+    # xs = (x - lo) / (hi - lo) back to x: exact for these binary fractions
+    np.testing.assert_array_equal(p.positions, X0)
+    np.testing.assert_array_equal(p.radii, R)
+    np.testing.assert_array_equal(p.box[0], lo)
+    assert p.periodic == (False, False, False) and p.notes == ()
+
+
+def test_dump_without_ids_keeps_the_file_order(tmp_path):
+    path = tmp_path / "noid.dump"
+    path.write_text(snapshot(0, X0, columns="x y z radius", order=[0, 1, 2, 3]))
+    p = gp.read_particles(path)
+    assert p.ids is None
+    np.testing.assert_array_equal(p.positions, X0)
+
+
+def test_2d_when_z_is_constant_or_absent(tmp_path):
+    x2 = X0.copy()
+    x2[:, 2] = 0.0  # LAMMPS writes 2D with z = 0
+    lo, hi = np.array([0.0, 0.0, -0.5]), np.array([1.0, 2.0, 0.5])
+    const = tmp_path / "flat.dump"
+    const.write_text(snapshot(0, x2, lo=lo, hi=hi, flags="ff ff pp"))
+    p = gp.read_particles(const)
+    assert p.dim == 2 and p.positions.shape == (4, 2)
+    np.testing.assert_array_equal(p.positions, x2[:, :2])
+    np.testing.assert_array_equal(p.box[1], [1.0, 2.0])
+    # z is periodic in LAMMPS' 2D, but that axis is dropped: no note
+    assert p.periodic == (False, False) and p.notes == ()
+    assert gp.read_particles(const, dim=3).dim == 3
+
+    no_z = tmp_path / "xy.dump"
+    no_z.write_text(snapshot(0, x2, columns="id x y radius", lo=lo, hi=hi))
+    q = gp.read_particles(no_z)
+    assert q.dim == 2
+    np.testing.assert_array_equal(q.positions, x2[:, :2])
+    with pytest.raises(gp.FileFormatError, match="dim = 3 needs a z column"):
+        gp.read_particles(no_z, dim=3)
+    spread = tmp_path / "3d.dump"
+    spread.write_text(snapshot(0, X0))
+    with pytest.raises(gp.FileFormatError, match="dim = 2 needs the same z"):
+        gp.read_particles(spread, dim=2)
+
+
+def test_snapshots_of_different_sizes_each_read_with_its_own_header(tmp_path):
+    # A dump written while particles are inserted grows from one snapshot to the next.
+    path = tmp_path / "growing.dump"
+    path.write_text(snapshot(0, X0, order=[1, 0]) + snapshot(50, X1))
+    early = gp.read_particles(path, snapshot=0)
+    # one layer at z = 0.125 with a non-periodic z: still 3D
+    assert early.dim == 3
+    np.testing.assert_array_equal(early.ids, [1, 2])
+    np.testing.assert_array_equal(early.positions, X0[:2])
+    assert len(gp.read_particles(path)) == 4
+
+
+# -- format detection ------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def pack2d():
+    # the small settled 2D pack of the export tests
+    scene = gp.PackScene.preset("4.2").replace(base=(0.2,), height=0.08, settle_time=0.5)
+    return gp.generate(scene.replace(seed=11))
+
+
+@pytest.fixture(scope="module")
+def pack3d():
+    # the small settled 3D pack of the export tests
+    scene = gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5)
+    return gp.generate(scene.replace(seed=11))
+
+
+def test_format_detection_by_content_and_suffix(tmp_path, pack2d, two_snapshots):
+    files = {
+        "lammps-dump": tmp_path / "dump_no_suffix",
+        "lammps-data": tmp_path / "pack.data",
+        "xyzr": tmp_path / "pack.txt",
+        "csv": tmp_path / "pack.particles.csv",
+        "parquet": tmp_path / "pack.particles.parquet",
+        "npz": tmp_path / "pack.npz",
+    }
+    n = len(pack2d)
+    x3 = np.column_stack([pack2d.positions, np.zeros(n)])
+    lo, hi = pack2d.box
+    files["lammps-dump"].write_text(
+        snapshot(
+            0,
+            x3,
+            radii=pack2d.radii,
+            ids=np.arange(1, n + 1),
+            order=np.random.default_rng(1).permutation(n),
+            lo=[*lo, -0.5],
+            hi=[*hi, 0.5],
+            flags="ff ff pp",
+        )
+    )
+    export.export(pack2d, files["lammps-data"])
+    text = "\n".join(
+        f"{_f(x)} {_f(y)} {_f(r)}" for (x, y), r in zip(pack2d.positions, pack2d.radii, strict=True)
+    )
+    files["xyzr"].write_text("# x y r\n" + text + "\n")
+    export.export(pack2d, tmp_path / "pack.csv")
+    export.export(pack2d, tmp_path / "pack.parquet")
+    pack2d.save(files["npz"])
+    assert sorted(files) == sorted(FORMATS)
+    m_pack = gp.microstructure(pack2d, core_margin=CORE)
+    for fmt, path in files.items():
+        assert detect_format(path) == fmt, path
+        p = gp.read_particles(path)
+        assert p.format == fmt and p.dim == 2 and len(p) == n, fmt
+        # every format carries full-precision values here: the pack's particles, bit for bit
+        np.testing.assert_array_equal(p.positions, pack2d.positions, err_msg=fmt)
+        np.testing.assert_array_equal(p.radii, pack2d.radii, err_msg=fmt)
+    # a dump under a misleading suffix is still a dump; format= overrides detection
+    odd = tmp_path / "dump.csv"
+    odd.write_bytes(two_snapshots.read_bytes())
+    assert detect_format(odd) == "lammps-dump"
+    assert gp.read_particles(files["xyzr"], format="xyzr").format == "xyzr"
+    # the pack file keeps its contacts and forces: the same analysis as the pack's
+    m = gp.microstructure(gp.read_particles(files["npz"]), core_margin=CORE)
+    assert m.phi == m_pack.phi and m.f0 == m_pack.f0 and m.has_forces
+    # the data file carries the pack's box: the same phi and contacts
+    m_data = gp.microstructure(gp.read_particles(files["lammps-data"]), core_margin=CORE)
+    assert m_data.phi == pytest.approx(m_pack.phi, rel=1e-12)
+    assert m_data.n_contacts == m_pack.n_contacts
+
+
+def test_csv_and_parquet_with_named_columns(tmp_path):
+    df = pl.DataFrame(
+        {"ID": IDS[SHUFFLE], "x": X0[SHUFFLE, 0], "y": X0[SHUFFLE, 1], "z": X0[SHUFFLE, 2]}
+    ).with_columns(diameter=pl.Series(2 * R[SHUFFLE]))
+    df.write_csv(tmp_path / "t.csv")
+    df.write_parquet(tmp_path / "t.parquet")
+    for name in ("t.csv", "t.parquet"):
+        p = gp.read_particles(tmp_path / name)
+        np.testing.assert_array_equal(p.ids, IDS)
+        np.testing.assert_array_equal(p.positions, X0)
+        np.testing.assert_array_equal(p.radii, R)
+        assert p.box is None  # a table has no box: the analysis takes the bounding box
+
+
+# -- bad input ---------------------------------------------------------------------------------
+def _lines(text: str) -> list[str]:
+    return text.splitlines(keepends=True)
+
+
+ONE = snapshot(0, X0)  # lines 1-9 header, 10-13 rows
+
+
+def _cut_rows(text: str, keep: int) -> str:
+    return "".join(_lines(text)[: 9 + keep])
+
+
+BAD_DUMPS = {
+    # name: (text, the line the message names, words it must contain)
+    "truncated rows": (_cut_rows(ONE, 2), 12, "expected 4 atom rows"),
+    "truncated header": ("".join(_lines(ONE)[:6]), 7, "expected the y bounds"),
+    "rows short of the header mid-file": (
+        _cut_rows(ONE, 3) + snapshot(5, X1),
+        13,
+        "expected 4 atom rows",
+    ),
+    "rows beyond the header": (snapshot(0, X0, n=3), 13, "more atoms than its header"),
+    "missing radius": (snapshot(0, X0, columns="id type x y z vx"), 9, "radius or diameter"),
+    "missing coordinates": (snapshot(0, X0, columns="id type radius"), 9, "x y (z)"),
+    "a word in a row": (ONE.replace("0.09375", "big", 1), 12, "'big' is not a number"),
+    "a short row": (ONE.replace(" 0\n", "\n", 1), 10, "expected 7 values"),
+    "a radius of zero": (snapshot(0, X0, radii=np.array([0.1, 0.0, 0.1, 0.1])), 13, "radius 0.0"),
+    "a repeated id": (snapshot(0, X0, ids=np.array([1, 2, 2, 4])), 13, "repeats the id"),
+    "not a dump after the first line": ("ITEM: TIMESTEP\n0\nhello\n", 3, "'ITEM:' line"),
+    "a triclinic box": (ONE.replace("BOX BOUNDS pp pp fm", "BOX BOUNDS xy xz yz pp pp pp"), 5, ""),
+    "a dump local": ("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n0\n", 3, "dump local"),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_DUMPS))
+def test_bad_dump_is_refused_naming_the_line(name, tmp_path):
+    text, line, words = BAD_DUMPS[name]
+    path = tmp_path / "bad.dump"
+    path.write_text(text)
+    with pytest.raises(gp.FileFormatError) as info:
+        gp.read_particles(path)
+    message = str(info.value)
+    assert f"{path}:{line}:" in message, message
+    assert words in message, message
+    assert info.value.path == path
+
+
+def test_snapshot_out_of_range(two_snapshots, tmp_path):
+    for k in (2, -3):
+        with pytest.raises(gp.FileFormatError, match=r"snapshot = -?\d is out of range.*0 to 1"):
+            gp.read_particles(two_snapshots, snapshot=k)
+    text = tmp_path / "p.txt"
+    text.write_text("0 0 0 0.1\n")
+    with pytest.raises(gp.FileFormatError, match="one snapshot"):
+        gp.read_particles(text, snapshot=1)
+
+
+def test_bad_tables_name_the_line_or_column(tmp_path):
+    missing = tmp_path / "m.csv"
+    missing.write_text("# from elsewhere\nx,y,z\n0,0,0\n")
+    with pytest.raises(gp.FileFormatError, match=r"m\.csv:2: missing column r \(or radius"):
+        gp.read_particles(missing)
+    bad = tmp_path / "b.csv"
+    # a comment and a blank line: the message still names the file's line
+    bad.write_text("# a comment line\nx,y,z,r\n0,0,0,0.1\n\n1,1,1,oops\n")
+    with pytest.raises(gp.FileFormatError, match=r"b\.csv:5: column 'r': 'oops' is not a number"):
+        gp.read_particles(bad)
+    neg = tmp_path / "n.parquet"
+    pl.DataFrame({"x": [0.0, 1.0], "y": [0.0, 0.0], "radius": [0.1, -0.1]}).write_parquet(neg)
+    with pytest.raises(gp.FileFormatError, match=r"n\.parquet:row 1: radius -0\.1"):
+        gp.read_particles(neg)
+
+
+def test_missing_and_binary_files(tmp_path):
+    with pytest.raises(gp.FileFormatError, match="no such file") as info:
+        gp.read_particles(tmp_path / "absent.dump")
+    assert info.value.path == tmp_path / "absent.dump"
+    junk = tmp_path / "junk.data"
+    junk.write_bytes(b"\x00\xffLAMMPS\n3 atoms\n")
+    with pytest.raises(gp.FileFormatError):
+        gp.read_particles(junk)
+
+
+def test_bad_arguments_are_invalid_parameters(two_snapshots):
+    cases = [({"format": "vtk"}, "format"), ({"snapshot": "last"}, "snapshot")]
+    cases += [({"snapshot": True}, "snapshot"), ({"dim": 4}, "dim")]
+    for kwargs, name in cases:
+        with pytest.raises(gp.InvalidParameterError) as info:
+            gp.read_particles(two_snapshots, **kwargs)
+        assert info.value.parameter == name and f"invalid {name}" in str(info.value)
+
+
+# -- the command -----------------------------------------------------------------------------
+def _phi(x) -> float:
+    # these four spheres touch nothing: the analysis warns that the fabric is undefined
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        return gp.microstructure(positions=x, radii=R, box=(LO, HI)).phi
+
+
+def test_analyze_a_dump_prints_the_format_and_the_same_phi(two_snapshots, capsys):
+    assert main(["analyze", str(two_snapshots), "--json"]) == 0
+    out = capsys.readouterr()
+    d = json.loads(out.out)
+    assert d["format"] == "lammps-dump" and d["snapshot"] == 1 and d["timestep"] == 100
+    assert d["phi"] == _phi(X1) and d["n_particles"] == 4
+    assert "periodic in x and y" in out.err  # the note the reader left
+
+    assert main(["analyze", str(two_snapshots), "--snapshot", "0"]) == 0
+    table = capsys.readouterr().out
+    assert "format" in table and "lammps-dump" in table
+    assert f"{_phi(X0):.6g}" in table.split("\nphi ")[1].split("\n")[0]
+
+    assert main(["analyze", str(two_snapshots), "--snapshot", "5"]) == 2
+    assert "out of range" in capsys.readouterr().err
+
+
+# -- LAMMPS itself ---------------------------------------------------------------------------
+LMP = shutil.which("lmp") or shutil.which("lmp_serial")
+
+LAMMPS_INPUT = """units si
+atom_style sphere
+dimension {dim}
+boundary {boundary}
+read_data pack.data
+pair_style none
+run 0
+write_dump all custom default.dump id type x y z radius
+write_dump all custom full.dump id type x y z radius modify format float %.17g
+"""
+
+
+@pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (no lmp or lmp_serial on PATH)")
+def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d, pack3d):
+    for pack in (pack2d, pack3d):
+        run_dir = tmp_path / f"{pack.dim}d"
+        run_dir.mkdir()
+        export.export(pack, run_dir / "pack.data")
+        boundary = "f f f" if pack.dim == 3 else "f f p"
+        (run_dir / "in.dump").write_text(LAMMPS_INPUT.format(dim=pack.dim, boundary=boundary))
+        done = subprocess.run(
+            [LMP, "-in", "in.dump", "-log", "none", "-screen", "none"],
+            cwd=run_dir,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert done.returncode == 0, done.stdout + done.stderr
+        default = gp.read_particles(run_dir / "default.dump")
+        assert default.format == "lammps-dump" and default.dim == pack.dim
+        # dump custom writes %g: six significant digits
+        np.testing.assert_allclose(default.positions, pack.positions, rtol=5e-6, atol=0)
+        np.testing.assert_allclose(default.radii, pack.radii, rtol=5e-6, atol=0)
+        full = gp.read_particles(run_dir / "full.dump")
+        np.testing.assert_array_equal(full.ids, np.arange(1, len(pack) + 1))
+        np.testing.assert_array_equal(full.positions, pack.positions)
+        np.testing.assert_array_equal(full.radii, pack.radii)
+        np.testing.assert_array_equal(full.box[0], pack.box[0])
+        # at full precision, the same contacts as the pack
+        m = gp.microstructure(full, core_margin=CORE)
+        n_pp = int((pack.contacts.j >= 0).sum())
+        assert m.n_contacts == n_pp and m.phi == pytest.approx(pack.phi, rel=1e-12)
+
+
+LIGGGHTS = shutil.which("liggghts")
+
+LIGGGHTS_INPUT = """units si
+atom_style granular
+atom_modify map array
+boundary f f f
+newton off
+communicate single vel yes
+read_data pack.data
+neighbor 0.002 bin
+pair_style gran model hertz tangential history
+fix m1 all property/global youngsModulus peratomtype 1e8
+fix m2 all property/global poissonsRatio peratomtype 0.25
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.9
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+pair_coeff * *
+timestep 1e-6
+run 0
+write_dump all custom pack.dump id type x y z radius mass
+"""
+
+
+@pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)")
+def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
+    pack = pack3d
+    export.export(pack, tmp_path / "pack.data")
+    (tmp_path / "in.dump").write_text(LIGGGHTS_INPUT)
+    done = subprocess.run(
+        [LIGGGHTS, "-in", "in.dump", "-log", "none", "-screen", "none"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    p = gp.read_particles(tmp_path / "pack.dump")
+    # LIGGGHTS writes the rows in its own order, with a mass column and trailing spaces
+    assert p.format == "lammps-dump" and p.dim == 3
+    np.testing.assert_array_equal(p.ids, np.arange(1, len(pack) + 1))
+    np.testing.assert_allclose(p.positions, pack.positions, rtol=5e-6, atol=0)
+    np.testing.assert_allclose(p.radii, pack.radii, rtol=5e-6, atol=0)
+    np.testing.assert_allclose(p.box[1], pack.box[1], rtol=5e-6)
