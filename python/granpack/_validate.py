@@ -22,6 +22,7 @@ __all__ = [
     "as_array",
     "unknown_keys",
     "short_repr",
+    "is_number",
 ]
 
 # Error messages quote the value they refuse; a huge or deeply nested value (a list of
@@ -71,6 +72,16 @@ def as_real(
             f"invalid {name} = {v}: must lie in {lb}{lo}, {hi}{hb}{unit_txt(unit)}"
         )
     return v
+
+
+def is_number(s: str) -> bool:
+    """Whether the text `s` is a number as `float` reads it (file readers use this to
+    name the first field that is not)."""
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
 
 
 def unit_txt(unit: str) -> str:

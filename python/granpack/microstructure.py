@@ -51,7 +51,14 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _core
-from ._validate import FileFormatError, GranpackError, InvalidParameterError, as_int, as_real
+from ._validate import (
+    FileFormatError,
+    GranpackError,
+    InvalidParameterError,
+    as_int,
+    as_real,
+    is_number,
+)
 from .contacts import Contacts
 
 __all__ = [
@@ -695,7 +702,7 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
         try:
             vals = [float(v) for v in body]
         except ValueError:
-            bad = next(v for v in body if not _is_float(v))
+            bad = next(v for v in body if not is_number(v))
             raise FileFormatError(f"{path}:{lineno}: {bad!r} is not a number", path=path) from None
         if not all(math.isfinite(v) for v in vals):
             raise FileFormatError(f"{path}:{lineno}: non-finite value", path=path)
@@ -724,14 +731,6 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
     if y_zero:
         return np.ascontiguousarray(a[:, [0, 2]]), radii, 2
     raise FileFormatError(f"{path}: dim = 2 needs an all-zero y or z column; neither is", path=path)
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
 
 
 # --------------------------------------------------------------------------------------

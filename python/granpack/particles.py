@@ -24,7 +24,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
+from ._validate import (
+    FileFormatError,
+    GranpackError,
+    InvalidParameterError,
+    is_number,
+    short_repr,
+)
 from .contacts import Contacts
 
 if TYPE_CHECKING:
@@ -184,17 +190,9 @@ def detect_format(path) -> str:
         return "lammps-data"
     body = next((b for ln in lines if (b := ln.split("#", 1)[0].strip())), "")
     words = body.replace(",", " ").split()
-    if "," in body and any(not _is_float(w) for w in words):
+    if "," in body and any(not is_number(w) for w in words):
         return "csv"
     return "xyzr"
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
 
 
 # --------------------------------------------------------------------------------------
@@ -456,7 +454,7 @@ def _scan_dump(path: Path, lines: list[str]) -> list[_Snapshot]:
                 if j >= n_lines:
                     raise fail(j, what)
                 w = lines[j].split()
-                if len(w) != 2 or not all(_is_float(v) for v in w):
+                if len(w) != 2 or not all(is_number(v) for v in w):
                     raise fail(j, what)
                 lo, hi = float(w[0]), float(w[1])
                 if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
@@ -599,7 +597,7 @@ def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         )
     except ValueError:
         for j, t in enumerate(table):
-            bad = next((t[c] for c in want if not _is_float(t[c])), None)
+            bad = next((t[c] for c in want if not is_number(t[c])), None)
             if bad is not None:
                 raise FileFormatError(
                     f"{path}:{first + j + 1}: {bad!r} is not a number", path=path
