@@ -364,6 +364,19 @@ def test_analyze_a_dump_prints_the_format_and_the_same_phi(two_snapshots, capsys
     assert "out of range" in capsys.readouterr().err
 
 
+def run_peer(program: str, run_dir, script: str) -> None:
+    """Runs LAMMPS or LIGGGHTS on `script` in `run_dir`; its output shows if it fails."""
+    (run_dir / "in.dump").write_text(script)
+    done = subprocess.run(
+        [program, "-in", "in.dump", "-log", "none", "-screen", "none"],
+        cwd=run_dir,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
 # -- LAMMPS itself ---------------------------------------------------------------------------
 LMP = shutil.which("lmp") or shutil.which("lmp_serial")
 
@@ -386,15 +399,7 @@ def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d, pack
         run_dir.mkdir()
         export.export(pack, run_dir / "pack.data")
         boundary = "f f f" if pack.dim == 3 else "f f p"
-        (run_dir / "in.dump").write_text(LAMMPS_INPUT.format(dim=pack.dim, boundary=boundary))
-        done = subprocess.run(
-            [LMP, "-in", "in.dump", "-log", "none", "-screen", "none"],
-            cwd=run_dir,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
-        assert done.returncode == 0, done.stdout + done.stderr
+        run_peer(LMP, run_dir, LAMMPS_INPUT.format(dim=pack.dim, boundary=boundary))
         default = gp.read_particles(run_dir / "default.dump")
         assert default.format == "lammps-dump" and default.dim == pack.dim
         # dump custom writes %g: six significant digits
@@ -437,15 +442,7 @@ write_dump all custom pack.dump id type x y z radius mass
 def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
     pack = pack3d
     export.export(pack, tmp_path / "pack.data")
-    (tmp_path / "in.dump").write_text(LIGGGHTS_INPUT)
-    done = subprocess.run(
-        [LIGGGHTS, "-in", "in.dump", "-log", "none", "-screen", "none"],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
+    run_peer(LIGGGHTS, tmp_path, LIGGGHTS_INPUT)
     p = gp.read_particles(tmp_path / "pack.dump")
     # LIGGGHTS writes the rows in its own order, with a mass column and trailing spaces
     assert p.format == "lammps-dump" and p.dim == 3
