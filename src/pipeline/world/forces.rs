@@ -431,10 +431,9 @@ where
             .collect();
         let late = late
             .par_chunks(64)
-            // SAFETY: each particle is deferred once, and nothing else runs.
             .map(|qs| {
                 let qs = qs.iter().map(|&q| q as usize);
-                // SAFETY: as above.
+                // SAFETY: each particle is deferred once, and nothing else runs.
                 unsafe { gather_each::<D, TORQUE, KICK, FROZEN, _>(&gin, out, blocks, qs, false) }
             })
             .reduce(Gathered::default, Gathered::merge);
