@@ -41,7 +41,12 @@ def product_files() -> list[Path]:
         ).stdout
     except (OSError, subprocess.CalledProcessError):
         pytest.skip("not a git checkout: the product's file list is git's")
-    paths = [ROOT / p for p in out.splitlines()]
+    names = out.splitlines()
+    # A virtual environment the user made in the checkout under a name .gitignore does not
+    # know (`python -m venv env`) is not the product: leave out every folder that holds a
+    # pyvenv.cfg.
+    venvs = tuple(n[: -len("pyvenv.cfg")] for n in names if n.endswith("/pyvenv.cfg"))
+    paths = [ROOT / n for n in names if not n.startswith(venvs)]
     return [p for p in paths if p.is_file() and p.suffix not in SKIP_SUFFIXES]
 
 
