@@ -9,7 +9,7 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack.microstructure import empirical_z, phi_from_void_ratio
+from granpack.analysis import empirical_z, phi_from_void_ratio
 from granpack.tables import (
     PRESET_TABLES,
     STAT_LABELS,
@@ -106,7 +106,7 @@ def test_paper_standard_deviations_are_ddof_1():
 # --------------------------------------------------------------------------------------
 # ensembles
 # --------------------------------------------------------------------------------------
-def lattice_result(n: int) -> gp.microstructure.Microstructure:
+def lattice_result(n: int) -> gp.analysis.Microstructure:
     """An n x n square lattice of touching discs: Z = 4 (n - 1)/n."""
     r = 0.01
     s = 2 * r * (1 - 1e-9)

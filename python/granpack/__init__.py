@@ -7,6 +7,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
+from .analysis import microstructure
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -17,7 +18,6 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
-from .microstructure import microstructure
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene

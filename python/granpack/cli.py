@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
-import importlib
 import json
 import math
 import os
@@ -359,12 +358,6 @@ def build_parser() -> argparse.ArgumentParser:
 # -- shared pieces -------------------------------------------------------------------------------
 
 
-def _microstructure_module():
-    # `granpack.microstructure` is also the name of the function exported by the
-    # package, so the module is fetched from the import system, not as an attribute.
-    return importlib.import_module("granpack.microstructure")
-
-
 def _scene_from_arg(text: str):
     from .scene import PRESETS, PackScene
 
@@ -512,7 +505,8 @@ def _microstructure(console: _Console, label: str, *args, **kwargs):
     """granpack.microstructure(...), with its MicrostructureWarnings (an undefined
     quantity, e.g. an empty core window in a small pack) turned into notes that the
     console prints once per message, instead of warnings with a source line."""
-    ms = _microstructure_module()
+    from . import analysis as ms
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ms.MicrostructureWarning)
         m = ms.microstructure(*args, **kwargs)
@@ -593,11 +587,10 @@ def cmd_generate(args, console: _Console) -> int:
 
 
 def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
-    from . import plot, report
+    from . import plot, report, tables
     from .ensemble import ensemble_tasks, run_tasks
     from .pack import atomic_write
 
-    tables = importlib.import_module("granpack.tables")
     t0 = time.perf_counter()
     tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
     console.say(f"granpack generate: {args.packs} pack(s) of {name} -> {out}")
@@ -664,11 +657,10 @@ def cmd_paper(args, console: _Console) -> int:
 
 
 def _paper_into(args, console: _Console) -> int:
-    from . import mass2d, plot, report
+    from . import mass2d, plot, report, tables
     from .ensemble import ensemble_tasks, run_tasks
     from .scene import PackScene
 
-    tables = importlib.import_module("granpack.tables")
     n_packs = args.packs if args.packs is not None else (QUICK_PACKS if args.quick else PAPER_PACKS)
     out: Path = args.out
     examples = sorted(set(args.examples), key=list(PAPER_EXAMPLES).index)
@@ -810,7 +802,8 @@ def paper_phi() -> dict[tuple[str, bool], list[float]]:
     and 11, from `granpack.tables.paper_values`)."""
     import polars as pl
 
-    tables = importlib.import_module("granpack.tables")
+    from . import tables
+
     out: dict[tuple[str, bool], list[float]] = {}
     for ex, (number, _, _) in tables.PRESET_TABLES.items():
         df = tables.paper_values(number).filter(~pl.col("pack").is_in(list(tables.STAT_LABELS)))

@@ -19,7 +19,7 @@ and then "mean", "st. deviation", "coef. variation"):
 - ``extra_<preset>``: column ``rotations`` ("ON"/"OFF") and, per pack and then the three
   statistics, measured Z, Z with walls, Z_m, rattlers, phi_core (exact and the peers'
   centres recipe), fabric eigenvalues, Phi_d, the Table 1 measures, |a^r|, f0, |a^n|, |a^t|
-  (amplitudes as in :func:`granpack.microstructure.anisotropy_magnitude`) and the binned
+  (amplitudes as in :func:`granpack.analysis.anisotropy_magnitude`) and the binned
   ones when present.
 
 Statistics: mean, sample standard deviation (ddof = 1, as the paper: its table 2 prints
@@ -38,7 +38,7 @@ from typing import cast
 import polars as pl
 
 from ._validate import InvalidParameterError
-from .microstructure import Microstructure
+from .analysis import Microstructure
 from .pack import atomic_write
 
 __all__ = [
