@@ -15,9 +15,7 @@ orientation groups), :func:`anisotropy_tensor`, :func:`eigen_sorted`, :func:`phi
 :func:`phi_from_void_ratio`, :func:`window_volumes` and :func:`read_xyzr` (``x y z r`` text
 files from other DEM codes).
 
-Modules
--------
-``relations`` (void ratio, empirical Z(e)), ``tensors`` (fabric and force tensors),
+One module per concern: ``relations`` (void ratio, empirical Z(e)), ``tensors`` (fabric and force tensors),
 ``volumes`` (exact volumes inside windows), ``reader`` (text packs), ``inputs`` (coercion of
 what the analysis is given), ``result`` (:class:`Microstructure`) and ``compute``
 (:func:`microstructure`).
