@@ -7,8 +7,8 @@ import warnings
 
 import numpy as np
 
-from .._validate import GranpackError, InvalidParameterError, as_real
-from .inputs import _as_box, _as_contacts, _as_particles, _check_overlaps, _find_contacts
+from .._validate import InvalidParameterError, as_int, as_real
+from .prepare import MAX_SLICES, _beyond_the_paper, _prepare
 from .relations import empirical_z
 from .result import Microstructure, MicrostructureWarning
 from .tensors import (
@@ -24,7 +24,7 @@ from .tensors import (
     force_tensors_binned,
     phi_d,
 )
-from .volumes import window_volumes
+from .volumes import container_window_volumes, window_volumes
 
 __all__ = ["microstructure"]
 
@@ -36,9 +36,12 @@ def microstructure(
     radii=None,
     contacts=None,
     box=None,
+    periodic=None,
+    cylinder_radius: float | None = None,
     binned: bool = False,
     n_bins: int | None = None,
     core_margin: float = 0.1,
+    slices: int = 10,
 ) -> Microstructure:
     """Microstructure of a pack: phi, void ratio, coordination, fabric, force tensors.
 
@@ -63,6 +66,17 @@ def microstructure(
         Side walls and floor: lo (D,) and hi (D,) (hi's vertical value, e.g. inf, is
         ignored: the top is H_top) or hi (D-1,) (m). Default: the pack's box; for arrays,
         the particles' bounding box with no walls (no wall contacts are then found).
+        A periodic cell or a cylinder needs it: the periods are hi - lo, and the cylinder's
+        axis passes through (lo_x + R, lo_y + R).
+    periodic : sequence of D - 1 bool, optional
+        Horizontal axes that repeat, with periods hi - lo: contacts across the seam are
+        found by minimum image, branch vectors are minimum images, phi_core has no lateral
+        inset along them. Default: a Pack's ``scene.container == "periodic"`` (all
+        horizontal axes); otherwise none.
+    cylinder_radius : float, optional
+        R (m) of a vertical cylinder (3D): phi is over pi R^2 (H_top - floor), the core
+        window is a coaxial cylinder of radius R - core_margin, wall id -2 is the cylinder.
+        Default: a Pack's cylinder (``scene.cylinder_radius``, or half its base).
     binned : bool
         Also compute the paper's binned force estimator (``*_binned``). Default False.
     n_bins : int, optional
@@ -71,6 +85,8 @@ def microstructure(
     core_margin : float
         Distance m (m) of the core window from the side walls, the floor and the top.
         Default 0.1, as the peers' script.
+    slices : int
+        Horizontal slices of ``stress_profile`` (default 10; 1 to 10 000).
 
     Returns
     -------
@@ -90,68 +106,17 @@ def microstructure(
     GranpackError
         Bad input, naming the parameter.
     """
-    if pack is not None:
-        if any(a is not None for a in (positions, radii, contacts, box)):
-            raise GranpackError("give either pack or positions/radii/contacts/box, not both")
-        try:
-            positions, radii, contacts, box = pack.positions, pack.radii, pack.contacts, pack.box
-        except AttributeError:
-            raise InvalidParameterError(
-                f"invalid pack = {type(pack).__name__}: expected a granpack.Pack or the "
-                "result of granpack.read_particles"
-            ) from None
-    elif positions is None or radii is None:
-        raise GranpackError("give a pack, or positions and radii")
-    x, r = _as_particles(positions, radii)
-    n, d = x.shape
+    prep = _prepare(pack, positions, radii, contacts, box, periodic, cylinder_radius)
+    x, r, n, d = prep.x, prep.r, prep.n, prep.d
+    lo, hi, c, contacts_given = prep.lo, prep.hi, prep.contacts, prep.contacts_given
+    solid, vol, h_top, box_volume = prep.solid, prep.vol, prep.h_top, prep.volume
+    cont = prep.container
     binned = bool(binned)
     nb: int | None = _n_bins(n_bins, d)
     if not binned:
         nb = None
     margin = as_real("core_margin", core_margin, 0.0, unit="m")
-
-    with np.errstate(over="ignore", under="ignore"):
-        vol = math.pi * r * r if d == 2 else 4.0 / 3.0 * math.pi * r * r * r
-        solid = float(np.sum(vol))
-        h_top = float(np.max(x[:, -1] + r))
-    if not (np.all(np.isfinite(vol)) and np.all(vol > 0.0) and math.isfinite(solid)):
-        k = int(np.argmax(~(np.isfinite(vol) & (vol > 0.0))))
-        raise InvalidParameterError(
-            f"invalid radii[{k}] = {r[k]}: the particle volume is {vol[k]:.3g} and the total "
-            f"{solid:.3g}; volumes must be finite and > 0 (radii within about 1e-100 to "
-            "1e100 m)"
-        )
-    if not math.isfinite(h_top):
-        raise InvalidParameterError("invalid positions: the pack's top max(z + r) overflows")
-    if box is None:
-        lo = np.min(x - r[:, None], axis=0)
-        hi_h = np.max(x[:, :-1] + r[:, None], axis=0)
-        walls = None
-    else:
-        lo, hi_h = _as_box(box, d)
-        if h_top <= lo[-1]:
-            raise InvalidParameterError(
-                f"invalid box: floor at {lo[-1]} m is at or above the top of the pack {h_top} m"
-            )
-        walls = (lo.tolist(), [*hi_h.tolist(), h_top])
-    hi = np.array([*hi_h, h_top])
-    with np.errstate(over="ignore", under="ignore"):
-        box_volume = float(np.prod(hi - lo))
-    if not (math.isfinite(box_volume) and box_volume > 0.0):
-        raise InvalidParameterError(
-            f"invalid positions: the box from {lo.tolist()} to {hi.tolist()} m has volume "
-            f"{box_volume:.3g}; coordinates must span a finite box of volume > 0"
-        )
-
-    if contacts is None:
-        c = _find_contacts(x, r, walls)
-        contacts_given = False
-        geometric = c
-    else:
-        c = _as_contacts(contacts, n, d)
-        contacts_given = True
-        geometric = _find_contacts(x, r, None)
-    _check_overlaps(geometric.particle_pairs(), r)
+    n_slices = as_int("slices", slices, 1, MAX_SLICES)
 
     # -- packing fraction ---------------------------------------------------------------
     phi = float(solid / box_volume)
@@ -163,14 +128,22 @@ def microstructure(
     h_centres = float(np.max(x[:, -1])) - lo[-1]
     phi_centres = (
         float(np.sum(vol) / (box_volume / (hi[-1] - lo[-1]) * h_centres))
+        if cont.radius is None and h_centres > 0
+        else float(np.sum(vol) / (cont.base_area * h_centres))
         if h_centres > 0
         else math.nan
     )
-    wlo, whi = lo + margin, hi - margin
-    if np.all(whi > wlo):
-        w_volume = float(np.prod(whi - wlo))
-        phi_core = float(np.sum(window_volumes(x, r, wlo, whi)) / w_volume)
-        centre_in = np.all((x >= wlo) & (x <= whi), axis=1)
+    if cont.kind == "box":
+        wlo, whi = lo + margin, hi - margin
+        window = None
+        if np.all(whi > wlo):
+            w_volume = float(np.prod(whi - wlo))
+            window = (window_volumes(x, r, wlo, whi), w_volume, np.all((x >= wlo) & (x <= whi), 1))
+    else:
+        window = container_window_volumes(x, r, cont, margin)
+    if window is not None:
+        w_vols, w_volume, centre_in = window
+        phi_core = float(np.sum(w_vols) / w_volume)
         phi_core_centres = float(np.sum(vol[centre_in]) / w_volume)
     else:
         warnings.warn(
@@ -279,4 +252,5 @@ def microstructure(
         a_n_binned=None if binned_t is None else binned_t.a_n,
         a_t_binned=None if binned_t is None else binned_t.a_t,
     )
+    values.update(_beyond_the_paper(prep, values, n_slices, has_forces))
     return Microstructure(**values)

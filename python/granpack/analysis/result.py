@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .coordination import P_Z_KEYS
 from .tensors import anisotropy_magnitude
 
 __all__ = ["Microstructure", "MicrostructureWarning"]
@@ -149,6 +150,75 @@ class Microstructure:
     """(D, D) F^t, binned; None unless binned=True."""
     a_t_binned: np.ndarray | None
     """(D, D) a^t, binned (traceless); None unless binned=True."""
+    container: str
+    """The container: "box", "periodic" (lateral axes repeating) or "cylinder"."""
+    container_volume: float
+    """V, the container's volume up to H_top (m^3; m^2 in 2D): base x (H_top - floor) for the
+    box and the periodic cell, pi R^2 (H_top - floor) for the cylinder. phi = solid / V."""
+    coordination_distribution: np.ndarray
+    """(k_max + 1,) P[k], the fraction of particles with k particle-particle contacts (-);
+    sum_k P[k] = 1 and sum_k k P[k] = Z."""
+    z_std: float
+    """Width of P[k]: the standard deviation sqrt(sum_k k^2 P[k] - Z^2) of the contacts per
+    particle (-)."""
+    n_rattlers_iterative: int
+    """Rattlers removed iteratively (LAMMPS ``compute rattlers/atom``): particles with fewer
+    than D + 1 contacts with the particles left and the walls, removed until none is left."""
+    z_mech_iterative: float
+    """Mechanical coordination number of the network left after the iterative removal:
+    2 N_c' / (N_p - N_r), N_c' the contacts among the N_p - N_r particles left (-); 0 when
+    none is left. ``z_mech`` is the one-pass reading (Thornton 2000)."""
+    n_rattlers_frictional: int
+    """As n_rattlers_iterative with D contacts needed instead of D + 1 (a frictional particle
+    under gravity can rest on D: a disc on two, a sphere on three)."""
+    z_mech_frictional: float
+    """As z_mech_iterative for the removal with D contacts needed (-)."""
+    stress: np.ndarray
+    """(D, D) Love-Weber stress, symmetric part, compression positive (Pa; N/m in 2D):
+    sigma = (1/V) sum_c f_c (x) l_c over particle-particle contacts (f_c the force on j,
+    l_c = x_j - x_i, minimum image in a periodic cell) and wall contacts (f_c the force on the
+    wall, l_c from the centre to the contact point), V = container_volume. NaN without
+    forces."""
+    k0: float
+    """K0 = mean horizontal over vertical stress (-): (sigma_xx + sigma_yy)/(2 sigma_zz) in 3D,
+    sigma_xx/sigma_yy in 2D. NaN without forces."""
+    stress_profile: tuple[np.ndarray, np.ndarray]
+    """(edges (S + 1,), sigma_zz (S,)): the vertical stress of S horizontal slices from the
+    floor to H_top (Pa), each contact given to the slice of its contact point (the midpoint of
+    the branch for a pair), over the slice's volume; their mean is stress[-1, -1]."""
+    force_normal_mean: float
+    """<f_n>, the plain mean normal force of the particle-particle contacts (N); the strong
+    network is f_n > <f_n>. NaN without forces."""
+    n_strong: int
+    """Number of strong contacts, f_n > <f_n> (Radjai et al. 1998)."""
+    strong_fraction: float
+    """n_strong / N_c (-); NaN without forces."""
+    fabric_strong: np.ndarray
+    """(D, D) fabric tensor of the strong contacts; N_s R_s + N_w R_w = N_c R."""
+    fabric_weak: np.ndarray
+    """(D, D) fabric tensor of the weak contacts (f_n <= <f_n>)."""
+    a_r_strong: np.ndarray
+    """(D, D) anisotropy of the strong fabric, c_D (R_s - I/D) (-)."""
+    a_r_weak: np.ndarray
+    """(D, D) anisotropy of the weak fabric, c_D (R_w - I/D) (-)."""
+    a_r_strong_mag: float
+    """Scalar amplitude of a_r_strong (see anisotropy_magnitude)."""
+    a_r_weak_mag: float
+    """Scalar amplitude of a_r_weak (see anisotropy_magnitude)."""
+    force_distribution: tuple[np.ndarray, np.ndarray]
+    """(edges, pdf): P(f_n/<f_n>), the probability density of the normalised normal force over
+    bins of width 0.1 from 0 (-); sum pdf x 0.1 = 1."""
+    q6: np.ndarray
+    """(N,) local bond order over contact neighbours: Steinhardt's q6 in 3D, psi6 in 2D (-);
+    NaN for a particle without contacts (see granpack.steinhardt)."""
+    q6_mean: float
+    """Mean of q6 over the particles that have contacts (-)."""
+    q6_global: float
+    """Global Q6 (3D) or Psi6 (2D) over all bonds (-)."""
+    crystal_fraction: float
+    """Crystallised fraction (-): particles with q6 >= 0.45 (3D; psi6 >= 0.7 in 2D) and at
+    least 4 (3D; 3 in 2D) solid-like contacts, whose two particles' bond-order vectors
+    correlate by 0.7 or more (see granpack.analysis.BondOrder)."""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -165,7 +235,13 @@ class Microstructure:
         fabric_eig1.., force_normal_eig1..; the major fabric direction fabric_vec1_x..;
         a_r_mag, a_n_mag, a_t_mag, f0, phi_d, anisotropy_curry, anisotropy_thornton,
         anisotropy_ibraim, anisotropy_maeda; with binned=True also f0_binned,
-        a_n_binned_*, a_t_binned_*, a_n_binned_mag, a_t_binned_mag, n_bins.
+        a_n_binned_*, a_t_binned_*, a_n_binned_mag, a_t_binned_mag, n_bins. Beyond the
+        paper: container, container_volume, coordination_p0 .. coordination_p14 and
+        coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative, n_rattlers_frictional,
+        z_mech_frictional,
+        stress_* (upper components), k0, force_normal_mean, n_strong, strong_fraction,
+        fabric_strong_*, fabric_weak_*, a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global,
+        crystal_fraction.
         """
         v = vars(self)
         d = v["dim"]
@@ -219,6 +295,29 @@ class Microstructure:
             out["a_n_binned_mag"] = anisotropy_magnitude(v["a_n_binned"])
             sym("a_t_binned", v["a_t_binned"])
             out["a_t_binned_mag"] = anisotropy_magnitude(v["a_t_binned"])
+        out["container"] = str(v["container"])
+        out["container_volume"] = float(v["container_volume"])
+        p_z = v["coordination_distribution"]
+        for k in range(P_Z_KEYS):
+            out[f"coordination_p{k}"] = float(p_z[k]) if k < p_z.shape[0] else 0.0
+        out[f"coordination_p{P_Z_KEYS}plus"] = float(np.sum(p_z[P_Z_KEYS:]))
+        out["z_std"] = float(v["z_std"])
+        out["n_rattlers_iterative"] = int(v["n_rattlers_iterative"])
+        out["z_mech_iterative"] = float(v["z_mech_iterative"])
+        out["n_rattlers_frictional"] = int(v["n_rattlers_frictional"])
+        out["z_mech_frictional"] = float(v["z_mech_frictional"])
+        sym("stress", v["stress"])
+        out["k0"] = float(v["k0"])
+        out["force_normal_mean"] = float(v["force_normal_mean"])
+        out["n_strong"] = int(v["n_strong"])
+        out["strong_fraction"] = float(v["strong_fraction"])
+        sym("fabric_strong", v["fabric_strong"])
+        sym("fabric_weak", v["fabric_weak"])
+        out["a_r_strong_mag"] = float(v["a_r_strong_mag"])
+        out["a_r_weak_mag"] = float(v["a_r_weak_mag"])
+        out["q6_mean"] = float(v["q6_mean"])
+        out["q6_global"] = float(v["q6_global"])
+        out["crystal_fraction"] = float(v["crystal_fraction"])
         return out
 
     def __repr__(self) -> str:
