@@ -7,7 +7,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
-from .analysis import microstructure
+from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -41,6 +41,10 @@ __all__ = [
     "ParticleFile",
     "UnsettledPackWarning",
     "microstructure",
+    "rdf",
+    "steinhardt",
+    "profiles",
+    "radial_profiles",
     "__version__",
     "cpu_level",
     "cpu_levels",

@@ -15,10 +15,18 @@ orientation groups), :func:`anisotropy_tensor`, :func:`eigen_sorted`, :func:`phi
 :func:`phi_from_void_ratio`, :func:`window_volumes` and :func:`read_xyzr` (``x y z r`` text
 files from other DEM codes).
 
-One module per concern: ``relations`` (void ratio, empirical Z(e)), ``tensors`` (fabric and force tensors),
-``volumes`` (exact volumes inside windows), ``reader`` (text packs), ``inputs`` (coercion of
-what the analysis is given), ``result`` (:class:`Microstructure`) and ``compute``
-(:func:`microstructure`).
+Beyond the paper: :func:`rdf` (pair correlation), :func:`steinhardt` (bond order and the
+crystallised fraction), :func:`profiles` (depth profiles) and :func:`radial_profiles` (in a
+cylinder); the result also holds P[k], rattlers, the Love-Weber stress and K0, and the strong
+and weak force networks.
+
+One module per concern: ``relations`` (void ratio, empirical Z(e)), ``tensors`` (fabric and
+force tensors), ``volumes`` (exact volumes inside windows, slabs and cylinders),
+``container`` (box, periodic cell, cylinder), ``coordination`` (P[k], rattlers), ``stress``
+(Love-Weber, K0), ``structure`` (g(r), bond order), ``profiles``, ``reader`` (text packs),
+``inputs`` (coercion of what the analysis is given, contacts in each container),
+``prepare`` (a pack made ready for analysis), ``result`` (:class:`Microstructure`) and
+``compute`` (:func:`microstructure`).
 
 Warnings
 --------
@@ -31,9 +39,12 @@ without a warning (``has_forces`` is False).
 """
 
 from .compute import microstructure
+from .container import CONTAINERS, Container
+from .profiles import profiles, radial_profiles
 from .reader import read_xyzr
 from .relations import empirical_z, phi_from_void_ratio, void_ratio
 from .result import Microstructure, MicrostructureWarning
+from .structure import CRYSTAL_THRESHOLD, BondOrder, rdf, steinhardt
 from .tensors import (
     DEFAULT_N_BINS,
     ForceTensors,
@@ -46,10 +57,20 @@ from .tensors import (
     force_tensors_binned,
     phi_d,
 )
-from .volumes import window_volumes
+from .volumes import cylinder_volumes, slab_volumes, window_volumes
 
 __all__ = [
     "Microstructure",
+    "BondOrder",
+    "Container",
+    "CONTAINERS",
+    "CRYSTAL_THRESHOLD",
+    "rdf",
+    "steinhardt",
+    "profiles",
+    "radial_profiles",
+    "slab_volumes",
+    "cylinder_volumes",
     "MicrostructureWarning",
     "ForceTensors",
     "microstructure",

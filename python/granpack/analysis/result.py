@@ -236,11 +236,10 @@ class Microstructure:
         a_r_mag, a_n_mag, a_t_mag, f0, phi_d, anisotropy_curry, anisotropy_thornton,
         anisotropy_ibraim, anisotropy_maeda; with binned=True also f0_binned,
         a_n_binned_*, a_t_binned_*, a_n_binned_mag, a_t_binned_mag, n_bins. Beyond the
-        paper: container, container_volume, coordination_p0 .. coordination_p14 and
-        coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative, n_rattlers_frictional,
-        z_mech_frictional,
-        stress_* (upper components), k0, force_normal_mean, n_strong, strong_fraction,
-        fabric_strong_*, fabric_weak_*, a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global,
+        paper: container_volume, coordination_p0 .. coordination_p14 and
+        coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative,
+        n_rattlers_frictional, z_mech_frictional, stress_* (upper components), k0,
+        force_normal_mean, n_strong, strong_fraction, fabric_strong_*, fabric_weak_*, a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global,
         crystal_fraction.
         """
         v = vars(self)
@@ -295,7 +294,6 @@ class Microstructure:
             out["a_n_binned_mag"] = anisotropy_magnitude(v["a_n_binned"])
             sym("a_t_binned", v["a_t_binned"])
             out["a_t_binned_mag"] = anisotropy_magnitude(v["a_t_binned"])
-        out["container"] = str(v["container"])
         out["container_volume"] = float(v["container_volume"])
         p_z = v["coordination_distribution"]
         for k in range(P_Z_KEYS):

@@ -11,6 +11,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._validate import InvalidParameterError, as_int, as_real
+from .container import Container
 from .volumes import _lens_area
 
 __all__ = [
@@ -19,6 +21,8 @@ __all__ = [
     "bond_order",
     "pair_correlation",
     "spherical_harmonics",
+    "rdf",
+    "steinhardt",
 ]
 
 #: Local order a crystalline particle needs: q6 (3D) or psi6 (2D) over its contact neighbours
@@ -166,7 +170,7 @@ def bond_order(
     )
 
 
-def _pairs_within(x, r_max: float, container, chunk: int = 2048):
+def _pairs_within(x, r_max: float, container, chunk: int = 512):
     """Yields difference vectors (K, D) x_j - x_i (minimum image) of the pairs i < j closer
     than r_max, in chunks, with the vertical sweep: particles sorted by height, each compared
     only with those above it within r_max."""
@@ -234,3 +238,160 @@ def pair_correlation(x, container, r_max: float, bins: int) -> tuple[np.ndarray,
     vol = container.volume
     g = 2.0 * acc * vol * vol / (n * (n - 1)) / shell if n > 1 else np.zeros(bins)
     return 0.5 * (edges[1:] + edges[:-1]), g
+
+
+def _pack_or_arrays(first, radii):
+    if hasattr(first, "positions") and hasattr(first, "radii"):
+        if radii is not None:
+            raise InvalidParameterError("give either a pack or positions and radii, not both")
+        return first, None, None
+    return None, first, radii
+
+
+def rdf(
+    positions,
+    radii=None,
+    *,
+    box=None,
+    periodic=None,
+    cylinder_radius=None,
+    r_max: float | None = None,
+    bins: int = 100,
+    margin: float = 0.1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pair correlation function g(r) of the particle centres, edge-corrected.
+
+    Parameters
+    ----------
+    positions : (N, D) array, or a Pack / ParticleFile (then leave out radii and box)
+        Centres (m).
+    radii : (N,) array
+        Radii (m), > 0.
+    box, periodic, cylinder_radius
+        The container, as in :func:`granpack.microstructure` (default: a Pack's own; for
+        arrays, the bounding box). Periodic axes use the minimum image.
+    r_max : float, optional
+        Largest distance (m). Default: 5 mean diameters, at most half the container's
+        smallest extent (its height, its side, or its diameter).
+    bins : int
+        Number of bins of equal width from 0 to r_max (default 100; 1 to 100 000).
+    margin : float
+        Only the centres in the core window count (inset by ``margin`` from the floor, from
+        H_top and from every wall, as phi_core's; none along a periodic axis), so that the
+        loose top and the layers at the walls do not bias the mean density. Default 0.1 m.
+
+    Returns
+    -------
+    r : (bins,) float64
+        Bin centres (m).
+    g : (bins,) float64
+        g(r) of the window's centres by the translation edge correction for the window (see
+        ``pair_correlation``): tends to 1 at large r in the bulk; 0 below the closest
+        approach; peaks at the neighbour shells.
+    """
+    from .prepare import _prepare
+
+    pack, x_in, r_in = _pack_or_arrays(positions, radii)
+    prep = _prepare(pack, x_in, r_in, None, box, periodic, cylinder_radius)
+    n_bins = as_int("bins", bins, 1, 100_000)
+    m = as_real("margin", margin, 0.0, unit="m")
+    cont, keep = _core_window(prep.container, prep.x, m)
+    extents = [cont.height]
+    if cont.radius is not None:
+        extents.append(2.0 * cont.radius)
+    else:
+        extents += [float(cont.hi[k] - cont.lo[k]) for k in range(prep.d - 1)]
+    limit = 0.5 * min(extents)
+    if r_max is None:
+        r_max = min(6.0 * float(np.mean(prep.r)), limit)
+    r_max = as_real("r_max", r_max, 0.0, limit, unit="m")
+    if not r_max > 0.0:
+        raise InvalidParameterError(
+            f"invalid r_max = {r_max}: must be > 0 and at most {limit:.4g} m (half the "
+            "container's smallest extent)",
+            parameter="r_max",
+        )
+    if int(np.sum(keep)) < 2:
+        raise InvalidParameterError(
+            f"invalid margin = {m}: fewer than two centres lie in the window it leaves",
+            parameter="margin",
+        )
+    return pair_correlation(prep.x[keep], cont, r_max, n_bins)
+
+
+def _core_window(cont: Container, x: np.ndarray, margin: float):
+    """The container inset by margin (see rdf), and which centres lie in it."""
+    lo = cont.lo.astype(float).copy()
+    hi = cont.hi.astype(float).copy()
+    d = lo.shape[0]
+    lo[-1] += margin
+    hi[-1] -= margin
+    radius = None
+    if cont.radius is not None:
+        radius = cont.radius - margin
+        lo[:2] += margin
+        hi[:2] -= margin
+    else:
+        for k in range(d - 1):
+            if not cont.periodic[k]:
+                lo[k] += margin
+                hi[k] -= margin
+    if not (np.all(hi > lo) and (radius is None or radius > 0.0)):
+        raise InvalidParameterError(
+            f"invalid margin = {margin}: it leaves no window inside the container",
+            parameter="margin",
+        )
+    win = Container(cont.kind, lo, hi, cont.periodic, radius)
+    if radius is not None:
+        ax = win.axis
+        inside = np.hypot(x[:, 0] - ax[0], x[:, 1] - ax[1]) <= radius
+    else:
+        inside = np.all((x[:, :-1] >= lo[:-1]) & (x[:, :-1] <= hi[:-1]), axis=1)
+    inside &= (x[:, -1] >= lo[-1]) & (x[:, -1] <= hi[-1])
+    return win, inside
+
+
+def steinhardt(
+    positions,
+    radii=None,
+    l: int = 6,  # noqa: E741
+    *,
+    contacts=None,
+    box=None,
+    periodic=None,
+    cylinder_radius=None,
+    threshold: float | None = None,
+) -> BondOrder:
+    """Steinhardt bond order q_l per particle over its contact neighbours, the global Q_l, and
+    the crystallised fraction.
+
+    Parameters
+    ----------
+    positions : (N, D) array, or a Pack / ParticleFile (then leave out radii and box)
+    radii : (N,) array (m)
+    l : int
+        The order (default 6; 1 to 16). In 2D the order of psi_l.
+    contacts : optional
+        As in :func:`granpack.microstructure`; default: a Pack's contacts, or the geometric
+        contacts (overlap > 0) of the arrays, across periodic seams by minimum image.
+    box, periodic, cylinder_radius
+        The container, as in :func:`granpack.microstructure`.
+    threshold : float, optional
+        Local order a crystalline particle needs (default 0.45 in 3D, 0.7 in 2D).
+
+    Returns
+    -------
+    BondOrder
+        On ideal lattices (every bond a contact): q6 = 0.5745 (FCC), 0.4848 (HCP), 0.3536
+        (simple cubic); psi6 = 1 on the triangular lattice.
+    """
+    from .prepare import _prepare
+
+    pack, x_in, r_in = _pack_or_arrays(positions, radii)
+    l_deg = as_int("l", l, 1, 16)
+    if threshold is not None:
+        threshold = as_real("threshold", threshold, 0.0, 1.0)
+    prep = _prepare(pack, x_in, r_in, contacts, box, periodic, cylinder_radius)
+    pp = prep.contacts.particle_pairs()
+    nrm = pp.normal / np.linalg.norm(pp.normal, axis=1)[:, None] if len(pp) else pp.normal
+    return bond_order(pp.i, pp.j, nrm, prep.n, prep.d, l_deg, threshold)
