@@ -239,8 +239,8 @@ class Microstructure:
         paper: container_volume, coordination_p0 .. coordination_p14 and
         coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative,
         n_rattlers_frictional, z_mech_frictional, stress_* (upper components), k0,
-        force_normal_mean, n_strong, strong_fraction, fabric_strong_*, fabric_weak_*, a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global,
-        crystal_fraction.
+        force_normal_mean, n_strong, strong_fraction, fabric_strong_*, fabric_weak_*,
+        a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global, crystal_fraction.
         """
         v = vars(self)
         d = v["dim"]
