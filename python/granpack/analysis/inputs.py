@@ -172,101 +172,23 @@ def _find_contacts(x, r, walls) -> Contacts:
     return Contacts.from_dict(found)
 
 
-def _concat(parts: list[dict]) -> dict:
-    keys = ("i", "j", "normal", "overlap", "force_normal", "force_tangential", "branch")
-    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
-
-
-def _take(found: dict, keep) -> dict:
-    return {k: np.asarray(v)[keep] for k, v in found.items()}
-
-
-def _sorted_contacts(found: dict) -> Contacts:
-    """Contacts ordered by (i, j) with walls last for each i, as the engine orders them."""
-    order = np.lexsort(
-        (np.where(found["j"] < 0, np.iinfo(np.int64).max + found["j"], found["j"]), found["i"])
-    )
-    return Contacts.from_dict(_take(found, order))
-
-
 def find_container_contacts(x, r, container) -> Contacts:
-    """Geometric contacts (overlap > 0, forces zero) of particles in a container.
-
-    Box: the Rust cell grid with the box's walls. Periodic axes: the particles within
-    2 r_max of the lower side of a periodic axis get an image one period up; the grid finds
-    the pairs of the extended set, and a pair with an image is mapped back to its particles,
-    so that pairs across the seam are found with their minimum-image normal, overlap and
-    branch. Cylinder: the floor by the grid, the cylinder wall (id -2) directly: overlap
-    s + r - R > 0 for a centre s from the axis, normal radial outwards, branch to the contact
-    point (r - overlap/2) n.
-    """
-    n, d = x.shape
+    """Geometric contacts (overlap > 0, forces zero) of particles in a container, from the
+    Rust cell grid (``granpack._core.find_contacts``): the box's walls; along a periodic axis
+    the minimum image (pairs across the seam, no walls); in a cylinder the floor (j = -1)
+    and the cylinder wall (j = -2)."""
     lo, hi = container.lo, container.hi
+    walls = (lo.tolist(), hi.tolist())
     if container.kind == "box":
-        return _find_contacts(x, r, (lo.tolist(), hi.tolist()))
-    big = float(np.max(np.abs(x)) + 10.0 * np.max(r) + 1.0)
-    wide_lo = [-big] * (d - 1) + [float(lo[-1])]
-    wide_hi = [big] * (d - 1) + [float(hi[-1])]
-    if container.kind == "cylinder":
-        found = _find_contacts(x, r, (wide_lo, wide_hi)).to_dict()
-        found = _take(found, found["j"] >= -1)
-        ax = container.axis
-        dxy = x[:, :2] - ax
-        s = np.hypot(dxy[:, 0], dxy[:, 1])
-        ov = s + r - container.radius
-        k = np.nonzero(ov > 0.0)[0]
-        nrm = np.zeros((k.shape[0], 3))
-        sk = np.where(s[k] > 0.0, s[k], 1.0)
-        nrm[:, 0] = dxy[k, 0] / sk
-        nrm[:, 1] = dxy[k, 1] / sk
-        wall = {
-            "i": k.astype(np.int64),
-            "j": np.full(k.shape[0], -2, dtype=np.int64),
-            "normal": nrm,
-            "overlap": ov[k],
-            "force_normal": np.zeros(k.shape[0]),
-            "force_tangential": np.zeros((k.shape[0], 3)),
-            "branch": nrm * (r[k] - 0.5 * ov[k])[:, None],
-        }
-        return _sorted_contacts(_concat([found, wall]))
-    # periodic: images of the particles near the lower side of each periodic axis
-    reach = 2.0 * float(np.max(r))
-    xs, src = x.copy(), np.arange(n)
-    for k in range(d - 1):
-        if not container.periodic[k]:
-            continue
-        period = hi[k] - lo[k]
-        if reach > period / 2.0:
-            raise InvalidParameterError(
-                f"invalid box: the period {period:.4g} m along axis {k} is shorter than "
-                f"4 r_max = {2 * reach:.4g} m; a particle would touch its own image"
-            )
-        near = np.nonzero(xs[:, k] - lo[k] < reach)[0]
-        img = xs[near].copy()
-        img[:, k] += period
-        xs = np.concatenate([xs, img])
-        src = np.concatenate([src, src[near]])
-    walls_lo = [float(lo[k]) if not container.periodic[k] else -big for k in range(d - 1)]
-    walls_hi = [float(hi[k]) if not container.periodic[k] else big for k in range(d - 1)]
-    found = _find_contacts(
-        xs, r[src], (walls_lo + [float(lo[-1])], walls_hi + [float(hi[-1])])
-    ).to_dict()
-    i, j = found["i"], found["j"]
-    wall = j < 0
-    # walls: only the originals' (an image's floor contact is its original's)
-    keep = np.where(wall, i < n, (i < n) | (j < n))
-    found = _take(found, keep)
-    i, j = found["i"], found["j"]
-    wall = j < 0
-    a = src[i]
-    b = np.where(wall, j, src[np.maximum(j, 0)])
-    flip = ~wall & (a > b)
-    found["i"] = np.where(flip, b, a)
-    found["j"] = np.where(flip, a, b)
-    for key in ("normal", "force_tangential", "branch"):
-        found[key] = np.where(flip[:, None], -found[key], found[key])
-    # a pair seen twice (in the cell and through an image) is one contact
-    lo_ = found["i"]
-    hi_ = found["j"]
-    _, first = np.unique(np.stack([lo_, hi_], 1), axis=0, return_index=True)
-    return _sorted_contacts(_take(found, np.sort(first)))
+        return _find_contacts(x, r, walls)
+    kwargs: dict = {}
+    if container.radius is not None:
+        kwargs["cylinder"] = float(container.radius)
+    else:
+        kwargs["periodic"] = list(container.periodic)
+    try:
+        found = _core.find_contacts(x, r, walls=walls, **kwargs)
+    except GranpackError as exc:
+        cls = InvalidParameterError if isinstance(exc, InvalidParameterError) else GranpackError
+        raise cls(f"cannot find the contacts of the given positions/radii: {exc}") from None
+    return Contacts.from_dict(found)
