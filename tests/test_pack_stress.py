@@ -75,10 +75,9 @@ def test_settled_pack_satisfies_the_virial_identity(pack):
 
         sum_c l_c (x) f_c = - sum_i m_i x_i (x) g + sum_w x_w (x) f_w + sum_i x_i (x) R_i,
 
-    where the last sum is bounded component by component by sum_i |x_ia| |R_ib|. In a periodic cell x_i is the
-    unwrapped position, which the seam leaves undefined; the identity then holds for the
-    vertical column (its rows along the periodic axes are not checked), because gravity
-    and the residual are vertical-column sums that only involve z. So: the sigma V of the
+    where the last sum is bounded component by component by sum_i |x_ia| |R_ib|. In a
+    periodic cell the lateral position of a particle is defined only up to a period, so
+    only the vertical row (a = z) is checked there. So: the sigma V of the
     pack equals the moment of gravity plus the walls' term within the residual bound, and
     the bound is below 2 % of the weight's moment.
     """
