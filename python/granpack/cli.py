@@ -617,6 +617,12 @@ def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text
         for (pack, _, _), path in zip(results, paths, strict=True):
             label = f"{name}, rotations {'ON' if scene.rotations else 'OFF'}, {path.stem}"
             figures += _pack_figures(pack, path, fig_dir, label)
+        figures.append(
+            plot.save(
+                plot.analysis_figure([p for p, _, _ in results], ms, title=f"{name}: structure"),
+                fig_dir / "analysis.png",
+            )
+        )
         phis = [rec["phi"] for rec in records]
         figures.append(
             plot.save(
@@ -740,6 +746,12 @@ def _paper_into(args, console: _Console) -> int:
         f["forces"] = plot.save(
             plot.force_chain_figure(packs[0], title=f"example {ex}, rotations {onoff}, pack 1"),
             fig_dir / f"{name}_forces.png",
+        )
+        f["analysis"] = plot.save(
+            plot.analysis_figure(
+                packs, by_case[ex, rot], title=f"example {ex}, rotations {onoff}: structure"
+            ),
+            fig_dir / f"{name}_analysis.png",
         )
         figures[ex, rot] = f
 
