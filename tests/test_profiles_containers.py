@@ -261,3 +261,13 @@ def test_container_arguments_are_checked(kwargs, match):
     x = np.array([[0.5, 0.5, 0.5], [0.5, 0.5, 0.7]])
     with pytest.raises(gp.GranpackError, match=match):
         gp.microstructure(positions=x, radii=np.array([0.1, 0.1]), **kwargs)
+
+
+def test_analysis_figure_draws_packs_of_every_container(periodic_pack, cylinder_pack, tmp_path):
+    from granpack import plot
+
+    for k, pack in enumerate((periodic_pack, cylinder_pack)):
+        m = gp.microstructure(pack, core_margin=0.03)
+        path = plot.save(plot.analysis_figure([pack], [m], title="t"), tmp_path / f"a{k}.png")
+        assert path.stat().st_size > 20_000
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

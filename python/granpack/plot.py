@@ -450,6 +450,15 @@ def phi_histogram_figure(
 # -- the analysis beyond the paper ----------------------------------------------------------
 
 
+def _nanmean_rows(rows: Sequence[np.ndarray]) -> np.ndarray:
+    """Mean over rows ignoring NaN; NaN where every row is NaN (no warning)."""
+    a = np.asarray(rows, dtype=float)
+    ok = np.isfinite(a)
+    cnt = ok.sum(axis=0)
+    tot = np.where(ok, a, 0.0).sum(axis=0)
+    return np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
+
+
 def _padded_mean(arrays: Sequence[np.ndarray]) -> np.ndarray:
     k = max(a.shape[0] for a in arrays)
     return np.mean([np.pad(a, (0, k - a.shape[0])) for a in arrays], axis=0)
@@ -515,21 +524,21 @@ def analysis_figure(packs: Sequence, micro: Sequence, title: str | None = None) 
     dfs = [profiles(p_, slices=10) for p_ in packs]
     zc = 0.5 * (dfs[0]["z_lo"].to_numpy() + dfs[0]["z_hi"].to_numpy())
     ax = axs[1, 0]
-    phi = np.mean([df["phi"].to_numpy() for df in dfs], axis=0)
+    phi = _nanmean_rows([df["phi"].to_numpy() for df in dfs])
     ax.plot(phi, zc, "o-", color="C0", label="phi")
     ax.set_xlabel("phi (slice)")
     ax.set_ylabel("height (m)")
     ax2 = ax.twiny()
-    zz = np.nanmean([df["Z"].to_numpy() for df in dfs], axis=0)
+    zz = _nanmean_rows([df["Z"].to_numpy() for df in dfs])
     ax2.plot(zz, zc, "s--", color="C3", label="Z")
     ax2.set_xlabel("Z (slice)", color="C3")
     ax.set_title("depth profiles: phi (o), Z (s)", fontsize=9)
     # stress profile
     ax = axs[1, 1]
     if have_forces:
-        szz = np.mean([df["stress_zz"].to_numpy() for df in dfs], axis=0)
+        szz = _nanmean_rows([df["stress_zz"].to_numpy() for df in dfs])
         ax.plot(szz, zc, "o-")
-        k0 = float(np.mean([m.k0 for m in micro]))
+        k0 = float(_nanmean_rows([[m.k0] for m in micro])[0])
         ax.set_title(f"vertical stress profile; K0 = {k0:.3f}", fontsize=9)
     ax.set_xlabel("sigma_zz (Pa)" if d == 3 else "sigma_yy (N/m)")
     ax.set_ylabel("height (m)")
