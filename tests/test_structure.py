@@ -185,3 +185,35 @@ def test_steinhardt_refuses_bad_orders(l_value, match):
     x = lift(fcc(2))
     with pytest.raises(gp.InvalidParameterError, match=match):
         gp.steinhardt(x, np.full(len(x), TOUCH), l=l_value)
+
+
+def test_radical_voronoi_local_phi_of_fcc_and_of_a_periodic_cell():
+    pytest.importorskip("pyvoro2")
+    from granpack.analysis import local_phi
+
+    # FCC with periodic x and y: every cell is the rhombic dodecahedron, phi = pi/(3 sqrt 2)
+    n = 4
+    x = fcc(n)
+    side = n * math.sqrt(2.0)
+    x[:, 2] += 5.0
+    radii = np.full(len(x), 0.5)
+    inner = (x[:, 2] > x[:, 2].min() + 0.5) & (x[:, 2] < x[:, 2].max() - 0.5)
+    lp = local_phi(
+        positions=x, radii=radii, box=([0, 0, 0], [side, side, np.inf]), periodic=(True, True)
+    )
+    np.testing.assert_allclose(lp[inner], math.pi / (3 * math.sqrt(2.0)), rtol=1e-9)
+    # the cells tile the container: the particles' volumes over the cells' sum is phi
+    rng = np.random.default_rng(2)
+    grid = np.stack(np.meshgrid(np.arange(15), np.arange(15), indexing="ij"), -1).reshape(-1, 2)
+    pts = (grid + 0.5 + rng.uniform(-0.2, 0.2, grid.shape)) / 15.0
+    r2 = rng.uniform(0.01, 0.03, len(pts))
+    lp2 = local_phi(positions=pts, radii=r2, box=([0, 0], [1.0, np.inf]))
+    m = gp.microstructure(positions=pts, radii=r2, box=([0, 0], [1.0, np.inf]), core_margin=0.0)
+    assert np.sum(math.pi * r2**2 / lp2) == pytest.approx(m.container_volume, rel=1e-9)
+    with pytest.raises(gp.InvalidParameterError, match="cylinder"):
+        local_phi(
+            positions=x,
+            radii=radii,
+            box=([0, 0, 0], [side, side, np.inf]),
+            cylinder_radius=side / 2,
+        )

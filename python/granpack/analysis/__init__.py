@@ -24,9 +24,9 @@ One module per concern: ``relations`` (void ratio, empirical Z(e)), ``tensors`` 
 force tensors), ``volumes`` (exact volumes inside windows, slabs and cylinders),
 ``container`` (box, periodic cell, cylinder), ``coordination`` (P[k], rattlers), ``stress``
 (Love-Weber, K0), ``structure`` (g(r), bond order), ``profiles``, ``reader`` (text packs),
-``inputs`` (coercion of what the analysis is given, contacts in each container),
-``prepare`` (a pack made ready for analysis), ``result`` (:class:`Microstructure`) and
-``compute`` (:func:`microstructure`).
+``inputs`` (coercion of what the analysis is given, contacts in each container), ``voronoi``
+(local phi from the radical tessellation, optional), ``prepare`` (a pack made ready for
+analysis), ``result`` (:class:`Microstructure`) and ``compute`` (:func:`microstructure`).
 
 Warnings
 --------
@@ -58,6 +58,7 @@ from .tensors import (
     phi_d,
 )
 from .volumes import cylinder_volumes, slab_volumes, window_volumes
+from .voronoi import local_phi
 
 __all__ = [
     "Microstructure",
@@ -69,6 +70,7 @@ __all__ = [
     "steinhardt",
     "profiles",
     "radial_profiles",
+    "local_phi",
     "slab_volumes",
     "cylinder_volumes",
     "MicrostructureWarning",
