@@ -12,7 +12,9 @@ from .._validate import GranpackError, InvalidParameterError
 __all__ = ["local_phi"]
 
 
-def local_phi(pack=None, *, positions=None, radii=None, box=None, periodic=None) -> np.ndarray:
+def local_phi(
+    pack=None, *, positions=None, radii=None, box=None, periodic=None, cylinder_radius=None
+) -> np.ndarray:
     """Local packing fraction of each particle: its volume over its radical Voronoi cell.
 
     The radical tessellation cuts space between two particles at the plane of equal power
@@ -46,14 +48,15 @@ def local_phi(pack=None, *, positions=None, radii=None, box=None, periodic=None)
         ) from None
     from .prepare import _prepare
 
-    prep = _prepare(pack, positions, radii, None, box, periodic, cylinder_radius)
-    cont = prep.container
-    if cont.radius is not None:
+    scene = getattr(pack, "scene", None)
+    if cylinder_radius is not None or getattr(scene, "container", "box") == "cylinder":
         raise InvalidParameterError(
             "invalid container = 'cylinder': the radical Voronoi tessellation is available "
             "for the box and the periodic cell only",
             parameter="container",
         )
+    prep = _prepare(pack, positions, radii, None, box, periodic, None)
+    cont = prep.container
     bounds = tuple((float(a), float(b)) for a, b in zip(cont.lo, cont.hi, strict=True))
     per = (*cont.periodic, False)
     x = prep.x
