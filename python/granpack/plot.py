@@ -450,7 +450,7 @@ def phi_histogram_figure(
 # -- the analysis beyond the paper ----------------------------------------------------------
 
 
-def _nanmean_rows(rows: Sequence[np.ndarray]) -> np.ndarray:
+def _nanmean_rows(rows: Sequence) -> np.ndarray:
     """Mean over rows ignoring NaN; NaN where every row is NaN (no warning)."""
     a = np.asarray(rows, dtype=float)
     ok = np.isfinite(a)

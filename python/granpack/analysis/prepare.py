@@ -74,7 +74,7 @@ def _container_of(pack, periodic, cylinder_radius, d: int):
         kind = getattr(scene, "container", "box") if scene is not None else "box"
         if kind == "cylinder" and cylinder_radius is None:
             cylinder_radius = getattr(scene, "cylinder_radius", None)
-            if cylinder_radius is None:
+            if cylinder_radius is None and scene is not None:
                 cylinder_radius = float(scene.base[0]) / 2.0
         if kind == "periodic" and periodic is None:
             periodic = (True,) * (d - 1)

@@ -343,7 +343,7 @@ def _core_window(cont: Container, x: np.ndarray, margin: float):
         )
     win = Container(cont.kind, lo, hi, cont.periodic, radius)
     if radius is not None:
-        ax = win.axis
+        ax = lo[:2] + radius
         inside = np.hypot(x[:, 0] - ax[0], x[:, 1] - ax[1]) <= radius
     else:
         inside = np.all((x[:, :-1] >= lo[:-1]) & (x[:, :-1] <= hi[:-1]), axis=1)

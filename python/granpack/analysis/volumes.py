@@ -233,7 +233,7 @@ def cylinder_volumes(
     return out
 
 
-def container_window_volumes(positions, radii, container, margin: float) -> tuple:
+def container_window_volumes(positions, radii, container, margin: float) -> tuple | None:
     """The core window of a container and each particle's volume inside it.
 
     The window is inset by ``margin`` from the floor and from H_top; laterally from each
