@@ -42,6 +42,8 @@ use rayon::prelude::*;
 mod boundary;
 mod config;
 mod contacts;
+#[cfg(test)]
+mod container_tests;
 mod energy;
 mod forces;
 mod freeze;
