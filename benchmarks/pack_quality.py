@@ -7,12 +7,15 @@ Reads saved packs (``granpack.load_pack``) from one folder per case, named
 - ``packs.csv``: one row per pack;
 - ``summary.csv``: per case, mean and sample sd (ddof = 1) of every column;
 - ``summary.md``: the table the documentation cites;
+- ``profile_fine.csv``: per case, the mean and sd over the packs of phi in ``--fine-slices``
+  slices from the floor to H_top (about one diameter each by default), which resolves the
+  floor's layering and would show any layering at the interfaces of the deposited layers;
 - ``manifest.json`` (benchmarks/manifest.py), with the packs' seeds and streams.
 
 Usage::
 
     python benchmarks/pack_quality.py PACKS_DIR [--out benchmarks/results/pack_quality]
-        [--slices 5]
+        [--slices 5] [--fine-slices 25]
 """
 
 from __future__ import annotations
@@ -51,6 +54,10 @@ KEYS = (
 )
 
 
+def fine_profile(pack, slices: int) -> np.ndarray:
+    return gp.profiles(pack, slices=slices)["phi"].to_numpy()
+
+
 def pack_row(pack, slices: int) -> dict:
     m = gp.microstructure(pack)
     d = m.to_dict()
@@ -74,8 +81,10 @@ def main(argv=None) -> int:
     ap.add_argument("packs", type=Path, help="folder with one sub-folder per case (4.3-on, ...)")
     ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "pack_quality")
     ap.add_argument("--slices", type=int, default=5, help="slices of the phi profile")
+    ap.add_argument("--fine-slices", type=int, default=25, help="slices of profile_fine.csv")
     a = ap.parse_args(argv)
     rows = []
+    fine = []
     seeds = {}
     for ex, rot in CASES:
         folder = a.packs / f"{ex}-{rot}"
@@ -84,9 +93,11 @@ def main(argv=None) -> int:
             print(f"{ex}-{rot}: no packs in {folder}", file=sys.stderr)
             continue
         streams = []
+        profs = []
         for f in files:
             pack = gp.load_pack(f)
             streams.append(int(pack.scene.stream))
+            profs.append(fine_profile(pack, a.fine_slices))
             rows.append(
                 {
                     "example": ex,
@@ -96,6 +107,19 @@ def main(argv=None) -> int:
                 }
             )
         seeds[f"{ex}-{rot}"] = {"seed": int(pack.scene.seed), "streams": streams}
+        arr = np.array(profs)
+        for k in range(a.fine_slices):
+            fine.append(
+                {
+                    "example": ex,
+                    "rotations": rot.upper(),
+                    "slice": k + 1,
+                    "z_over_h_top_lo": k / a.fine_slices,
+                    "z_over_h_top_hi": (k + 1) / a.fine_slices,
+                    "phi_mean": float(arr[:, k].mean()),
+                    "phi_sd": float(arr[:, k].std(ddof=1)) if len(arr) > 1 else math.nan,
+                }
+            )
         print(f"{ex}-{rot}: {len(files)} packs", file=sys.stderr)
     if not rows:
         print("no packs found", file=sys.stderr)
@@ -103,6 +127,7 @@ def main(argv=None) -> int:
     per_pack = pl.DataFrame(rows)
     a.out.mkdir(parents=True, exist_ok=True)
     per_pack.write_csv(a.out / "packs.csv")
+    pl.DataFrame(fine).write_csv(a.out / "profile_fine.csv")
     value_cols = [c for c in per_pack.columns if c not in ("example", "rotations", "pack")]
     summary = per_pack.group_by(["example", "rotations"], maintain_order=True).agg(
         [pl.len().alias("packs")]
@@ -138,6 +163,7 @@ def main(argv=None) -> int:
             "strong network, K0, the crystallised fraction and the phi profile",
             "packs_folder": a.packs.name,
             "slices": a.slices,
+            "fine_slices": a.fine_slices,
         },
     )
     print("\n".join(lines))
