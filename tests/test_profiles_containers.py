@@ -167,6 +167,16 @@ def test_radial_profiles_of_a_cylinder_add_up_to_phi(cylinder_pack):
     area = (df["r_hi"] ** 2 - df["r_lo"] ** 2).to_numpy()
     assert np.sum(df["phi"].to_numpy() * area) / np.sum(area) == pytest.approx(m.phi, rel=1e-10)
     assert int(df["n_particles"].sum()) == m.n_particles
+    # the wall's layering: the centres of the spheres on the wall crowd the shell at R - r,
+    # one radius from the wall, and leave the shell a radius further in nearly empty
+    fine = gp.radial_profiles(cylinder_pack, shells=40)
+    r_lo, r_hi = fine["r_lo"].to_numpy(), fine["r_hi"].to_numpy()
+    density = fine["n_particles"].to_numpy() / (r_hi**2 - r_lo**2)
+    mean = m.n_particles / 0.2**2
+    k = int(np.argmax(density))
+    assert r_lo[k] <= 0.2 - 0.02 <= r_hi[k] and density[k] > 3.0 * mean
+    gap = (r_lo >= 0.2 - 0.04) & (r_hi <= 0.2 - 0.025)
+    assert np.all(density[gap] < mean)
     with pytest.raises(gp.InvalidParameterError, match="cylinder"):
         gp.radial_profiles(positions=np.array([[0.5, 0.5, 0.5]]), radii=np.array([0.1]))
 
