@@ -469,12 +469,29 @@ def analysis_figure(packs: Sequence, micro: Sequence, title: str | None = None) 
     distribution P(Z); the normal-force distribution P(f_n/<f_n>) on a log scale; the pair
     correlation g(r) of the first pack; the depth profiles of phi and Z (mean over the packs,
     10 slices); the vertical stress profile with K0; the local bond order q6 (psi6 in 2D)
-    with the crystalline threshold and the crystallised fraction."""
-    from .analysis import CRYSTAL_THRESHOLD, profiles, rdf
+    with the crystalline threshold and the crystallised fraction. For packs in a cylinder, a
+    seventh panel: the radial profiles of phi and of the centres' density (20 shells), which
+    show the wall's layering."""
+    from .analysis import CRYSTAL_THRESHOLD, profiles, radial_profiles, rdf
     from .errors import GranpackError
 
-    fig = _figure(13.0, 7.5)
-    axs = fig.subplots(2, 3)
+    cylinder = micro[0].container == "cylinder"
+    fig = _figure(17.0 if cylinder else 13.0, 7.5)
+    axs = fig.subplots(2, 4 if cylinder else 3)
+    if cylinder:
+        ax = axs[0, 3]
+        rps = [radial_profiles(p_, shells=20) for p_ in packs]
+        rc = 0.5 * (rps[0]["r_lo"].to_numpy() + rps[0]["r_hi"].to_numpy())
+        area = rps[0]["r_hi"].to_numpy() ** 2 - rps[0]["r_lo"].to_numpy() ** 2
+        ax.plot(rc, _nanmean_rows([rp["phi"].to_numpy() for rp in rps]), "o-", label="phi")
+        dens = np.mean([rp["n_particles"].to_numpy() / area for rp in rps], axis=0)
+        ax2 = ax.twinx()
+        ax2.plot(rc, dens / np.mean(dens), "s--", color="C3", label="centres")
+        ax2.set_ylabel("centre density / mean", color="C3")
+        ax.set_xlabel("distance from the axis (m)")
+        ax.set_ylabel("phi (shell)")
+        ax.set_title("radial profiles: phi (o), centres (s)", fontsize=9)
+        axs[1, 3].set_axis_off()
     d = micro[0].dim
     # P(Z)
     ax = axs[0, 0]
@@ -511,7 +528,9 @@ def analysis_figure(packs: Sequence, micro: Sequence, title: str | None = None) 
     # g(r)
     ax = axs[0, 2]
     try:
-        r, g = rdf(packs[0], bins=120)
+        # the core window of the analysis, or a fifth of the height in a low pack
+        margin = min(0.1, 0.2 * float(micro[0].h_top - micro[0].box[0][-1]))
+        r, g = rdf(packs[0], bins=120, margin=margin)
         dmean = 2.0 * float(np.mean(packs[0].radii))
         ax.plot(r / dmean, g, lw=1)
         ax.axhline(1.0, color="k", lw=0.6, ls=":")
