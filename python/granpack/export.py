@@ -534,8 +534,8 @@ def write_yade(pack: Pack, path: str | Path) -> Path:
     r = np.asarray(pack.radii, dtype=np.float64)
     out = io.StringIO()
     out.write("#format x_y_z_r\n")
-    for k in range(len(pack)):
-        out.write(f"{x[k, 0]!r} {x[k, 1]!r} {x[k, 2]!r} {r[k]!r}\n")
+    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
+        out.write(f"{x0!r} {x1!r} {x2!r} {rk!r}\n")
     return atomic_write(Path(path), out.getvalue().encode())
 
 
@@ -569,8 +569,8 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
     )
     out = io.StringIO()
     out.write(f"{len(pack)}\n{comment}\n")
-    for k in range(len(pack)):
-        out.write(f"X {x[k, 0]!r} {x[k, 1]!r} {x[k, 2]!r} {r[k]!r}\n")
+    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
+        out.write(f"X {x0!r} {x1!r} {x2!r} {rk!r}\n")
     return atomic_write(Path(path), out.getvalue().encode())
 
 

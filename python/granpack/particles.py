@@ -12,6 +12,8 @@ Formats (the names `format=` takes and ``ParticleFile.format`` gives):
 - ``"yade"``: YADE's text export (``yade.export.text``/``textExt``, the file
   ``yade.ymport.text`` reads): a header comment ``#format x_y_z_r`` (or
   ``x_y_z_r_matId``, ``id_x_y_z_r_matId``), then one sphere a line;
+- ``"xyz"``: extended XYZ (OVITO, ASE) with ``pos`` and ``radius`` properties, as
+  granpack's export writes it;
 - ``"xyzr"``: plain text, ``x y z r`` or ``x y r`` a line;
 - ``"csv"``: comma-separated text with a header row naming the columns;
 - ``"parquet"``: a Parquet table with named columns;
@@ -42,7 +44,7 @@ if TYPE_CHECKING:
 __all__ = ["FORMATS", "ParticleFile", "detect_format", "read_particles"]
 
 #: The format names `read_particles` takes and reports.
-FORMATS = ("lammps-dump", "lammps-data", "yade", "xyzr", "csv", "parquet", "npz")
+FORMATS = ("lammps-dump", "lammps-data", "yade", "xyz", "xyzr", "csv", "parquet", "npz")
 
 # Coordinate columns of a dump, in order of preference: plain, unwrapped, scaled,
 # scaled unwrapped (LAMMPS' names). Scaled ones are fractions of the box.
@@ -224,6 +226,8 @@ def detect_format(path) -> str:
         return "lammps-dump"
     if _YADE_HEADER.match(first):
         return "yade"
+    if first.isdigit() and len(lines) > 1 and "properties=" in lines[1].lower():
+        return "xyz"
     # a data file: a title line, then header lines such as "12 atoms" before "Atoms"
     if _DATA_HEADER.search("\n".join(lines[1:_SNIFF_LINES])):
         return "lammps-data"
@@ -321,6 +325,8 @@ def read_particles(
             return _read_xyzr(path, dim)
         if fmt == "yade":
             return _read_yade(path, dim)
+        if fmt == "xyz":
+            return _read_extxyz(path, dim)
         return _read_table(path, fmt, dim)
     except FileFormatError:
         raise
@@ -806,6 +812,94 @@ def _read_yade(path: Path, dim: int | None) -> ParticleFile:
     _check_values(path, x3, r, lambda k: row_line[int(order[k])])
     d = _choose_dim(path, x3, True, dim)
     return ParticleFile(path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids)
+
+
+def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
+    """Extended XYZ, one frame: the count, the comment line with ``Properties=`` (and
+    optionally an orthogonal ``Lattice``, ``Origin``, ``pbc``), then the rows."""
+    import shlex
+
+    lines = _read_text(path).splitlines()
+    if not lines or not lines[0].strip().isdigit():
+        raise FileFormatError(
+            f"{path}:1: expected the particle count (an integer), found "
+            f"{repr(lines[0].strip()[:60]) if lines else 'an empty file'}",
+            path=path,
+        )
+    n = int(lines[0])
+    if len(lines) < 2:
+        raise FileFormatError(f"{path}:2: expected the comment line with Properties=", path=path)
+    try:
+        words = shlex.split(lines[1])
+    except ValueError as exc:
+        raise FileFormatError(f"{path}:2: cannot read the comment line: {exc}", path=path) from None
+    info = {}
+    for w in words:
+        if "=" in w:
+            k, v = w.split("=", 1)
+            info[k.lower()] = v
+    spec = info.get("properties", "").split(":")
+    if len(spec) % 3 or not spec[0]:
+        raise FileFormatError(
+            f"{path}:2: expected Properties=name:type:count:..., found "
+            f"{info.get('properties', 'none')!r}",
+            path=path,
+        )
+    cols: dict[str, tuple[int, int]] = {}
+    at = 0
+    for k in range(0, len(spec), 3):
+        name, count = spec[k].lower(), spec[k + 2]
+        if not count.isdigit():
+            raise FileFormatError(f"{path}:2: property {spec[k]!r} has count {count!r}", path=path)
+        cols[name] = (at, int(count))
+        at += int(count)
+    missing = [c for c in ("pos", "radius") if c not in cols]
+    if missing or cols.get("pos", (0, 3))[1] not in (2, 3):
+        raise FileFormatError(
+            f"{path}:2: missing propert{'ies' if len(missing) > 1 else 'y'} "
+            f"{' and '.join(missing) or 'pos with 3 components'} in Properties (expected "
+            "pos:R:3 and radius:R:1)",
+            path=path,
+            reason="missing columns",
+        )
+    if len(lines) < 2 + n:
+        raise FileFormatError(
+            f"{path}:{len(lines) + 1}: expected {n} particle rows after line 2 (line 1 says "
+            f"{n}), found {len(lines) - 2}: a truncated file",
+            path=path,
+        )
+    rows = [ln.split() for ln in lines[2 : 2 + n]]
+    for k, t in enumerate(rows):
+        if len(t) != at:
+            raise FileFormatError(
+                f"{path}:{k + 3}: expected {at} values (Properties), found {len(t)}", path=path
+            )
+    p0, pn = cols["pos"]
+    r0 = cols["radius"][0]
+    num = [[t[c] for c in (*range(p0, p0 + pn), r0)] for t in rows]
+    for k, t in enumerate(num):
+        bad = next((v for v in t if not is_number(v)), None)
+        if bad is not None:
+            raise FileFormatError(f"{path}:{k + 3}: {bad!r} is not a number", path=path)
+    a = np.array(num, dtype=np.float64).reshape(n, pn + 1)
+    x3 = np.zeros((n, 3))
+    x3[:, :pn] = a[:, :pn]
+    r = a[:, pn]
+    _check_values(path, x3, r, lambda k: k + 3)
+    d = _choose_dim(path, x3, pn == 3, dim)
+    box = None
+    lattice = info.get("lattice", "").split()
+    if len(lattice) == 9 and all(is_number(v) for v in lattice):
+        m = np.array(lattice, dtype=np.float64).reshape(3, 3)
+        if np.all(m == np.diag(np.diag(m))):  # orthogonal cells only
+            origin = info.get("origin", "0 0 0").split()
+            o = np.array(origin, dtype=np.float64) if len(origin) == 3 else np.zeros(3)
+            box = (o[:d], (o + np.diag(m))[:d])
+    pbc = info.get("pbc", "").split()
+    periodic = tuple(v.upper() in ("T", "TRUE") for v in pbc[:d]) if len(pbc) == 3 else None
+    return ParticleFile(
+        path=path, format="xyz", positions=x3[:, :d], radii=r, box=box, periodic=periodic
+    )
 
 
 def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
