@@ -255,8 +255,10 @@ def read_contacts(
     force on the second particle is f_t = -(F - (F . n) n). A net attractive f_n (the
     damping of a separating pair) is set to 0, as granpack's own law clamps it; the
     notes count such contacts. A pair listed twice (LAMMPS and LIGGGHTS list a pair
-    across a periodic side once for each of its particles) is read once. Wall contacts
-    are not in these dumps: the analysis then counts none.
+    across a periodic side once for each of its particles) is read once, and a pair with
+    neither overlap nor force (LAMMPS' pair/local without ``cutoff radius`` lists every
+    pair within the force cutoff) is left out. Wall contacts are not in these dumps: the
+    analysis then counts none.
 
     Raises
     ------
@@ -432,6 +434,19 @@ def read_contacts(
             force = force + vec("ft")
     if d == 2:
         force = force[:, :2]
+    idle = np.all(force == 0.0, axis=1) & (r[i] + r[j] - dist <= 0.0)
+    if np.any(idle):
+        # LAMMPS lists every pair within the force cutoff unless told "cutoff radius"
+        notes.append(f"{int(idle.sum())} pairs without overlap or force were left out")
+        keep = ~idle
+        i, j, force, branch, dist, normal = (
+            i[keep],
+            j[keep],
+            force[keep],
+            branch[keep],
+            dist[keep],
+            normal[keep],
+        )
     fn_on_i = np.einsum("md,md->m", force, normal)
     f_n = -fn_on_i
     attractive = f_n < 0.0
