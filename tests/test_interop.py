@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import shutil
 import subprocess
 
 import numpy as np
@@ -20,9 +19,6 @@ from granpack.cli import main
 from granpack.dem_input import lammps_restitution, liggghts_restitution, tsuji_alpha
 
 meshio = pytest.importorskip("meshio")
-
-LMP = shutil.which("lmp") or shutil.which("lmp_serial")
-LIGGGHTS = shutil.which("liggghts")
 
 
 def _scene(dim: int, **kw) -> gp.PackScene:
@@ -350,21 +346,19 @@ def _thermo(log: str) -> list[list[float]]:
     return rows
 
 
-@pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (no lmp on PATH)")
-def test_lammps_runs_periodic_and_cylinder_packs(pack, pack3d, tmp_path):
+def test_lammps_runs_periodic_and_cylinder_packs(lmp, pack, pack3d, tmp_path):
     p = _periodic(pack)
     export.export(p, tmp_path / "pack.data", "lammps")
-    step0 = _thermo(_run(LMP, tmp_path, 0))[0]
+    step0 = _thermo(_run(lmp, tmp_path, 0))[0]
     # contact/atom across the seam: the minimum-image count of the wrapped pack
     assert step0[3] == 2 * _min_image_pairs(p.positions, p.radii, p.scene.base[0])
     c = _cylinder(pack3d)
     export.export(c, tmp_path / "pack.data", "lammps")
-    assert _thermo(_run(LMP, tmp_path, 10))[-1][1] == len(c)  # nobody lost
+    assert _thermo(_run(lmp, tmp_path, 10))[-1][1] == len(c)  # nobody lost
 
 
-@pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)")
-def test_liggghts_runs_periodic_and_cylinder_packs(pack3d, tmp_path):
+def test_liggghts_runs_periodic_and_cylinder_packs(liggghts, pack3d, tmp_path):
     for p in (_periodic(pack3d), _cylinder(pack3d)):
         export.export(p, tmp_path / "pack.data", "liggghts")
-        rows = _thermo(_run(LIGGGHTS, tmp_path, 10))
+        rows = _thermo(_run(liggghts, tmp_path, 10))
         assert rows[-1][1] == len(p)  # nobody lost

@@ -15,7 +15,6 @@ The programs are the Debian packages ``lammps`` (29Sep2021) and ``liggghts`` (3.
 from __future__ import annotations
 
 import math
-import shutil
 import subprocess
 
 import numpy as np
@@ -24,13 +23,6 @@ import pytest
 import granpack as gp
 from granpack import export
 
-LMP = shutil.which("lmp") or shutil.which("lmp_serial")
-LIGGGHTS = shutil.which("liggghts")
-HOW = "; .ci/run installs it with apt-get where apt is available"
-need_lammps = pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (no lmp on PATH)" + HOW)
-need_liggghts = pytest.mark.skipif(
-    LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)" + HOW
-)
 CORE = 0.02  # a core window that fits in the small packs (m)
 
 
@@ -103,12 +95,11 @@ def _check_state(pack: gp.Pack, state) -> None:
     assert m.n_contacts == n_pairs(pack)
 
 
-@need_lammps
-def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(tmp_path, pack3d, pack2d):
+def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(lmp, tmp_path, pack3d, pack2d):
     for pack in (pack3d, pack2d):
         written = export.export(pack, tmp_path / "pack.data", "lammps")
         assert [p.name for p in written] == ["pack.data", "in.granpack"]
-        log = run(LMP, tmp_path, "include in.granpack\n" + AFTER)
+        log = run(lmp, tmp_path, "include in.granpack\n" + AFTER)
         assert _contacts_printed(log) == 2 * n_pairs(pack)
         state = gp.read_particles(tmp_path / "state.dump")
         raw = np.loadtxt(tmp_path / "state.dump", skiprows=9)
@@ -116,21 +107,20 @@ def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(tmp_path, pac
         np.testing.assert_allclose(raw[:, 6], mass(pack), rtol=1e-14)
         _check_state(pack, state)
         # and a step of the run: the snippet's physics runs
-        run(LMP, tmp_path, "variable steps index 1\ninclude in.granpack\n")
+        run(lmp, tmp_path, "variable steps index 1\ninclude in.granpack\n")
 
 
-@need_liggghts
-def test_liggghts_runs_the_snippet_with_the_same_contacts_and_masses(tmp_path, pack3d):
+def test_liggghts_runs_the_snippet_with_the_same_contacts_and_masses(liggghts, tmp_path, pack3d):
     pack = pack3d
     written = export.export(pack, tmp_path / "pack.data", "liggghts")
     assert "atom_style      granular" in written[1].read_text()
-    log = run(LIGGGHTS, tmp_path, "include in.granpack\n" + AFTER_LIGGGHTS)
+    log = run(liggghts, tmp_path, "include in.granpack\n" + AFTER_LIGGGHTS)
     assert _contacts_printed(log) == 2 * n_pairs(pack)
     raw = np.loadtxt(tmp_path / "state.dump", skiprows=9)
     raw = raw[np.argsort(raw[:, 0])]
     np.testing.assert_allclose(raw[:, 6], mass(pack), rtol=1e-14)
     _check_state(pack, gp.read_particles(tmp_path / "state.dump"))
-    run(LIGGGHTS, tmp_path, "variable steps index 1\ninclude in.granpack\n")
+    run(liggghts, tmp_path, "variable steps index 1\ninclude in.granpack\n")
 
 
 def test_liggghts_refuses_a_2d_pack(tmp_path, pack2d):
@@ -181,8 +171,7 @@ run             1
 """
 
 
-@need_liggghts
-def test_liggghts_pair_forces_give_the_hand_computed_f0_an_at(tmp_path, pack3d):
+def test_liggghts_pair_forces_give_the_hand_computed_f0_an_at(liggghts, tmp_path, pack3d):
     pack = pack3d
     export.export(pack, tmp_path / "pack.data", "liggghts")
     snippet = (tmp_path / "in.granpack").read_text()
@@ -190,7 +179,7 @@ def test_liggghts_pair_forces_give_the_hand_computed_f0_an_at(tmp_path, pack3d):
     extra = LIGGGHTS_PAIRS.format(cols=cols, fmt=" ".join(["%.17g"] * 12))
     # the compute must come before the first run
     text = snippet.replace("run             ${steps}", extra) + AFTER_LIGGGHTS
-    run(LIGGGHTS, tmp_path, text)
+    run(liggghts, tmp_path, text)
     particles = gp.read_particles(tmp_path / "state.dump")
     found = gp.read_contacts(tmp_path / "pairs.dump", particles)
     # two snapshots (steps 0 and 1): the one of the particles' step is read
@@ -221,13 +210,12 @@ run             0
 """
 
 
-@need_lammps
-def test_lammps_pair_local_read_by_read_contacts(tmp_path, pack3d):
+def test_lammps_pair_local_read_by_read_contacts(lmp, tmp_path, pack3d):
     pack = pack3d
     export.export(pack, tmp_path / "pack.data", "lammps")
     snippet = (tmp_path / "in.granpack").read_text()
     text = snippet.replace("run             ${steps}", LAMMPS_PAIRS) + AFTER
-    run(LMP, tmp_path, text)
+    run(lmp, tmp_path, text)
     particles = gp.read_particles(tmp_path / "state.dump")
     found = gp.read_contacts(tmp_path / "pairs.dump", particles)
     assert found.layout == "lammps" and len(found) == n_pairs(pack)
