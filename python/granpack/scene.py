@@ -28,7 +28,10 @@ from ._validate import (
 )
 from .engine import Material
 
-__all__ = ["PackScene", "PRESETS", "RSA_SATURATION"]
+__all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS"]
+
+#: The containers a scene may have (`PackScene.container`).
+CONTAINERS = ("box", "periodic", "cylinder")
 
 #: Random sequential addition jams near these fractions (Feder 1980 for discs,
 #: Talbot et al. 2000 / Torquato et al. 2006 for spheres); a layer fraction at or above
@@ -96,7 +99,18 @@ class PackScene:
         2 (discs, vertical y) or 3 (spheres, vertical z).
     base : tuple of float
         Box lengths along the horizontal axes (m): (L,) in 2D, (B1, B2) in 3D. The box
-        spans [0, L] (x [0, B2]); the floor is at 0; the top is open.
+        spans [0, L] (x [0, B2]); the floor is at 0; the top is open. In a periodic
+        container these are the periods; in a cylinder (2R, 2R).
+    container : {"box", "periodic", "cylinder"}
+        What bounds the pack laterally (the floor is a wall and the top is open in
+        all three). "box" (default): the paper's walls at 0 and base. "periodic": the
+        horizontal axes are periodic with periods base (2D and 3D): no side walls,
+        centres in [0, L). "cylinder" (3D only): a vertical cylinder of radius
+        cylinder_radius with its axis through (R, R), so that the pack lies in
+        [0, 2R]^2 laterally.
+    cylinder_radius : float or None
+        Radius R of the cylinder (m), at least 2 r_max; base is then (2R, 2R). None
+        (default): R = base / 2 (base must be square). Only with container="cylinder".
     height : float
         Desired pack height H_d (m): layers are added while max(z + r) < H_d.
     radius_law : {"constant", "gaussian"}
@@ -165,6 +179,8 @@ class PackScene:
 
     dim: int = 2
     base: tuple[float, ...] = (1.0,)
+    container: Literal["box", "periodic", "cylinder"] = "box"
+    cylinder_radius: float | None = None
     height: float = 0.5
     radius_law: Literal["constant", "gaussian"] = "constant"
     r_mean: float = 0.01
@@ -234,6 +250,7 @@ class PackScene:
                 )
             s(self, "r_min", rmin)
             s(self, "r_max", rmax)
+        self._check_container()
         for b in self.base:
             if b < 2 * self.r_max:
                 raise InvalidParameterError(
@@ -335,6 +352,85 @@ class PackScene:
                 f"invalid settle_time = {self.settle_time:g} s: with dt = {self.dt:g} s that is "
                 f"{self.settle_time / self.dt:.3g} steps per layer; at most "
                 f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)"
+            )
+
+    def _check_container(self) -> None:
+        """Validates container and cylinder_radius against dim, base and r_max."""
+        s = object.__setattr__
+        assert self.r_max is not None  # set before this runs
+        if self.container not in CONTAINERS:
+            raise InvalidParameterError(
+                f"invalid container = {short_repr(self.container)}: must be one of "
+                + ", ".join(repr(c) for c in CONTAINERS),
+                parameter="container",
+                value=self.container,
+                expected=" | ".join(CONTAINERS),
+            )
+        if self.container != "cylinder":
+            if self.cylinder_radius is not None:
+                raise InvalidParameterError(
+                    f"invalid cylinder_radius = {short_repr(self.cylinder_radius)}: only a "
+                    f"container = 'cylinder' has a radius (container = {self.container!r})",
+                    parameter="cylinder_radius",
+                    value=self.cylinder_radius,
+                    expected="None unless container = 'cylinder'",
+                )
+            if self.container == "periodic":
+                # The pair search and the minimum image need a period of at least three
+                # cells of the largest interaction distance (a diameter plus the skin):
+                # a pair then meets at most one image of its partner.
+                least = 3.0 * 2.0 * self.r_max * (1.0 + self.skin_ratio)
+                for b in self.base:
+                    if b < least:
+                        raise InvalidParameterError(
+                            f"invalid base = {short_repr(self.base)}: a periodic cell needs "
+                            f"every period >= 6 r_max (1 + skin_ratio) = {least:g} m",
+                            parameter="base",
+                            value=self.base,
+                            expected=f">= {least:g} m per axis",
+                        )
+            return
+        if self.dim != 3:
+            raise InvalidParameterError(
+                "invalid container = 'cylinder': a cylinder needs dim = 3 (in 2D use "
+                "'box' or 'periodic')",
+                parameter="container",
+                value="cylinder",
+                expected="'box' | 'periodic' in 2D",
+            )
+        if self.cylinder_radius is None:
+            b1, b2 = self.base
+            if b1 != b2:
+                raise InvalidParameterError(
+                    f"invalid base = {short_repr(self.base)}: a cylinder without "
+                    "cylinder_radius takes R = base / 2, so base must be square (2R, 2R)",
+                    parameter="base",
+                    value=self.base,
+                    expected="(2R, 2R)",
+                )
+            s(self, "cylinder_radius", 0.5 * b1)
+        else:
+            R = as_real("cylinder_radius", self.cylinder_radius, 0, lo_open=True, unit="m")
+            s(self, "cylinder_radius", R)
+            if any(not math.isclose(b, 2 * R, rel_tol=1e-12) for b in self.base):
+                raise InvalidParameterError(
+                    f"invalid base = {short_repr(self.base)} with cylinder_radius = {R:g} m: "
+                    f"a cylinder's base is (2R, 2R) = ({2 * R:g}, {2 * R:g}) m; give base "
+                    "to match, or leave cylinder_radius unset to take R = base / 2",
+                    parameter="base",
+                    value=self.base,
+                    expected=f"({2 * R:g}, {2 * R:g})",
+                )
+            s(self, "base", (2 * R, 2 * R))
+        R = self.cylinder_radius
+        assert R is not None
+        if R < 2 * self.r_max:
+            raise InvalidParameterError(
+                f"invalid cylinder_radius = {R:g} m: must be at least 2 r_max = "
+                f"{2 * self.r_max:g} m",
+                parameter="cylinder_radius",
+                value=R,
+                expected=f">= {2 * self.r_max:g} m",
             )
 
     # -- construction ---------------------------------------------------------------
@@ -470,7 +566,11 @@ class PackScene:
 
     @property
     def base_area(self) -> float:
-        """Base length (2D) or area (3D) (m or m^2)."""
+        """Cross-section of the container: base length (2D) or area (3D) (m or m^2);
+        pi R^2 for a cylinder."""
+        if self.container == "cylinder":
+            assert self.cylinder_radius is not None
+            return math.pi * self.cylinder_radius**2
         return math.prod(self.base)
 
     def particle_volume(self, r: float) -> float:

@@ -7,7 +7,7 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{box_walls, Contacts, Inertia2D};
+use crate::pipeline::world::{geometric_contacts, Contacts, Inertia2D};
 use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, World};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
@@ -739,54 +739,6 @@ fn find_contacts<'py>(
             format!("{other} columns, expected 2 or 3"),
         )),
     }
-}
-
-/// Contact geometry of a static pack: pairs from the grid, then floor and side walls.
-fn geometric_contacts<const D: usize>(
-    x: &[Vector<D>],
-    r: &[Real],
-    walls: Option<(Vector<D>, Vector<D>)>,
-) -> Result<Contacts<D>, Error> {
-    let mut c = Contacts::<D>::default();
-    for [i, j] in crate::geometry::neighbor_pairs(x, r) {
-        let (i, j) = (i as usize, j as usize);
-        let dx = x[j] - x[i];
-        let dist = dx.norm();
-        // coincident centres have no normal
-        if dist == 0.0 {
-            return Err(Error::invalid(
-                "positions",
-                format!("particles {i} and {j} at {:?}", x[i].as_slice()),
-                "centres coincide: not a valid pack",
-            ));
-        }
-        c.i.push(i as i64);
-        c.j.push(j as i64);
-        c.normal.push(dx / dist);
-        c.overlap.push(r[i] + r[j] - dist);
-        c.force_normal.push(0.0);
-        c.force_tangential.push(Vector::<D>::zeros());
-        c.branch.push(dx);
-    }
-    if let Some((lo, hi)) = walls {
-        let planes = box_walls(&lo, &hi);
-        for q in 0..x.len() {
-            for (w, wall) in planes.iter().enumerate() {
-                let d = r[q] - wall.gap(&x[q]);
-                if d > 0.0 {
-                    let n = wall.normal::<D>();
-                    c.i.push(q as i64);
-                    c.j.push(-(w as i64) - 1);
-                    c.normal.push(n);
-                    c.overlap.push(d);
-                    c.force_normal.push(0.0);
-                    c.force_tangential.push(Vector::<D>::zeros());
-                    c.branch.push(n * (r[q] - 0.5 * d));
-                }
-            }
-        }
-    }
-    Ok(c)
 }
 
 /// Rayleigh critical time step (s) for material and smallest radius r_min (m).

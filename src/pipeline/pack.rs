@@ -7,7 +7,7 @@ use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
 use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
-use crate::pipeline::world::{FreezeConfig, SimConfig, World};
+use crate::pipeline::world::{FreezeConfig, SimConfig, World, FREEZE_INTERVAL};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
@@ -344,7 +344,7 @@ where
                 below: self.height - depth,
                 speed: self.cfg.freeze_speed,
                 force_ratio: self.cfg.freeze_force,
-                interval: 100,
+                interval: FREEZE_INTERVAL,
             }))?;
         }
         // Each layer lands at the scene's dt (the last one may have ended at settle_dt).

@@ -6,7 +6,6 @@
 //! that gathers each particle as soon as its pairs are done (`SWEEP_MIN_BYTES`).
 
 use super::*;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// `s[i]` without the bounds check, for the two hottest loops, which index particle
 /// arrays with pair-list entries and pair arrays with incidence entries (about 8 % of
@@ -103,52 +102,6 @@ where
     /// particle (frozen ones included).
     pub(super) fn compute_forces(&mut self) -> Result<()> {
         Team::scoped(|team| self.compute_forces_inner(true, false, team)).map(|_| ())
-    }
-
-    /// Freezes settled particles below the freeze level and unfreezes pushed ones.
-    /// Runs right after a full force evaluation; each decision is per particle, so the
-    /// result does not depend on the thread count.
-    pub(super) fn update_frozen(&mut self) {
-        let Some(fc) = self.freeze else { return };
-        let vert = <Dim<D> as Spatial<D>>::VERTICAL;
-        let g = self.cfg.gravity.norm();
-        let p = &mut self.p;
-        let (x, f, r, m) = (&p.x, &p.f, &p.r, &p.m);
-        let speed2 = fc.speed * fc.speed;
-        let thawed = AtomicBool::new(false);
-        p.frozen
-            .par_chunks_mut(CHUNK)
-            .zip(p.v.par_chunks_mut(CHUNK))
-            .zip(p.w.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(c, ((fz, v), w))| {
-                for k in 0..fz.len() {
-                    let q = c * CHUNK + k;
-                    let fmax = fc.force_ratio * m[q] * g;
-                    let quiet = f[q].norm_squared() <= fmax * fmax;
-                    if fz[k] {
-                        if !quiet {
-                            fz[k] = false;
-                            thawed.store(true, Ordering::Relaxed);
-                        }
-                    } else if quiet && x[q][vert] + r[q] < fc.below && v[k].norm_squared() <= speed2
-                    {
-                        fz[k] = true;
-                        v[k] = Vector::<D>::zeros();
-                        w[k] = Ang::<D>::default();
-                    }
-                }
-            });
-        let (n_before, thawed) = (self.n_frozen, thawed.load(Ordering::Relaxed));
-        self.n_frozen = self.p.frozen.iter().filter(|&&z| z).count();
-        if thawed {
-            // A thawed particle may move again: its pairs leave the frozen run and are
-            // searched afresh at the next (partial) rebuild, which sees it as active.
-            self.partition_pairs();
-            self.list_valid = false;
-        } else if self.n_frozen != n_before {
-            self.partition_pairs();
-        }
     }
 
     /// Pair forces and the gather. With `all` false, pairs of two frozen particles

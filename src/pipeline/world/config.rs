@@ -1,0 +1,101 @@
+//! Engine settings: the material, time step, gravity, drag, walls, skin and guards.
+
+use super::*;
+
+/// Mass and moment of inertia of a 2D particle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Inertia2D {
+    /// A sphere confined to the plane: m = 4/3 pi r^3 rho, I = 2/5 m r^2 (default;
+    /// the reading of the paper's 2D examples).
+    #[default]
+    Sphere,
+    /// A disc of unit thickness: m = pi r^2 rho (kg per m of thickness), I = 1/2 m r^2.
+    Disc,
+}
+
+/// Engine settings. SI units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimConfig<const D: usize> {
+    /// Particle and wall material.
+    pub material: Material,
+    /// Time step (s). Default 1e-4. Must not exceed the Rayleigh estimate.
+    pub dt: Real,
+    /// Body acceleration (m/s^2). Default 2 m/s^2 downwards (the paper's jamming force).
+    pub gravity: Vector<D>,
+    /// Linear drag coefficient c_D (N s/m): f = -c_D v. Default 0.
+    pub drag: Real,
+    /// Integrate spins and torques. Default true. When false, spins stay zero.
+    pub rotations: bool,
+    /// Box corners: floor at `lo[vertical]`, side walls at `lo[k]` and `hi[k]` for the
+    /// horizontal axes; `hi[vertical]` is ignored (open top). None: no walls.
+    pub walls: Option<(Vector<D>, Vector<D>)>,
+    /// Largest Verlet skin, as a fraction of the smallest radius (-). Default 0.2.
+    /// Each particle has a skin of its own, chosen at each rebuild from its speed so
+    /// that it lasts about [`SKIN_STEPS`] steps, within [`SKIN_FLOOR`] of this and
+    /// this: falling particles keep the wide skin while the resting bed under them
+    /// tests few pairs.
+    pub skin_ratio: Real,
+    /// Largest overlap tolerated, as a fraction of the smaller radius, before the run
+    /// stops as unstable (-). Default 0.5.
+    pub max_overlap_ratio: Real,
+    /// 2D mass model. Ignored in 3D.
+    pub inertia_2d: Inertia2D,
+}
+
+impl<const D: usize> SimConfig<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// The paper's settings: its material, dt = 1e-4 s, g = 2 m/s^2 down, no drag,
+    /// rotations on, no walls.
+    pub fn paper() -> Self {
+        let mut g = Vector::<D>::zeros();
+        g[<Dim<D> as Spatial<D>>::VERTICAL] = -2.0;
+        SimConfig {
+            material: Material::default(),
+            dt: 1e-4,
+            gravity: g,
+            drag: 0.0,
+            rotations: true,
+            walls: None,
+            skin_ratio: 0.2,
+            max_overlap_ratio: 0.5,
+            inertia_2d: Inertia2D::Sphere,
+        }
+    }
+
+    /// Checks every field; the error names the field and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        self.material.validate()?;
+        check_range("dt", self.dt, 0.0, false, f64::INFINITY, false)?;
+        for k in 0..D {
+            check_range("gravity", self.gravity[k], -f64::MAX, true, f64::MAX, true)?;
+        }
+        check_range("drag", self.drag, 0.0, true, f64::INFINITY, false)?;
+        check_range("skin_ratio", self.skin_ratio, 0.0, true, 10.0, true)?;
+        check_range(
+            "max_overlap_ratio",
+            self.max_overlap_ratio,
+            0.0,
+            false,
+            1.0,
+            true,
+        )?;
+        if let Some((lo, hi)) = &self.walls {
+            let vert = <Dim<D> as Spatial<D>>::VERTICAL;
+            for k in 0..D {
+                if !lo[k].is_finite() {
+                    return Err(Error::invalid("box", lo[k], "lower corner must be finite"));
+                }
+                if k != vert && !(hi[k].is_finite() && hi[k] > lo[k]) {
+                    return Err(Error::invalid(
+                        "box",
+                        format!("[{}, {}] on axis {k}", lo[k], hi[k]),
+                        "side walls must be finite with hi > lo",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,272 @@
+//! The Verlet pair list: its per-pair state in blocks, the rebuild that carries the
+//! tangential history of surviving pairs over, and the incidence lists the gather reads.
+
+use super::*;
+
+/// The pair (Verlet) list and its per-pair state in two runs, each sorted by (i, j):
+/// first the pairs of two frozen particles, whose forces need no update between
+/// freeze decisions and which a rebuild keeps without a search, then the pairs with at
+/// least one active particle.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Pairs<const D: usize> {
+    pub(super) ij: Vec<[u32; 2]>,
+    /// Length of the first run (0 when nothing is frozen).
+    pub(super) n_frozen_pairs: usize,
+    /// Per-pair state (history, law factors, and what the pair pass leaves for the
+    /// gather: force on j, n x f_t, overlap), pair k in block
+    /// `k >> BLOCK_SHIFT`, lane `k & (BLOCK - 1)`; `ceil(len / BLOCK)` blocks.
+    pub(super) blocks: Vec<PairBlock<D>>,
+    /// Pairs whose first particle is p: `i_frozen[p]..i_frozen[p + 1]` in the frozen
+    /// run and `i_active[p]..i_active[p + 1]` in the active one (both runs are sorted
+    /// by i, so these are ranges: the gather reads them in order, with no index list).
+    pub(super) i_frozen: Vec<u32>,
+    pub(super) i_active: Vec<u32>,
+    /// Pairs whose second particle is p: `j_inc[j_start[p]..j_start[p + 1]]`, in list
+    /// order.
+    pub(super) j_start: Vec<u32>,
+    pub(super) j_inc: Vec<u32>,
+}
+
+impl<const D: usize> Pairs<D> {
+    /// The state of pair k.
+    #[inline]
+    pub(super) fn get(&self, k: usize) -> PairRecord<D> {
+        self.blocks[k >> BLOCK_SHIFT].get(k & (BLOCK - 1))
+    }
+
+    /// Blocks for `len` pairs, pair k set to `fill(k)`, built in parallel: each
+    /// block is zeroed and filled by the thread that owns it. (Zeroed memory from the
+    /// allocator is no cheaper: the allocator reuses freed memory, which it then
+    /// clears on one thread. That took a third of a rebuild's block time on two
+    /// threads in a 4.3 pack.)
+    pub(super) fn build_blocks(
+        len: usize,
+        fill: impl Fn(usize) -> PairRecord<D> + Sync,
+    ) -> Vec<PairBlock<D>> {
+        let n = len.div_ceil(BLOCK);
+        let mut blocks: Vec<PairBlock<D>> = Vec::with_capacity(n);
+        blocks.spare_capacity_mut()[..n]
+            .par_iter_mut()
+            .with_min_len(REBUILD_MIN_BLOCKS)
+            .enumerate()
+            .for_each(|(b, slot)| {
+                // SAFETY: a PairBlock is arrays of f64 only (no padding, no pointers),
+                // and the all-zero bit pattern is 0.0, so the zeroed slot is a valid
+                // block.
+                let blk = unsafe {
+                    std::ptr::write_bytes(slot.as_mut_ptr(), 0, 1);
+                    slot.assume_init_mut()
+                };
+                let base = b * BLOCK;
+                for l in 0..BLOCK.min(len - base) {
+                    blk.set(l, &fill(base + l));
+                }
+            });
+        // SAFETY: the first n slots were initialised above, and n <= capacity.
+        unsafe { blocks.set_len(n) };
+        blocks
+    }
+
+    /// Reorders every per-pair array: entry k takes the old entry `order[k]`.
+    pub(super) fn permute(&mut self, order: &[u32]) {
+        self.ij = order.iter().map(|&k| self.ij[k as usize]).collect();
+        self.blocks = Self::build_blocks(order.len(), |k| self.get(order[k] as usize));
+    }
+
+    /// Checks the invariant that the unchecked indexing of the force loops relies on:
+    /// every particle index in the list is below `n`, every incidence entry below the
+    /// pair count, and the per-pair arrays have one entry per pair. Panics otherwise (a
+    /// bug in the list's construction, never a user error).
+    pub(super) fn check_indices(&self, n: usize) {
+        let m = self.ij.len();
+        assert!(self
+            .ij
+            .iter()
+            .all(|&[i, j]| (i as usize) < n && (j as usize) < n));
+        assert!(self.j_inc.iter().all(|&k| (k as usize) < m));
+        assert!(self.j_start.len() == n + 1 && self.j_inc.len() == m);
+        assert!(self.i_frozen.len() == n + 1 && self.i_active.len() == n + 1);
+        assert!(self.i_frozen[n] as usize == self.n_frozen_pairs && self.i_active[n] as usize == m);
+        assert!(self.i_frozen.windows(2).all(|w| w[0] <= w[1]));
+        assert!(self.i_active.windows(2).all(|w| w[0] <= w[1]));
+        assert!(self.blocks.len() == m.div_ceil(BLOCK));
+    }
+
+    /// Pair indices in (i, j) order: the merge of the two sorted runs.
+    pub(super) fn sorted_order(&self) -> Vec<u32> {
+        let (m, na) = (self.ij.len(), self.n_frozen_pairs);
+        let mut out = Vec::with_capacity(m);
+        let (mut a, mut b) = (0, na);
+        while a < na || b < m {
+            if b == m || (a < na && self.ij[a] < self.ij[b]) {
+                out.push(a as u32);
+                a += 1;
+            } else {
+                out.push(b as u32);
+                b += 1;
+            }
+        }
+        out
+    }
+}
+
+/// Returns spare capacity beyond a quarter of the length (a list that shrank a lot),
+/// without reallocating on every small fluctuation.
+fn trim<T>(v: &mut Vec<T>) {
+    if v.capacity() > v.len() + v.len() / 4 {
+        v.shrink_to_fit();
+    }
+}
+
+impl<const D: usize> World<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// Rebuilds the Verlet list and carries the tangential history of surviving pairs
+    /// over (old and new runs are sorted by (i, j), so a merge suffices).
+    ///
+    /// With particles frozen only the pairs with an active particle are searched: the
+    /// frozen run is kept as it is. Its pairs stay valid for good, because frozen
+    /// particles do not move; a thaw moves the thawed particle's pairs out of the frozen
+    /// run (`partition_pairs`) and asks for a rebuild, which searches them afresh.
+    pub(super) fn rebuild_pairs(&mut self) {
+        let start = std::time::Instant::now();
+        let r_min = self.r_min();
+        // Each particle's half skin lasts about SKIN_STEPS steps at its own speed,
+        // within [floor, largest] / 2: the falling layer keeps a wide skin, the resting
+        // bed a narrow one (fewer pairs to test every step). A pair is listed within
+        // h_i + h_j of contact, i.e. within reach r_i + h_i + r_j + h_j.
+        let widest = if r_min.is_finite() {
+            self.cfg.skin_ratio * r_min
+        } else {
+            0.0
+        };
+        let (lo, hi) = (0.5 * SKIN_FLOOR * widest, 0.5 * widest);
+        let steps = self.cfg.dt * SKIN_STEPS;
+        let p = &mut self.p;
+        p.half_skin
+            .par_iter_mut()
+            .zip(p.v.par_iter())
+            .with_min_len(REBUILD_MIN_PARTICLES)
+            .for_each(|(h, v)| *h = (v.norm() * steps).clamp(lo, hi));
+        let reach: Vec<Real> = p.r.iter().zip(&p.half_skin).map(|(r, h)| r + h).collect();
+        let partial = self.n_frozen > 0;
+        let mut pr = std::mem::take(&mut self.pairs);
+        let (ij, keep) = if partial {
+            let fz = &self.p.frozen;
+            let ij = neighbor_pairs_active(&self.p.x, &reach, |i| !fz[i]);
+            (ij, pr.n_frozen_pairs)
+        } else {
+            (neighbor_pairs(&self.p.x, &reach), 0)
+        };
+        drop(reach);
+        // Old pairs that may survive, in (i, j) order: the active run, or everything.
+        let old_order: Vec<u32> = if partial {
+            (pr.n_frozen_pairs as u32..pr.ij.len() as u32).collect()
+        } else {
+            pr.sorted_order()
+        };
+        // For each new pair, the old pair it continues (u32::MAX: a new contact): a
+        // merge of the two sorted lists, in parallel chunks of the new one, each
+        // starting where a binary search puts its first pair among the old ones.
+        let mut src = vec![u32::MAX; ij.len()];
+        let old_ij = &pr.ij;
+        src.par_chunks_mut(PAIR_CHUNK)
+            .zip(ij.par_chunks(PAIR_CHUNK))
+            .for_each(|(src, new)| {
+                let mut a = old_order.partition_point(|&o| old_ij[o as usize] < new[0]);
+                for (s, pair) in src.iter_mut().zip(new) {
+                    while a < old_order.len() && old_ij[old_order[a] as usize] < *pair {
+                        a += 1;
+                    }
+                    if a < old_order.len() && old_ij[old_order[a] as usize] == *pair {
+                        *s = old_order[a];
+                    }
+                }
+            });
+        drop(old_order);
+        // The kept frozen run stays in front; the other pairs carry their state over,
+        // or start from zero with fresh law factors.
+        let r = &self.p.r;
+        let mass = &self.p.m;
+        let mat = self.cfg.material;
+        let (e_star, g_star) = (self.e_star, self.g_star);
+        let old = &pr;
+        let blocks = Pairs::<D>::build_blocks(keep + ij.len(), |k| {
+            if k < keep {
+                return old.get(k);
+            }
+            let o = src[k - keep];
+            if o != u32::MAX {
+                // a surviving pair: its history, and its factors (radii and masses
+                // never change)
+                return old.get(o as usize);
+            }
+            let mut rec = PairRecord::default();
+            let [i, j] = ij[k - keep];
+            let (ri, rj) = (r[i as usize], r[j as usize]);
+            let (mi, mj) = (mass[i as usize], mass[j as usize]);
+            rec.coefs = PairFactors::new(&PairParams {
+                r_eff: ri * rj / (ri + rj),
+                m_eff: mi * mj / (mi + mj),
+                e_star,
+                g_star,
+                damping: mat.damping,
+                friction: mat.friction,
+            });
+            rec
+        });
+        pr.blocks = blocks;
+        drop(src);
+        pr.ij.truncate(keep);
+        pr.ij.extend_from_slice(&ij);
+        trim(&mut pr.ij);
+        drop(ij);
+        pr.n_frozen_pairs = keep;
+        self.pairs = pr;
+        if partial {
+            self.build_incidence();
+        } else {
+            self.partition_pairs();
+        }
+        self.p.x_ref.copy_from_slice(&self.p.x);
+        // No particle moves more than its h before the next rebuild, so only walls
+        // within r + h can be touched meanwhile (r + 2h for margin): the gather skips
+        // the others.
+        let (p, walls) = (&mut self.p, &self.walls);
+        p.wall_near
+            .par_iter_mut()
+            .zip(p.x.par_iter())
+            .zip(p.r.par_iter().zip(p.half_skin.par_iter()))
+            .with_min_len(REBUILD_MIN_PARTICLES)
+            .for_each(|((near, x), (r, h))| {
+                *near = 0;
+                for (wi, wall) in walls.iter().enumerate() {
+                    if wall.gap(x) < r + 2.0 * h {
+                        *near |= 1 << wi;
+                    }
+                }
+            });
+        self.list_valid = true;
+        self.rebuilds += 1;
+        self.rebuild_seconds += start.elapsed().as_secs_f64();
+    }
+
+    /// Incidence: for each particle the ranges of the pairs it starts (one per run)
+    /// and the list of those it ends, in list order.
+    pub(super) fn build_incidence(&mut self) {
+        let pr = &mut self.pairs;
+        let n = self.p.x.len();
+        let nf = pr.n_frozen_pairs;
+        // Runs sorted by i: the range of particle p in a run is its bin in a counting
+        // sort of the run by i (the run is already in that order).
+        let (run_f, run_a) = pr.ij.split_at(nf);
+        pr.i_frozen = bin_starts(nf, n, |k| run_f[k][0] as usize, 0);
+        pr.i_active = bin_starts(run_a.len(), n, |k| run_a[k][0] as usize, nf);
+        let ij = &pr.ij;
+        let (j_start, j_inc) = counting_sort(ij.len(), n, |k| ij[k][1] as usize);
+        pr.j_start = j_start;
+        pr.j_inc = j_inc;
+        pr.check_indices(n);
+    }
+}
