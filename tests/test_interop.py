@@ -224,22 +224,11 @@ def test_restitutions_give_granpacks_damping():
 
 
 # -- containers ----------------------------------------------------------------------------------
-class _Scene:
-    """A scene with the container keys, for packs built by hand."""
-
-    def __init__(self, scene: gp.PackScene, **keys) -> None:
-        self._scene = scene
-        self.__dict__.update(keys)
-
-    def __getattr__(self, name):
-        return getattr(self._scene, name)
-
-
 def _periodic(pack: gp.Pack) -> gp.Pack:
     """The pack shifted half a period along x, so that it straddles the seam."""
     x = np.array(pack.positions)
     x[:, 0] += pack.scene.base[0] / 2  # some centres now lie beyond L: the export wraps them
-    return dataclasses.replace(pack, positions=x, scene=_Scene(pack.scene, container="periodic"))
+    return dataclasses.replace(pack, positions=x, scene=pack.scene.replace(container="periodic"))
 
 
 def _cylinder(pack: gp.Pack) -> gp.Pack:
@@ -255,7 +244,8 @@ def _cylinder(pack: gp.Pack) -> gp.Pack:
     contacts = dataclasses.replace(
         rows, i=remap[rows.i], j=np.where(rows.j >= 0, remap[rows.j], -1)
     )
-    scene = _Scene(pack.scene, container="cylinder", cylinder_radius=big)
+    scene = pack.scene.replace(container="cylinder")
+    assert scene.cylinder_radius == big
     return dataclasses.replace(
         pack,
         positions=pack.positions[keep],

@@ -506,6 +506,10 @@ def _micro_record(pack, m, k: int) -> dict:
         "height": pack.height,
         "wall_time": pack.wall_time,
     }
+    if pack.trim is not None:
+        rec.update(
+            trim_removed=pack.trim["removed"], trim_top=pack.trim["top"], phi_hd=pack.trim["phi_hd"]
+        )
     rec.update(_jsonable(m.to_dict()))
     return rec
 

@@ -48,6 +48,7 @@ mod freeze;
 mod integrate;
 mod pair_list;
 mod particles;
+mod remove;
 mod team;
 #[cfg(test)]
 mod tests;

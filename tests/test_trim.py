@@ -1,0 +1,101 @@
+"""PackScene.trim: the flat top at H_d. The same scene and seed with and without it: the
+trimmed pack keeps exactly the particles whose top was at most H_d, ends at or below H_d,
+keeps every particle in the container through the relax, and records what it did."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import granpack as gp
+from granpack.report import ensemble_report
+
+
+def _scene(dim: int) -> gp.PackScene:
+    if dim == 2:
+        return gp.PackScene.preset("4.2").replace(
+            base=(0.2,), height=0.08, settle_time=0.5, seed=11
+        )
+    return gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5, seed=11)
+
+
+SCENES = {
+    "2d": _scene(2),
+    "3d": _scene(3),
+    # freezing: the cut also thaws the frozen bed before the relax
+    "3d fast": _scene(3).fast(),
+}
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_trim_cuts_at_the_desired_height(name):
+    scene = SCENES[name]
+    full = gp.generate(scene)
+    cut = gp.generate(scene.replace(trim=True))
+    v = scene.vertical
+    hd = scene.height
+    top_full = full.positions[:, v] + full.radii
+    assert full.height > hd  # the scene overshoots H_d, so the cut removes some
+    kept = top_full <= hd
+    # the particles kept are those of the same pack whose top was at most H_d
+    assert len(cut) == int(kept.sum())
+    np.testing.assert_array_equal(np.sort(cut.radii), np.sort(full.radii[kept]))
+    np.testing.assert_array_equal(np.sort(cut.layer), np.sort(full.layer[kept]))
+    # the top is flat at H_d: at most H_d after the relax
+    assert cut.height <= hd and cut.height == float(np.max(cut.positions[:, v] + cut.radii))
+    # nothing left the container while relaxing: every centre within the walls
+    lo = cut.radii[:, None] * 0.0
+    assert np.all(cut.positions >= lo - 1e-9)
+    for k, length in enumerate(scene.base):
+        assert np.all(cut.positions[:, k] <= length)
+    # what was done, recorded
+    t = cut.trim
+    assert t is not None and full.trim is None
+    assert t["removed"] == len(full) - len(cut) and t["top"] == cut.height and t["steps"] > 0
+    vol = np.pi * cut.radii**2 if scene.dim == 2 else 4 / 3 * np.pi * cut.radii**3
+    assert t["phi_hd"] == pytest.approx(vol.sum() / (scene.base_area * hd), rel=1e-12)
+    assert t["phi_hd"] < cut.phi  # the void up to H_d counts
+
+
+def test_trim_is_saved_with_the_pack_and_reported(tmp_path):
+    scene = SCENES["2d"].replace(trim=True)
+    pack = gp.generate(scene)
+    path = pack.save(tmp_path / "p.npz")
+    again = gp.load_pack(path)
+    assert again.trim == pack.trim and again.scene.trim is True
+    assert gp.PackScene.from_toml_string(scene.to_toml()) == scene
+    rec = {
+        "pack": 0,
+        "n_particles": len(pack),
+        "height": pack.height,
+        "phi": pack.phi,
+        "trim_removed": pack.trim["removed"],
+        "trim_top": pack.trim["top"],
+        "phi_hd": pack.trim["phi_hd"],
+    }
+    report = ensemble_report(
+        tmp_path,
+        scene_name="t",
+        scene=scene,
+        records=[rec],
+        table_files=[],
+        figures=[],
+        wall_time=1.0,
+    ).read_text()
+    assert "Flat top (trim)" in report and f"{pack.trim['phi_hd']:.4f}" in report
+
+
+def test_trim_must_be_a_bool():
+    with pytest.raises(gp.InvalidParameterError, match="trim"):
+        SCENES["2d"].replace(trim="yes")
+
+
+def test_trim_keeps_the_contacts_consistent():
+    # after the cut the engine's contacts index the remaining particles only
+    pack = gp.generate(SCENES["3d fast"].replace(trim=True))
+    c = pack.contacts
+    assert c.i.max() < len(pack) and c.j.max() < len(pack)
+    m = gp.microstructure(pack, core_margin=0.02)
+    assert m.n_particles == len(pack) and math.isfinite(m.z)
