@@ -352,3 +352,51 @@ def test_liggghts_runs_periodic_and_cylinder_packs(liggghts, pack3d, tmp_path):
         export.export(p, tmp_path / "pack.data", "liggghts")
         rows = _thermo(_run(liggghts, tmp_path, 10))
         assert rows[-1][1] == len(p)  # nobody lost
+
+
+# -- pictures of the containers -------------------------------------------------------------------
+def _collections(ax):
+    from matplotlib.collections import EllipseCollection
+
+    return [c for c in ax.collections if isinstance(c, EllipseCollection)]
+
+
+def test_periodic_pictures_draw_the_images_across_the_seam(pack, tmp_path):
+    from granpack import plot
+
+    p = _periodic(pack)
+    fig = plot.pack_figure(p)
+    ax = fig.axes[0] if p.dim == 2 else fig.axes[2]  # 3D: the horizontal slice
+    x, r = np.asarray(p.positions), np.asarray(p.radii)
+    periods = [(0, 0.2)]
+    if p.dim == 3:  # the circles the mid-height plane cuts
+        d = np.abs(x[:, 2] - 0.5 * p.height)
+        cut = d < r
+        x, r = x[cut][:, :2], np.sqrt(r[cut] ** 2 - d[cut] ** 2)
+        periods = [(0, 0.2), (1, 0.2)]
+    base, images = _collections(ax)
+    np.testing.assert_allclose(base.get_offsets(), x[:, :2])
+    xi, ri, ii = plot.periodic_images(x[:, :2], r, periods)
+    assert len(ri) > 0
+    np.testing.assert_allclose(images.get_offsets(), xi)
+    # each image is its particle moved by a period, across the seam it crosses
+    shift = xi - x[ii, :2]
+    assert np.all(np.isclose(np.abs(shift), 0.0) | np.isclose(np.abs(shift), 0.2))
+    assert plot.save(fig, tmp_path / "periodic.png").stat().st_size > 0
+
+
+def test_cylinder_picture_has_the_view_and_a_horizontal_slice(pack3d, tmp_path):
+    from granpack import plot
+
+    c = _cylinder(pack3d)
+    fig = plot.pack_figure(c, title="cylinder")
+    assert len(fig.axes) == 3
+    view, _, horizontal = fig.axes
+    assert len(_collections(view)[0].get_offsets()) == len(c)
+    z0 = 0.5 * c.height
+    n_cut = int(np.sum(np.abs(c.positions[:, 2] - z0) < c.radii))
+    assert len(_collections(horizontal)[0].get_offsets()) == n_cut
+    (circle,) = horizontal.get_lines()
+    xy = circle.get_xydata()
+    np.testing.assert_allclose(np.hypot(xy[:, 0] - 0.1, xy[:, 1] - 0.1), 0.1, rtol=1e-12)
+    assert plot.save(fig, tmp_path / "cylinder.png").stat().st_size > 0
