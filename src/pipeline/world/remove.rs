@@ -34,10 +34,13 @@ where
         self.set_freeze(None)?;
         // New index of each kept particle (old order, so (i, j) order is kept too).
         let mut new_index = vec![u32::MAX; n];
-        let mut next = 0u32;
-        for (slot, _) in new_index.iter_mut().zip(keep).filter(|(_, &k)| k) {
-            *slot = next;
-            next += 1;
+        for (next, (slot, _)) in new_index
+            .iter_mut()
+            .zip(keep)
+            .filter(|(_, &k)| k)
+            .enumerate()
+        {
+            *slot = next as u32;
         }
         // The pairs of two kept particles, renumbered, in (i, j) order with their state:
         // the next rebuild merges them with the new list as it does after any rebuild.
@@ -50,16 +53,17 @@ where
             })
             .collect();
         let old = std::mem::take(&mut self.pairs);
-        let mut pairs = Pairs::<D>::default();
-        pairs.ij = survivors
-            .iter()
-            .map(|&k| {
-                let [i, j] = old.ij[k as usize];
-                [new_index[i as usize], new_index[j as usize]]
-            })
-            .collect();
-        pairs.blocks =
-            Pairs::<D>::build_blocks(survivors.len(), |k| old.get(survivors[k] as usize));
+        let pairs = Pairs::<D> {
+            ij: survivors
+                .iter()
+                .map(|&k| {
+                    let [i, j] = old.ij[k as usize];
+                    [new_index[i as usize], new_index[j as usize]]
+                })
+                .collect(),
+            blocks: Pairs::<D>::build_blocks(survivors.len(), |k| old.get(survivors[k] as usize)),
+            ..Pairs::default()
+        };
         self.pairs = pairs;
 
         let p = &mut self.p;
