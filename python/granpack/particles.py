@@ -774,6 +774,7 @@ def _read_yade(path: Path, dim: int | None) -> ParticleFile:
             f"of {', '.join(YADE_LAYOUTS)}, found {found}",
             path=path,
         )
+    assert k0 is not None  # a header was matched
     layout = head.group(1)
     names = layout.split("_")
     ncol = len(names)
@@ -836,8 +837,8 @@ def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
     info = {}
     for w in words:
         if "=" in w:
-            k, v = w.split("=", 1)
-            info[k.lower()] = v
+            key, value = w.split("=", 1)
+            info[key.lower()] = value
     spec = info.get("properties", "").split(":")
     if len(spec) % 3 or not spec[0]:
         raise FileFormatError(

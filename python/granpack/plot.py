@@ -95,7 +95,7 @@ def _container(pack) -> tuple[str, float | None]:
     scene = getattr(pack, "scene", None)
     kind = getattr(scene, "container", "box") if scene is not None else "box"
     radius = getattr(scene, "cylinder_radius", None) if kind == "cylinder" else None
-    if kind == "cylinder" and radius is None:
+    if kind == "cylinder" and radius is None and scene is not None:
         radius = scene.base[0] / 2.0
     return kind, radius
 
