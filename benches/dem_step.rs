@@ -64,6 +64,7 @@ fn bench_grid_and_rsa(c: &mut Criterion) {
         b.iter(|| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
             let spec = LayerSpec::<3> {
+                container: _core::pipeline::Container::Box,
                 lo: Vector::<3>::zeros(),
                 hi: Vector::<3>::new(1.0, 1.0, f64::INFINITY),
                 vertical: 2,

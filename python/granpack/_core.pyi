@@ -35,6 +35,7 @@ Material: TypeAlias = tuple[float, float, float, float, float]
 """density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""
 Box: TypeAlias = tuple[list[float], list[float]]
 """(lo, hi) corners (m); hi[vertical] may be inf (open top)."""
+ContainerName: TypeAlias = Literal["box", "periodic", "cylinder"]
 Inertia2D: TypeAlias = Literal["sphere", "disc"]
 """2D mass model: a sphere's mass and inertia, or a disc of unit thickness."""
 RadiusLawName: TypeAlias = Literal["constant", "gaussian"]
@@ -100,6 +101,8 @@ class Simulation:
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
         inertia_2d: Inertia2D = "sphere",
+        container: ContainerName = "box",
+        cylinder_radius: float | None = None,
     ) -> Self: ...
     @property
     def dim(self) -> int: ...
@@ -172,6 +175,8 @@ class LayerPacker:
         freeze_speed: float = 1e-3,
         freeze_force: float = 0.1,
         settle_dt: float | None = None,
+        container: ContainerName = "box",
+        cylinder_radius: float | None = None,
     ) -> Self: ...
     @property
     def done(self) -> bool: ...
@@ -190,8 +195,13 @@ def find_contacts(
     positions: npt.NDArray[np.float64],
     radii: npt.NDArray[np.float64],
     walls: Box | None = None,
+    periodic: list[bool] | tuple[bool, ...] | None = None,
+    cylinder: float | None = None,
 ) -> ContactArrays:
-    """Geometric contacts (overlap > 0) from the cell grid; forces zero."""
+    """Geometric contacts (overlap > 0) from the cell grid; forces zero. `periodic`:
+    one flag per horizontal axis of `walls` (minimum image, no walls there);
+    `cylinder`: a radius R (3D), the side walls replaced by a vertical cylinder with
+    its axis through lo + (R, R)."""
 
 def rayleigh_time_step(density: float, young: float, poisson: float, r_min: float) -> float:
     """pi r_min sqrt(rho / G) / (0.1631 nu + 0.8766) (s)."""

@@ -425,6 +425,8 @@ def _packer(scene: PackScene) -> _core.LayerPacker:
         freeze_speed=s.freeze_speed,
         freeze_force=s.freeze_force,
         settle_dt=s.settle_dt,
+        container=s.container,
+        cylinder_radius=s.cylinder_radius,
     )
 
 

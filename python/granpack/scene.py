@@ -383,15 +383,15 @@ class PackScene:
                     expected="None unless container = 'cylinder'",
                 )
             if self.container == "periodic":
-                # The pair search and the minimum image need a period of at least three
-                # cells of the largest interaction distance (a diameter plus the skin):
-                # a pair then meets at most one image of its partner.
-                least = 3.0 * 2.0 * self.r_max * (1.0 + self.skin_ratio)
+                # The minimum image needs a period above twice the largest cutoff of
+                # the pair list, 2 (r_max + half skin) <= r_max (2 + skin_ratio): a pair
+                # then has one nearest image.
+                least = 4.0 * self.r_max * (1.0 + self.skin_ratio)
                 for b in self.base:
                     if b < least:
                         raise InvalidParameterError(
                             f"invalid base = {short_repr(self.base)}: a periodic cell needs "
-                            f"every period >= 6 r_max (1 + skin_ratio) = {least:g} m",
+                            f"every period >= 4 r_max (1 + skin_ratio) = {least:g} m",
                             parameter="base",
                             value=self.base,
                             expected=f">= {least:g} m per axis",

@@ -7,7 +7,7 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{geometric_contacts, Contacts, Inertia2D};
+use crate::pipeline::world::{geometric_contacts, Contacts, Container, Inertia2D};
 use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, World};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
@@ -225,6 +225,28 @@ fn vector_from<const D: usize>(name: &str, v: &[f64]) -> PyResult<Vector<D>> {
     Ok(Vector::<D>::from_fn(|k, _| v[k]))
 }
 
+/// The container named `name` ("box", "periodic", "cylinder"; a cylinder takes its
+/// radius from `radius`).
+fn container_from(name: &str, radius: Option<f64>) -> PyResult<Container> {
+    match (name, radius) {
+        ("box", None) => Ok(Container::Box),
+        ("periodic", None) => Ok(Container::Periodic),
+        ("cylinder", Some(r)) => Ok(Container::Cylinder(r)),
+        ("cylinder", None) => Err(bad(
+            "cylinder_radius",
+            "None: a cylinder needs its radius (m)",
+        )),
+        ("box" | "periodic", Some(r)) => Err(bad(
+            "cylinder_radius",
+            format!("{r}: only container \"cylinder\" has a radius"),
+        )),
+        (other, _) => Err(bad(
+            "container",
+            format!("{other:?}, expected \"box\", \"periodic\" or \"cylinder\""),
+        )),
+    }
+}
+
 /// Engine settings as they cross the boundary (the Python layer builds them).
 #[allow(clippy::too_many_arguments)]
 fn sim_config<const D: usize>(
@@ -237,6 +259,7 @@ fn sim_config<const D: usize>(
     skin_ratio: f64,
     max_overlap_ratio: f64,
     inertia_2d: &str,
+    container: Container,
 ) -> PyResult<SimConfig<D>>
 where
     Dim<D>: Spatial<D>,
@@ -269,6 +292,7 @@ where
         drag,
         rotations,
         walls,
+        container,
         skin_ratio,
         max_overlap_ratio,
         inertia_2d,
@@ -313,7 +337,8 @@ struct Simulation {
 impl Simulation {
     #[new]
     #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, walls, skin_ratio=0.2,
-                        max_overlap_ratio=0.5, inertia_2d="sphere"))]
+                        max_overlap_ratio=0.5, inertia_2d="sphere", container="box",
+                        cylinder_radius=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -326,7 +351,10 @@ impl Simulation {
         skin_ratio: f64,
         max_overlap_ratio: f64,
         inertia_2d: &str,
+        container: &str,
+        cylinder_radius: Option<f64>,
     ) -> PyResult<Self> {
+        let container = container_from(container, cylinder_radius)?;
         macro_rules! make {
             ($D:literal, $variant:ident) => {
                 SimInner::$variant(World::new(sim_config::<$D>(
@@ -339,6 +367,7 @@ impl Simulation {
                     skin_ratio,
                     max_overlap_ratio,
                     inertia_2d,
+                    container,
                 )?)?)
             };
         }
@@ -421,7 +450,7 @@ impl Simulation {
     }
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        with_world!(&self.inner, w, _D, vec_to_py(py, w.positions()))
+        with_world!(&self.inner, w, _D, vec_to_py(py, &w.positions_in_cell()))
     }
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
@@ -532,7 +561,8 @@ impl LayerPacker {
                         h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
                         max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
                         inertia_2d="sphere", adaptive_settle=None, freeze_depth=None,
-                        freeze_speed=1e-3, freeze_force=0.1, settle_dt=None))]
+                        freeze_speed=1e-3, freeze_force=0.1, settle_dt=None, container="box",
+                        cylinder_radius=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
@@ -559,8 +589,11 @@ impl LayerPacker {
         freeze_speed: f64,
         freeze_force: f64,
         settle_dt: Option<f64>,
+        container: &str,
+        cylinder_radius: Option<f64>,
     ) -> PyResult<Self> {
         let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
+        let container = container_from(container, cylinder_radius)?;
         macro_rules! make {
             ($D:literal, $variant:ident) => {{
                 let sim = sim_config::<$D>(
@@ -573,6 +606,7 @@ impl LayerPacker {
                     skin_ratio,
                     max_overlap_ratio,
                     inertia_2d,
+                    container,
                 )?;
                 let v = <Dim<$D> as Spatial<$D>>::VERTICAL;
                 let mut b = Vector::<$D>::zeros();
@@ -671,7 +705,7 @@ impl LayerPacker {
         let d = PyDict::new(py);
         with_packer!(&self.inner, p, _D, {
             let w = p.world();
-            d.set_item("positions", vec_to_py(py, w.positions()))?;
+            d.set_item("positions", vec_to_py(py, &w.positions_in_cell()))?;
             d.set_item("velocities", vec_to_py(py, w.velocities()))?;
             d.set_item("spins", ang_to_py(py, w.spins()))?;
             d.set_item(
@@ -695,14 +729,19 @@ impl LayerPacker {
 
 /// Geometric contacts (overlap > 0) of a pack given by positions and radii, with the
 /// box walls if `walls` is given (floor and side walls; the top is open); forces are
-/// zero. Uses the cell grid; no dynamics, so any overlap is accepted.
+/// zero. Uses the cell grid; no dynamics, so any overlap is accepted. `periodic` (one
+/// flag per horizontal axis) makes axes of the box periodic: pairs by minimum image,
+/// no walls there. `cylinder` (a radius, 3D) replaces the side walls by a vertical
+/// cylinder with its axis through lo + (R, R).
 #[pyfunction]
-#[pyo3(signature = (positions, radii, walls=None))]
+#[pyo3(signature = (positions, radii, walls=None, periodic=None, cylinder=None))]
 fn find_contacts<'py>(
     py: Python<'py>,
     positions: PyReadonlyArray2<'py, f64>,
     radii: PyReadonlyArray1<'py, f64>,
     walls: Option<(Vec<f64>, Vec<f64>)>,
+    periodic: Option<Vec<bool>>,
+    cylinder: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let dim = positions.as_array().ncols();
     let r: Vec<Real> = radii.as_array().to_vec();
@@ -738,19 +777,91 @@ fn find_contacts<'py>(
                 )),
                 None => None,
             };
+            let flags = periodic.clone().unwrap_or_else(|| vec![false; $D - 1]);
+            if flags.len() != $D - 1 {
+                return Err(bad(
+                    "periodic",
+                    format!(
+                        "{} flags, expected one per horizontal axis ({})",
+                        flags.len(),
+                        $D - 1
+                    ),
+                ));
+            }
+            if box_.is_none() && (flags.iter().any(|&f| f) || cylinder.is_some()) {
+                return Err(bad(
+                    if cylinder.is_some() {
+                        "cylinder"
+                    } else {
+                        "periodic"
+                    },
+                    "needs the box (walls) whose sides it replaces",
+                ));
+            }
+            let r_max = r.iter().cloned().fold(0.0, f64::max);
             if let Some((lo, hi)) = &box_ {
+                for (a, &f) in flags.iter().enumerate() {
+                    // one nearest image per pair: a period above twice the largest cutoff
+                    if f && (hi[a] - lo[a] <= 4.0 * r_max || (hi[a] - lo[a]).is_nan()) {
+                        return Err(bad(
+                            "periodic",
+                            format!(
+                                "axis {a} has period {} m: must exceed 4 r_max = {} m",
+                                hi[a] - lo[a],
+                                4.0 * r_max
+                            ),
+                        ));
+                    }
+                }
+                if let Some(radius) = cylinder {
+                    if $D != 3 || flags.iter().any(|&f| f) {
+                        return Err(bad(
+                            "cylinder",
+                            "a cylinder needs 3D positions and no periodic axis",
+                        ));
+                    }
+                    if !(radius.is_finite() && radius > 0.0) {
+                        return Err(bad(
+                            "cylinder",
+                            format!("{radius}: must be a radius > 0 (m)"),
+                        ));
+                    }
+                    for a in 0..2 {
+                        let side = hi[a] - lo[a];
+                        if (side - 2.0 * radius).abs() > 1e-9 * side.abs() {
+                            return Err(bad(
+                                "walls",
+                                format!(
+                                    "side {side} m on axis {a}: a cylinder of radius {radius} m \
+                                     fills a box of side 2R = {} m",
+                                    2.0 * radius
+                                ),
+                            ));
+                        }
+                    }
+                }
                 for (k, p) in x.iter().enumerate() {
                     // the top is open: only the floor and the side walls bound the pack
-                    let out = (0..$D).any(|a| p[a] < lo[a] || (a + 1 < $D && p[a] > hi[a]));
-                    if out {
+                    let out = (0..$D).any(|a| {
+                        let lateral = a + 1 < $D;
+                        if lateral && (flags[a] || cylinder.is_some()) {
+                            return false;
+                        }
+                        p[a] < lo[a] || (lateral && p[a] > hi[a])
+                    });
+                    let outside_cylinder = cylinder.is_some_and(|radius| {
+                        let (u, v) = (p[0] - lo[0] - radius, p[1] - lo[1] - radius);
+                        u * u + v * v > radius * radius
+                    });
+                    if out || outside_cylinder {
                         return Err(bad(
                             &format!("positions[{k}]"),
-                            format!("{:?}: centre lies outside the box's walls", p.as_slice()),
+                            format!("{:?}: centre lies outside the container", p.as_slice()),
                         ));
                     }
                 }
             }
-            let c = py.detach(|| geometric_contacts::<$D>(&x, &r, box_))?;
+            let c = py.detach(|| geometric_contacts::<$D>(&x, &r, box_, &flags, cylinder))?;
             contacts_to_py(py, &c)
         }};
     }

@@ -7,14 +7,19 @@
 //! increasing index order. The pair list comes out sorted by (i, j) whatever the thread
 //! count.
 
+use super::Period;
 use crate::math::{Real, Vector};
 use rayon::prelude::*;
 
 /// A static cell grid over a set of positions.
 #[derive(Clone, Debug)]
 pub struct CellGrid<const D: usize> {
-    cell: Real,
+    /// Side of a cell per axis (m): one value, except on periodic axes, whose cells
+    /// divide the period evenly.
+    cell: [Real; D],
     dims: [usize; D],
+    /// Periodic axes: the stencil wraps around them.
+    wrap: [bool; D],
     /// `start[c]..start[c + 1]` indexes `members` for cell `c`.
     start: Vec<u32>,
     members: Vec<u32>,
@@ -27,6 +32,13 @@ impl<const D: usize> CellGrid<D> {
     /// are spread so thinly that the grid would exceed about 8 cells per particle, the
     /// cells grow instead (memory stays O(N); correctness is unaffected).
     pub fn build(x: &[Vector<D>], min_cell: Real) -> Self {
+        Self::build_with(x, min_cell, None)
+    }
+
+    /// [`build`](Self::build) over a cell with periodic axes: on those the grid spans
+    /// the period [lo, lo + L), which it divides into whole cells, and the stencil
+    /// wraps around. Positions must lie in [lo, lo + L) on the periodic axes.
+    pub fn build_with(x: &[Vector<D>], min_cell: Real, period: Option<&Period<D>>) -> Self {
         let n = x.len();
         let mut lo = Vector::<D>::repeat(Real::INFINITY);
         let mut hi = Vector::<D>::repeat(Real::NEG_INFINITY);
@@ -38,6 +50,25 @@ impl<const D: usize> CellGrid<D> {
             lo = Vector::<D>::zeros();
             hi = Vector::<D>::zeros();
         }
+        let mut wrap = [false; D];
+        if let Some(per) = period {
+            for k in 0..D {
+                if per.periodic(k) {
+                    wrap[k] = true;
+                    lo[k] = per.lo[k];
+                    hi[k] = per.lo[k] + per.len[k];
+                }
+            }
+        }
+        // cells per axis for a cell side c: a periodic axis takes whole cells of at
+        // least c, the others enough cells of side c to cover the extent
+        let dims_for = |c: Real, k: usize| -> Real {
+            if wrap[k] {
+                ((hi[k] - lo[k]) / c).floor().max(1.0)
+            } else {
+                ((hi[k] - lo[k]) / c).floor() + 1.0
+            }
+        };
         let max_cells = (8 * n + 64) as f64;
         let mut cell = min_cell.max(1e-300);
         let mut dims = [1usize; D];
@@ -52,30 +83,36 @@ impl<const D: usize> CellGrid<D> {
             }
             let mut total = 1.0f64;
             for k in 0..D {
-                let m = ((hi[k] - lo[k]) / cell).floor() + 1.0;
-                total *= m;
+                total *= dims_for(cell, k);
             }
             if total <= max_cells {
-                for k in 0..D {
-                    dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
+                for (k, d) in dims.iter_mut().enumerate() {
+                    *d = dims_for(cell, k) as usize;
                 }
                 break;
             }
             cell *= (total / max_cells).powf(1.0 / D as f64) * 1.01;
+        }
+        let mut cells = [cell; D];
+        for k in 0..D {
+            if wrap[k] && cell.is_finite() {
+                cells[k] = (hi[k] - lo[k]) / dims[k] as Real;
+            }
         }
         let ncell: usize = dims.iter().product();
         // each particle's cell once (the sort reads its key twice)
         let cell_of: Vec<u32> = x
             .iter()
             .map(|p| {
-                let c = cell_coords(p, &lo, cell, &dims);
+                let c = cell_coords(p, &lo, &cells, &dims);
                 (0..D).rev().fold(0, |acc, k| acc * dims[k] + c[k]) as u32
             })
             .collect();
         let (start, members) = counting_sort(n, ncell, |i| cell_of[i] as usize);
         CellGrid {
-            cell,
+            cell: cells,
             dims,
+            wrap,
             start,
             members,
             lo,
@@ -84,7 +121,7 @@ impl<const D: usize> CellGrid<D> {
 
     /// Side of a cell (m).
     pub fn cell_size(&self) -> Real {
-        self.cell
+        self.cell.iter().cloned().fold(Real::INFINITY, Real::min)
     }
 
     /// Particle indices in cell order: cell `c` holds those at `start[c]..start[c + 1]`.
@@ -99,7 +136,10 @@ impl<const D: usize> CellGrid<D> {
     /// row, no per-cell bookkeeping.
     #[inline]
     pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
-        let c = cell_coords(p, &self.lo, self.cell, &self.dims);
+        if self.wrap.iter().any(|&w| w) {
+            return self.for_each_row_wrapped(p, f);
+        }
+        let c = cell_coords(p, &self.lo, &self.cell, &self.dims);
         let x_lo = c[0].saturating_sub(1);
         let x_hi = (c[0] + 1).min(self.dims[0] - 1);
         // Offsets along the other axes: 3^(D-1) rows.
@@ -125,6 +165,68 @@ impl<const D: usize> CellGrid<D> {
     }
 }
 
+impl<const D: usize> CellGrid<D> {
+    /// [`for_each_row`](Self::for_each_row) on a grid with periodic axes: rows and
+    /// cells beyond a periodic edge wrap to the other side, and each cell is visited
+    /// once even where an axis has fewer than three cells (the stencil's -1 and +1
+    /// would then meet).
+    fn for_each_row_wrapped(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
+        let c = cell_coords(p, &self.lo, &self.cell, &self.dims);
+        // the distinct neighbouring coordinates along axis k (at most three)
+        let around = |k: usize| -> ([usize; 3], usize) {
+            let (ck, dk) = (c[k] as isize, self.dims[k] as isize);
+            let mut out = [0usize; 3];
+            let mut m = 0;
+            for off in -1..=1isize {
+                let mut v = ck + off;
+                if self.wrap[k] {
+                    v = v.rem_euclid(dk);
+                } else if v < 0 || v >= dk {
+                    continue;
+                }
+                let v = v as usize;
+                if !out[..m].contains(&v) {
+                    out[m] = v;
+                    m += 1;
+                }
+            }
+            (out, m)
+        };
+        let mut rows: [([usize; 3], usize); D] = [([0; 3], 0); D];
+        for (k, row) in rows.iter_mut().enumerate().skip(1) {
+            *row = around(k);
+        }
+        // runs of adjacent cells along the first axis: wrapped ones split in two
+        let (xs, nx) = around(0);
+        let mut xs = xs;
+        xs[..nx].sort_unstable();
+        let mut runs = [(0usize, 0usize); 3];
+        let mut nr = 0;
+        for &v in &xs[..nx] {
+            if nr > 0 && runs[nr - 1].1 + 1 == v {
+                runs[nr - 1].1 = v;
+            } else {
+                runs[nr] = (v, v);
+                nr += 1;
+            }
+        }
+        let total: usize = rows.iter().skip(1).map(|r| r.1).product();
+        for m in 0..total {
+            let mut mm = m;
+            let mut base = 0usize;
+            let mut stride = self.dims[0];
+            for (&(vals, cnt), &dk) in rows.iter().zip(&self.dims).skip(1) {
+                base += vals[mm % cnt] * stride;
+                mm /= cnt;
+                stride *= dk;
+            }
+            for &(a, b) in &runs[..nr] {
+                f(self.start[base + a] as usize..self.start[base + b + 1] as usize);
+            }
+        }
+    }
+}
+
 /// The cell coordinates of position `p` in a grid with lower corner `lo`, cells of side
 /// `cell` and `dims` cells per axis, clamped to the grid. The one formula both the
 /// binning and the search use, so that they agree on every particle's cell.
@@ -132,12 +234,12 @@ impl<const D: usize> CellGrid<D> {
 fn cell_coords<const D: usize>(
     p: &Vector<D>,
     lo: &Vector<D>,
-    cell: Real,
+    cell: &[Real; D],
     dims: &[usize; D],
 ) -> [usize; D] {
     let mut c = [0usize; D];
     for (k, ck) in c.iter_mut().enumerate() {
-        *ck = (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
+        *ck = (((p[k] - lo[k]) / cell[k]) as usize).min(dims[k] - 1);
     }
     c
 }
@@ -187,11 +289,22 @@ pub(crate) fn counting_sort(
 pub fn neighbor_pairs_active<const D: usize>(
     x: &[Vector<D>],
     reach: &[Real],
+    period: Option<&Period<D>>,
     active: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
     // Only active particles are visited: a pair with an inactive partner of lower
     // index is met from its active side only, and taken there.
-    search(x, reach, &active, |j| !active(j))
+    match period {
+        None => search(x, reach, None, |d| d, &active, |j| !active(j)),
+        Some(per) => search(
+            x,
+            reach,
+            Some(per),
+            |d| per.image(d),
+            &active,
+            |j| !active(j),
+        ),
+    }
 }
 
 /// Every pair (i < j) with |x_i - x_j| < reach_i + reach_j, sorted by (i, j).
@@ -202,7 +315,22 @@ pub fn neighbor_pairs_active<const D: usize>(
 /// the contacts). Parallel over particles; the output does not depend on the thread
 /// count.
 pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], reach: &[Real]) -> Vec<[u32; 2]> {
-    search(x, reach, |_| true, |_| false)
+    search(x, reach, None, |d| d, |_| true, |_| false)
+}
+
+/// [`neighbor_pairs`] in a cell with periodic axes (None: none): distances by minimum
+/// image, so pairs across the seam are found. Positions must lie in [lo, lo + L) on
+/// the periodic axes, and each period must exceed twice the largest cutoff
+/// reach_i + reach_j (a pair then has one nearest image).
+pub fn neighbor_pairs_periodic<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    period: Option<&Period<D>>,
+) -> Vec<[u32; 2]> {
+    match period {
+        None => neighbor_pairs(x, reach),
+        Some(per) => search(x, reach, Some(per), |d| per.image(d), |_| true, |_| false),
+    }
 }
 
 /// The search behind both: a grid with cells of one cutoff; each particle `i` with
@@ -217,6 +345,8 @@ pub fn neighbor_pairs<const D: usize>(x: &[Vector<D>], reach: &[Real]) -> Vec<[u
 fn search<const D: usize>(
     x: &[Vector<D>],
     reach: &[Real],
+    period: Option<&Period<D>>,
+    sep: impl Fn(Vector<D>) -> Vector<D> + Sync,
     from: impl Fn(usize) -> bool + Sync,
     lower: impl Fn(usize) -> bool + Sync,
 ) -> Vec<[u32; 2]> {
@@ -225,7 +355,7 @@ fn search<const D: usize>(
         return Vec::new();
     }
     let reach_max = reach.iter().cloned().fold(0.0, Real::max);
-    let grid = CellGrid::build(x, 2.0 * reach_max);
+    let grid = CellGrid::build_with(x, 2.0 * reach_max, period);
     // Positions and reaches copied in cell order: a row of cells is then one contiguous
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
@@ -257,7 +387,7 @@ fn search<const D: usize>(
                     {
                         let ju = j as usize;
                         let cut = reach_i + reach_j;
-                        let near = (xj - xi).norm_squared() < cut * cut;
+                        let near = sep(xj - xi).norm_squared() < cut * cut;
                         mine[w] = j;
                         w += (near & (ju > i)) as usize;
                         if near & (ju < i) && lower(ju) {
@@ -304,6 +434,25 @@ pub fn brute_force_pairs<const D: usize>(x: &[Vector<D>], reach: &[Real]) -> Vec
         for j in i + 1..x.len() {
             let cut = reach[i] + reach[j];
             if (x[j] - x[i]).norm_squared() < cut * cut {
+                out.push([i as u32, j as u32]);
+            }
+        }
+    }
+    out
+}
+
+/// The O(N^2) reference for [`neighbor_pairs_periodic`]: distances by minimum image
+/// (tests and oracles only).
+pub fn brute_force_pairs_periodic<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    period: &Period<D>,
+) -> Vec<[u32; 2]> {
+    let mut out = Vec::new();
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            let cut = reach[i] + reach[j];
+            if period.image(x[j] - x[i]).norm_squared() < cut * cut {
                 out.push([i as u32, j as u32]);
             }
         }
@@ -359,7 +508,36 @@ mod tests {
                 .into_iter()
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
-            prop_assert_eq!(neighbor_pairs_active(&x, &reach, |i| active[i]), expect);
+            prop_assert_eq!(neighbor_pairs_active(&x, &reach, None, |i| active[i]), expect);
+        }
+
+        /// Periodic in x and y (3D) with a free z: the grid's pairs, across the seam
+        /// too, equal the brute-force minimum-image pairs, for polydisperse reaches
+        /// and periods down to a few cells (the wrapped stencil then meets itself).
+        #[test]
+        fn periodic_pairs_equal_brute_force_3d(seed in 0u64..10_000, n in 0usize..500,
+                                               ratio in 1.0f64..4.0, skin in 0.0f64..0.01,
+                                               frac in 0.0f64..1.0) {
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
+            let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::repeat(1.0), &[true, true, false]);
+            prop_assert_eq!(neighbor_pairs_periodic(&x, &reach, Some(&per)), brute_force_pairs_periodic(&x, &reach, &per));
+            let active: Vec<bool> = (0..n).map(|k| ((k * 7919) % 100) as f64 >= 100.0 * frac).collect();
+            let expect: Vec<[u32; 2]> = brute_force_pairs_periodic(&x, &reach, &per)
+                .into_iter()
+                .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                .collect();
+            prop_assert_eq!(neighbor_pairs_active(&x, &reach, Some(&per), |i| active[i]), expect);
+        }
+
+        /// The same in 2D, periodic in x, in cells of 0.2 to 1 m: down to 2 cells a period.
+        #[test]
+        fn periodic_pairs_equal_brute_force_2d(seed in 0u64..10_000, n in 0usize..500,
+                                               ratio in 1.0f64..4.0, skin in 0.0f64..0.01,
+                                               side in 0.2f64..1.0) {
+            let (x, reach) = cloud::<2>(seed, n, ratio, skin);
+            let x: Vec<Vector<2>> = x.iter().map(|p| Vector::<2>::new(p[0] * side, p[1])).collect();
+            let per = Period::new(&Vector::<2>::zeros(), &Vector::<2>::new(side, 1.0), &[true, false]);
+            prop_assert_eq!(neighbor_pairs_periodic(&x, &reach, Some(&per)), brute_force_pairs_periodic(&x, &reach, &per));
         }
 
         #[test]

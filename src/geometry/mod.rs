@@ -1,5 +1,10 @@
 //! Spatial search: a cell grid and the pair list built from it.
 
 pub mod grid;
+mod period;
 
-pub use grid::{brute_force_pairs, morton_order, neighbor_pairs, neighbor_pairs_active, CellGrid};
+pub use grid::{
+    brute_force_pairs, brute_force_pairs_periodic, morton_order, neighbor_pairs,
+    neighbor_pairs_active, neighbor_pairs_periodic, CellGrid,
+};
+pub use period::Period;

@@ -6,4 +6,4 @@ pub mod rsa;
 pub mod world;
 
 pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};
-pub use world::{Contacts, FreezeConfig, Inertia2D, SimConfig, World};
+pub use world::{Contacts, Container, FreezeConfig, Inertia2D, SimConfig, World};

@@ -7,7 +7,7 @@ use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 pub use crate::pipeline::rsa::RadiusLaw;
 use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
-use crate::pipeline::world::{FreezeConfig, SimConfig, World, FREEZE_INTERVAL};
+use crate::pipeline::world::{Container, FreezeConfig, SimConfig, World, FREEZE_INTERVAL};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
@@ -78,9 +78,56 @@ impl<const D: usize> PackConfig<D>
 where
     Dim<D>: Spatial<D>,
 {
+    /// The container's horizontal cross-section (m^2 in 3D, m in 2D): the base, or
+    /// pi R^2 for a cylinder.
+    pub fn cross_section(&self) -> Real {
+        match self.sim.container {
+            Container::Cylinder(radius) => std::f64::consts::PI * radius * radius,
+            _ => {
+                let v = <Dim<D> as Spatial<D>>::VERTICAL;
+                (0..D).filter(|&k| k != v).map(|k| self.base[k]).product()
+            }
+        }
+    }
+
+    /// The container's corners: 0 and (base, infinity), the floor at 0, the top open.
+    pub fn corners(&self) -> (Vector<D>, Vector<D>) {
+        let mut hi = self.base;
+        hi[<Dim<D> as Spatial<D>>::VERTICAL] = Real::INFINITY;
+        (Vector::<D>::zeros(), hi)
+    }
+
     /// Checks every field; the error names the field and its allowed range.
     pub fn validate(&self) -> Result<()> {
         self.radii.validate()?;
+        let r_max = self.radii.r_max();
+        match self.sim.container {
+            Container::Cylinder(radius) if radius < 2.0 * r_max || radius.is_nan() => {
+                return Err(Error::invalid(
+                    "cylinder_radius",
+                    radius,
+                    &format!("must be at least 2 r_max = {} (m)", 2.0 * r_max),
+                ));
+            }
+            Container::Periodic => {
+                // one nearest image per listed pair: a period above twice the largest
+                // cutoff, 2 (r_max + half skin) <= r_max (2 + skin_ratio)
+                let least = 4.0 * r_max * (1.0 + self.sim.skin_ratio);
+                let v = <Dim<D> as Spatial<D>>::VERTICAL;
+                for k in (0..D).filter(|&k| k != v) {
+                    if self.base[k] < least || self.base[k].is_nan() {
+                        return Err(Error::invalid(
+                            "base",
+                            self.base[k],
+                            &format!(
+                                "a periodic cell needs every period >= 4 r_max (1 + skin_ratio) = {least} (m)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
         let v = <Dim<D> as Spatial<D>>::VERTICAL;
         for k in (0..D).filter(|&k| k != v) {
             check_range("base", self.base[k], 0.0, false, f64::INFINITY, false)?;
@@ -151,8 +198,9 @@ where
             f64::INFINITY,
             false,
         )?;
+        // the walls are the box that `base` spans (set by Packer::new)
         let mut sim = self.sim.clone();
-        sim.walls = None;
+        sim.walls = Some(self.corners());
         sim.validate()?;
         let crit = sim.material.rayleigh_time_step(self.radii.r_min());
         if sim.dt > crit {
@@ -211,11 +259,8 @@ where
     /// Validates the scene and prepares an empty box.
     pub fn new(cfg: PackConfig<D>) -> Result<Self> {
         cfg.validate()?;
-        let v = <Dim<D> as Spatial<D>>::VERTICAL;
         let mut sim = cfg.sim.clone();
-        let mut hi = cfg.base;
-        hi[v] = Real::INFINITY;
-        sim.walls = Some((Vector::<D>::zeros(), hi));
+        sim.walls = Some(cfg.corners());
         let world = World::new(sim)?;
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
         rng.set_stream(cfg.stream);
@@ -297,7 +342,10 @@ where
         let v = <Dim<D> as Spatial<D>>::VERTICAL;
         let mut hi = self.cfg.base;
         hi[v] = Real::INFINITY;
+        // in a periodic cell the placement needs the positions wrapped into the cell
+        let existing = self.world.positions_in_cell();
         let spec = LayerSpec {
+            container: self.cfg.sim.container,
             lo: Vector::<D>::zeros(),
             hi,
             vertical: v,
@@ -306,7 +354,7 @@ where
             phi_layer: self.cfg.phi_layer,
             radii: self.cfg.radii,
             max_attempts: self.cfg.max_attempts,
-            existing: (self.world.positions(), self.world.radii()),
+            existing: (&existing, self.world.radii()),
             layer,
         };
         // The placement polls on every few thousand failed attempts; Python is asked
@@ -332,10 +380,7 @@ where
             .iter()
             .map(|&r| crate::math::particle_volume::<D>(r))
             .sum();
-        let mut slab = self.cfg.h_layer;
-        for k in (0..D).filter(|&k| k != v) {
-            slab *= self.cfg.base[k];
-        }
+        let slab = self.cfg.h_layer * self.cfg.cross_section();
         self.world.add_particles(&x, &r, None, None)?;
         self.layer_of
             .extend(std::iter::repeat_n(layer as u32, added));

@@ -6,7 +6,9 @@
 //! are accepted, so a layer costs O(attempts), not O(N^2).
 
 use crate::error::{Error, Result};
+use crate::geometry::Period;
 use crate::math::{particle_volume, Real, Vector};
+use crate::pipeline::world::Container;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -132,31 +134,44 @@ impl RadiusLaw {
     }
 }
 
-/// A growable cell grid over a slab, for overlap tests during insertion.
+/// A growable cell grid over a slab, for overlap tests during insertion. On periodic
+/// axes the grid divides the period into whole cells and wraps around.
 struct InsertGrid<const D: usize> {
     lo: Vector<D>,
-    cell: Real,
+    cell: [Real; D],
     dims: [usize; D],
+    period: Option<Period<D>>,
     cells: Vec<Vec<u32>>,
 }
 
 impl<const D: usize> InsertGrid<D> {
-    fn new(lo: Vector<D>, hi: Vector<D>, cell: Real) -> Self {
+    fn new(lo: Vector<D>, hi: Vector<D>, cell: Real, period: Option<Period<D>>) -> Self {
         let mut dims = [1usize; D];
+        let mut cells = [cell; D];
         for k in 0..D {
-            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
+            if period.is_some_and(|p| p.periodic(k)) {
+                dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize).max(1);
+                cells[k] = (hi[k] - lo[k]) / dims[k] as Real;
+            } else {
+                dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
+            }
         }
         let n: usize = dims.iter().product();
         InsertGrid {
             lo,
-            cell,
+            cell: cells,
             dims,
+            period,
             cells: vec![Vec::new(); n],
         }
     }
 
     fn coord(&self, p: &Vector<D>, k: usize) -> isize {
-        ((p[k] - self.lo[k]) / self.cell).floor() as isize
+        ((p[k] - self.lo[k]) / self.cell[k]).floor() as isize
+    }
+
+    fn wraps(&self, k: usize) -> bool {
+        self.period.is_some_and(|p| p.periodic(k))
     }
 
     fn insert(&mut self, p: &Vector<D>, id: u32) {
@@ -168,27 +183,42 @@ impl<const D: usize> InsertGrid<D> {
         self.cells[c].push(id);
     }
 
-    /// True if a ball (p, r) overlaps any stored particle.
+    /// True if a ball (p, r) overlaps any stored particle (by minimum image on the
+    /// periodic axes).
     fn overlaps(&self, p: &Vector<D>, r: Real, r_max: Real, x: &[Vector<D>], rad: &[Real]) -> bool {
         let reach = r + r_max;
-        let mut lo = [0usize; D];
-        let mut hi = [0usize; D];
+        let mut lo = [0isize; D];
+        let mut hi = [0isize; D];
         for k in 0..D {
-            let a = ((p[k] - reach - self.lo[k]) / self.cell).floor() as isize;
-            let b = ((p[k] + reach - self.lo[k]) / self.cell).floor() as isize;
-            lo[k] = a.clamp(0, self.dims[k] as isize - 1) as usize;
-            hi[k] = b.clamp(0, self.dims[k] as isize - 1) as usize;
+            let a = ((p[k] - reach - self.lo[k]) / self.cell[k]).floor() as isize;
+            let b = ((p[k] + reach - self.lo[k]) / self.cell[k]).floor() as isize;
+            let d = self.dims[k] as isize;
+            if self.wraps(k) {
+                // every cell once, however far the reach spans
+                (lo[k], hi[k]) = (a, b.min(a + d - 1));
+            } else {
+                (lo[k], hi[k]) = (a.clamp(0, d - 1), b.clamp(0, d - 1));
+            }
         }
         let mut idx = lo;
         loop {
             let mut c = 0usize;
             for k in (0..D).rev() {
-                c = c * self.dims[k] + idx[k];
+                let ik = if self.wraps(k) {
+                    idx[k].rem_euclid(self.dims[k] as isize)
+                } else {
+                    idx[k]
+                };
+                c = c * self.dims[k] + ik as usize;
             }
             for &j in &self.cells[c] {
                 let j = j as usize;
                 let cut = r + rad[j];
-                if (x[j] - p).norm_squared() < cut * cut {
+                let d = match &self.period {
+                    Some(per) => per.image(x[j] - p),
+                    None => x[j] - p,
+                };
+                if d.norm_squared() < cut * cut {
                     return true;
                 }
             }
@@ -210,6 +240,10 @@ impl<const D: usize> InsertGrid<D> {
 
 /// Inputs of one RSA layer.
 pub struct LayerSpec<'a, const D: usize> {
+    /// The container: centres are placed one radius inside its walls, and uniformly
+    /// over its cross-section (in area for the cylinder); periodic axes have no walls
+    /// and overlaps are tested across the seam.
+    pub container: Container,
     /// Box lower corner (m); floor at `lo[vertical]`.
     pub lo: Vector<D>,
     /// Box upper corner (m); `hi[vertical]` unused.
@@ -268,6 +302,24 @@ pub fn place_layer_polled<const D: usize>(
         }
         slab_volume *= width;
     }
+    let cylinder = match spec.container {
+        Container::Cylinder(radius) => {
+            if D != 3 {
+                return Err(Error::invalid(
+                    "container",
+                    "cylinder",
+                    "needs 3 dimensions",
+                ));
+            }
+            slab_volume = std::f64::consts::PI * radius * radius * spec.h_layer;
+            Some(([spec.lo[0] + radius, spec.lo[1] + radius], radius))
+        }
+        _ => None,
+    };
+    let period = match spec.container {
+        Container::Periodic => Some(Period::lateral(&spec.lo, &spec.hi)),
+        _ => None,
+    };
     let target = spec.phi_layer * slab_volume;
     let z_lo = spec.height;
     let z_hi = spec.height + spec.h_layer;
@@ -276,7 +328,7 @@ pub fn place_layer_polled<const D: usize>(
     let mut ghi = spec.hi;
     glo[v] = spec.height - 2.0 * r_max;
     ghi[v] = z_hi + r_max;
-    let mut grid = InsertGrid::<D>::new(glo, ghi, 2.0 * r_max);
+    let mut grid = InsertGrid::<D>::new(glo, ghi, 2.0 * r_max, period);
     let (ex, er) = spec.existing;
     let mut x: Vec<Vector<D>> = Vec::new();
     let mut r: Vec<Real> = Vec::new();
@@ -300,10 +352,28 @@ pub fn place_layer_polled<const D: usize>(
             for k in 0..D {
                 let (a, b) = if k == v {
                     (z_min, z_hi.max(z_min))
+                } else if period.is_some() {
+                    (spec.lo[k], spec.hi[k])
                 } else {
                     (spec.lo[k] + rad, spec.hi[k] - rad)
                 };
                 c[k] = a + (b - a) * rng.random::<f64>();
+            }
+            if let Some(per) = &period {
+                // the draw's upper end, lo + L, belongs to the next cell
+                c = per.wrap(c);
+            }
+            // In the cylinder the draw from the square [c - (R - r), c + (R - r)] is
+            // kept only inside the disc of radius R - r: uniform in area.
+            let outside = cylinder.is_some_and(|(axis, radius)| {
+                let (a, b) = (c[0] - axis[0], c[1] - axis[1]);
+                let reach = radius - rad;
+                a * a + b * b > reach * reach
+            });
+            if outside {
+                // not a failed placement: the draw was outside the cross-section
+                // (accepted with probability pi/4 or more)
+                continue;
             }
             if !grid.overlaps(&c, rad, r_max, &all_x, &all_r) {
                 grid.insert(&c, all_x.len() as u32);
@@ -358,6 +428,7 @@ mod tests {
     fn a_layer_has_no_overlaps_and_reaches_its_fraction() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let spec = LayerSpec::<2> {
+            container: Container::Box,
             lo: Vector::<2>::zeros(),
             hi: Vector::<2>::new(1.0, f64::INFINITY),
             vertical: 1,
@@ -383,6 +454,7 @@ mod tests {
     fn saturation_is_reported_with_the_fraction_reached() {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let spec = LayerSpec::<2> {
+            container: Container::Box,
             lo: Vector::<2>::zeros(),
             hi: Vector::<2>::new(0.3, f64::INFINITY),
             vertical: 1,

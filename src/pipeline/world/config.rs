@@ -29,6 +29,9 @@ pub struct SimConfig<const D: usize> {
     /// Box corners: floor at `lo[vertical]`, side walls at `lo[k]` and `hi[k]` for the
     /// horizontal axes; `hi[vertical]` is ignored (open top). None: no walls.
     pub walls: Option<(Vector<D>, Vector<D>)>,
+    /// What bounds the particles laterally inside `walls`' corners: side walls (the
+    /// default), periodic axes, or a cylinder (see [`Container`]). Needs `walls`.
+    pub container: Container,
     /// Largest Verlet skin, as a fraction of the smallest radius (-). Default 0.2.
     /// Each particle has a skin of its own, chosen at each rebuild from its speed so
     /// that it lasts about [`SKIN_STEPS`] steps, within [`SKIN_FLOOR`] of this and
@@ -58,6 +61,7 @@ where
             drag: 0.0,
             rotations: true,
             walls: None,
+            container: Container::Box,
             skin_ratio: 0.2,
             max_overlap_ratio: 0.5,
             inertia_2d: Inertia2D::Sphere,
@@ -81,6 +85,36 @@ where
             1.0,
             true,
         )?;
+        if self.container != Container::Box && self.walls.is_none() {
+            return Err(Error::invalid(
+                "container",
+                format!("{:?}", self.container),
+                "needs the box corners (walls) that it fills",
+            ));
+        }
+        if let (Container::Cylinder(radius), Some((lo, hi))) = (self.container, &self.walls) {
+            if D != 3 {
+                return Err(Error::invalid(
+                    "container",
+                    "cylinder",
+                    "a cylinder needs 3 dimensions",
+                ));
+            }
+            check_range("cylinder_radius", radius, 0.0, false, f64::MAX, true)?;
+            for k in 0..2 {
+                let side = hi[k] - lo[k];
+                if (side - 2.0 * radius).abs() > 1e-12 * side.abs() {
+                    return Err(Error::invalid(
+                        "box",
+                        format!("side {side} on axis {k}"),
+                        &format!(
+                            "a cylinder of radius {radius} fills a box of side 2R = {}",
+                            2.0 * radius
+                        ),
+                    ));
+                }
+            }
+        }
         if let Some((lo, hi)) = &self.walls {
             let vert = <Dim<D> as Spatial<D>>::VERTICAL;
             for k in 0..D {

@@ -44,8 +44,11 @@ where
                 continue;
             }
             let [i, j] = pr.ij[k];
-            let dx = self.p.x[j as usize] - self.p.x[i as usize];
-            // the engine's normal, to the bit (see `geometry_block`)
+            let mut dx = self.p.x[j as usize] - self.p.x[i as usize];
+            if let Some(per) = &self.period {
+                dx = per.image(dx);
+            }
+            // the engine's normal, to the bit (see `pair_block` and `geometry_block`)
             let n = dx * (1.0 / dx.norm());
             let fv = Vector::<D>::from(rec.f);
             let fn_ = fv.dot(&n);
@@ -64,7 +67,7 @@ where
                 if d <= 0.0 {
                     continue;
                 }
-                let n = wall.normal::<D>();
+                let n = wall.normal(&self.p.x[q]);
                 let fv = self.p.wall_force[q][wi];
                 let fn_ = fv.dot(&n);
                 out.i.push(q as i64);
@@ -81,17 +84,40 @@ where
 }
 
 /// The geometric contacts (overlap > 0, forces zero) of a static pack given by
-/// positions and radii: pairs from the grid in (i, j) order, then the floor and side
-/// walls of the box `walls` (lo, hi) if given. Coincident centres are refused.
+/// positions and radii: pairs from the grid in (i, j) order, then the walls of the box
+/// `bounds` (lo, hi) if given. Coincident centres are refused.
+///
+/// `periodic[k]` makes horizontal axis k periodic with period hi[k] - lo[k] (pairs by
+/// minimum image, branch vectors too; no walls on that axis; each period must exceed
+/// twice the largest diameter, checked by the caller). `cylinder` replaces the side
+/// walls by a vertical cylinder of that radius with its axis through lo + (R, R)
+/// (wall -2). Wall ids follow the box: -1 floor, -2/-3 the first horizontal axis,
+/// -4/-5 the second.
 pub fn geometric_contacts<const D: usize>(
     x: &[Vector<D>],
     r: &[Real],
-    walls: Option<(Vector<D>, Vector<D>)>,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+    periodic: &[bool],
+    cylinder: Option<Real>,
 ) -> Result<Contacts<D>> {
     let mut c = Contacts::<D>::default();
-    for [i, j] in crate::geometry::neighbor_pairs(x, r) {
+    let period = match (&bounds, periodic.iter().any(|&p| p)) {
+        (Some((lo, hi)), true) => Some(Period::new(lo, hi, periodic)),
+        _ => None,
+    };
+    let pairs = match &period {
+        Some(per) => {
+            let xw: Vec<Vector<D>> = x.iter().map(|p| per.wrap(*p)).collect();
+            crate::geometry::neighbor_pairs_periodic(&xw, r, Some(per))
+        }
+        None => crate::geometry::neighbor_pairs(x, r),
+    };
+    for [i, j] in pairs {
         let (i, j) = (i as usize, j as usize);
-        let dx = x[j] - x[i];
+        let dx = match &period {
+            Some(per) => per.image(x[j] - x[i]),
+            None => x[j] - x[i],
+        };
         let dist = dx.norm();
         // coincident centres have no normal
         if dist == 0.0 {
@@ -109,13 +135,22 @@ pub fn geometric_contacts<const D: usize>(
         c.force_tangential.push(Vector::<D>::zeros());
         c.branch.push(dx);
     }
-    if let Some((lo, hi)) = walls {
-        let planes = box_walls(&lo, &hi);
+    if let Some((lo, hi)) = bounds {
+        let container = match cylinder {
+            Some(radius) => Container::Cylinder(radius),
+            None => Container::Box,
+        };
+        let (walls, _) = container_walls(container, &lo, &hi);
         for q in 0..x.len() {
-            for (w, wall) in planes.iter().enumerate() {
+            for (w, wall) in walls.iter().enumerate() {
+                if let Wall::Plane { axis, .. } = wall {
+                    if *axis + 1 < D && periodic.get(*axis).copied().unwrap_or(false) {
+                        continue;
+                    }
+                }
                 let d = r[q] - wall.gap(&x[q]);
                 if d > 0.0 {
-                    let n = wall.normal::<D>();
+                    let n = wall.normal(&x[q]);
                     c.i.push(q as i64);
                     c.j.push(-(w as i64) - 1);
                     c.normal.push(n);

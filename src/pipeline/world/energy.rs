@@ -89,10 +89,9 @@ where
                             k,
                             BlowupKind::WallCrossed,
                             format!(
-                                "centre crossed wall {} (coordinate {} = {:e})",
+                                "centre crossed wall {} ({})",
                                 -(wi as i64) - 1,
-                                wall.axis,
-                                x[wall.axis]
+                                wall.crossing(x)
                             ),
                         ));
                     }
@@ -168,7 +167,7 @@ where
             for (wi, wall) in self.walls.iter().enumerate() {
                 let d = self.p.r[q] - wall.gap(&self.p.x[q]);
                 if d > 0.0 {
-                    let sr = self.p.r[q].sqrt();
+                    let sr = wall.r_eff(self.p.r[q]).sqrt();
                     let h2 = self.p.wall_hist[q][wi].norm_squared();
                     e += contact(c.kn * sr, c.kt * sr, d, h2);
                 }

@@ -226,6 +226,7 @@ where
             r: &p.r,
             v: out.v,
             w: out.w,
+            period: self.period,
         };
         let Pairs {
             ij,
@@ -662,6 +663,8 @@ where
     r: &'a [Real],
     v: SyncPtr<Vector<D>>,
     w: SyncPtr<Ang<D>>,
+    /// Periodic axes: separations by minimum image.
+    period: Option<Period<D>>,
 }
 
 crate::cpu::multiversion! {
@@ -702,7 +705,10 @@ unsafe fn pair_block [const D: usize] (
         };
         // l < BLOCK; the mask says so to the compiler
         let l = l & (BLOCK - 1);
-        let (dx, dv) = (xj - xi, vj - vi);
+        let (mut dx, dv) = (xj - xi, vj - vi);
+        if let Some(per) = &p.period {
+            dx = per.image(dx);
+        }
         for a in 0..D {
             g.n[a][l] = dx[a];
             g.v[a][l] = dv[a];
@@ -903,7 +909,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             // the first of this job's particles, which come in increasing order
             acc.bad_wall = Some((q, wi, d));
         }
-        let n = wall.normal::<D>();
+        let n = wall.normal(x);
         let arm = r - 0.5 * d;
         // wall at rest: relative velocity of the wall w.r.t. the particle
         let mut vrel = -*v;
@@ -911,7 +917,7 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             vrel -= <Dim<D>>::cross_wv(*w, &(n * arm));
         }
         let params = PairParams {
-            r_eff: r,
+            r_eff: wall.r_eff(r),
             m_eff: m,
             ..c.params
         };

@@ -35,13 +35,15 @@ use crate::dynamics::block::{
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, BlowupKind, Error, Result};
 use crate::geometry::grid::{bin_starts, counting_sort};
-use crate::geometry::{neighbor_pairs, neighbor_pairs_active};
+use crate::geometry::{neighbor_pairs_active, neighbor_pairs_periodic};
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
 use rayon::prelude::*;
 
 mod boundary;
 mod config;
 mod contacts;
+#[cfg(test)]
+mod container_tests;
 mod energy;
 mod forces;
 mod freeze;
@@ -53,7 +55,8 @@ mod team;
 #[cfg(test)]
 mod tests;
 
-pub(crate) use boundary::{box_walls, Wall};
+pub(crate) use boundary::{container_walls, Wall};
+pub use boundary::{Container, Period};
 pub use config::{Inertia2D, SimConfig};
 pub use contacts::{geometric_contacts, Contacts};
 pub use freeze::{FreezeConfig, FREEZE_INTERVAL};
@@ -106,6 +109,8 @@ where
     p: Particles<D, <Dim<D> as Spatial<D>>::Ang>,
     pairs: Pairs<D>,
     walls: Vec<Wall>,
+    /// The periodic axes (a periodic container), None otherwise.
+    period: Option<Period<D>>,
     e_star: Real,
     g_star: Real,
     time: Real,
@@ -141,10 +146,10 @@ where
         cfg.validate()?;
         // box_walls takes the last axis as vertical, as Spatial does
         debug_assert_eq!(<Dim<D> as Spatial<D>>::VERTICAL, D - 1);
-        let walls = cfg
-            .walls
-            .as_ref()
-            .map_or_else(Vec::new, |(lo, hi)| box_walls(lo, hi));
+        let (walls, period) = cfg.walls.as_ref().map_or_else(
+            || (Vec::new(), None),
+            |(lo, hi)| container_walls(cfg.container, lo, hi),
+        );
         Ok(World {
             e_star: cfg.material.e_star(),
             g_star: cfg.material.g_star(),
@@ -152,6 +157,7 @@ where
             p: Particles::default(),
             pairs: Pairs::default(),
             walls,
+            period,
             time: 0.0,
             steps: 0,
             forces_valid: false,
@@ -244,6 +250,21 @@ where
     pub fn positions(&self) -> &[Vector<D>] {
         &self.p.x
     }
+    /// Positions (m) with the periodic axes wrapped into the cell [lo, hi) (a copy;
+    /// between rebuilds the engine's own may stray a half skin beyond it). The same
+    /// as [`positions`](Self::positions) in a box or a cylinder.
+    pub fn positions_in_cell(&self) -> Vec<Vector<D>> {
+        match &self.period {
+            Some(per) => self.p.x.iter().map(|x| per.wrap(*x)).collect(),
+            None => self.p.x.clone(),
+        }
+    }
+
+    /// The periodic axes, None outside a periodic container.
+    pub fn period(&self) -> Option<&Period<D>> {
+        self.period.as_ref()
+    }
+
     /// Velocities (m/s).
     pub fn velocities(&self) -> &[Vector<D>] {
         &self.p.v

@@ -149,15 +149,24 @@ where
             .zip(p.v.par_iter())
             .with_min_len(REBUILD_MIN_PARTICLES)
             .for_each(|(h, v)| *h = (v.norm() * steps).clamp(lo, hi));
+        if let Some(per) = &self.period {
+            // Positions wrap into the cell here, where the skin check restarts from them
+            // (x_ref below): between rebuilds they stray at most a half skin beyond it,
+            // and the pair geometry takes the minimum image anyway.
+            p.x.par_iter_mut()
+                .with_min_len(REBUILD_MIN_PARTICLES)
+                .for_each(|x| *x = per.wrap(*x));
+        }
         let reach: Vec<Real> = p.r.iter().zip(&p.half_skin).map(|(r, h)| r + h).collect();
         let partial = self.n_frozen > 0;
         let mut pr = std::mem::take(&mut self.pairs);
+        let period = self.period.as_ref();
         let (ij, keep) = if partial {
             let fz = &self.p.frozen;
-            let ij = neighbor_pairs_active(&self.p.x, &reach, |i| !fz[i]);
+            let ij = neighbor_pairs_active(&self.p.x, &reach, period, |i| !fz[i]);
             (ij, pr.n_frozen_pairs)
         } else {
-            (neighbor_pairs(&self.p.x, &reach), 0)
+            (neighbor_pairs_periodic(&self.p.x, &reach, period), 0)
         };
         drop(reach);
         // Old pairs that may survive, in (i, j) order: the active run, or everything.

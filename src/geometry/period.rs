@@ -1,0 +1,76 @@
+//! Periodic axes: the minimum image and the wrap into the cell.
+
+use crate::math::Vector;
+
+/// Periodic axes: origin, period and its inverse per axis (a zero period: not
+/// periodic).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Period<const D: usize> {
+    /// Lower corner of the cell (m).
+    pub lo: Vector<D>,
+    /// Period per axis (m), 0 where the axis is not periodic.
+    pub len: Vector<D>,
+    inv: Vector<D>,
+}
+
+impl<const D: usize> Period<D> {
+    /// Periodic horizontal axes with periods `hi[k] - lo[k]`; the vertical is not.
+    pub fn lateral(lo: &Vector<D>, hi: &Vector<D>) -> Self {
+        let flags: Vec<bool> = (0..D).map(|k| k + 1 < D).collect();
+        Self::new(lo, hi, &flags)
+    }
+
+    /// The axes with `flags[k]` periodic, with periods `hi[k] - lo[k]`.
+    pub fn new(lo: &Vector<D>, hi: &Vector<D>, flags: &[bool]) -> Self {
+        let mut len = Vector::<D>::zeros();
+        let mut inv = Vector::<D>::zeros();
+        for k in 0..D {
+            if flags.get(k).copied().unwrap_or(false) {
+                len[k] = hi[k] - lo[k];
+                inv[k] = 1.0 / len[k];
+            }
+        }
+        Period { lo: *lo, len, inv }
+    }
+
+    /// Whether axis `k` is periodic.
+    #[inline(always)]
+    pub fn periodic(&self, k: usize) -> bool {
+        self.len[k] > 0.0
+    }
+
+    /// The minimum image of a separation `d` (m): each periodic component brought into
+    /// [-L/2, L/2].
+    #[inline(always)]
+    pub fn image(&self, mut d: Vector<D>) -> Vector<D> {
+        for k in 0..D {
+            if self.len[k] > 0.0 {
+                d[k] -= self.len[k] * (d[k] * self.inv[k]).round();
+            }
+        }
+        d
+    }
+
+    /// `x` wrapped into [lo, lo + L) on the periodic axes.
+    #[inline]
+    pub fn wrap(&self, mut x: Vector<D>) -> Vector<D> {
+        for k in 0..D {
+            let l = self.len[k];
+            if l > 0.0 {
+                let lo = self.lo[k];
+                if !(x[k] >= lo && x[k] < lo + l) {
+                    let mut v = x[k] - l * ((x[k] - lo) * self.inv[k]).floor();
+                    // rounding can land on the upper end (a tiny negative offset)
+                    if v >= lo + l {
+                        v -= l;
+                    }
+                    if v < lo {
+                        v = lo;
+                    }
+                    x[k] = v;
+                }
+            }
+        }
+        x
+    }
+}
