@@ -230,3 +230,36 @@ def test_lammps_pair_local_read_by_read_contacts(lmp, tmp_path, pack3d):
     mine = _pair_normal_forces(pack, found.contacts.i, found.contacts.j)
     loaded = mine > 1e-3 * np.max(mine)
     np.testing.assert_allclose(fn[loaded], mine[loaded], rtol=0.05)
+
+
+CONTAINER_SCENES = {
+    "periodic 3d": _scene(3, container="periodic"),
+    "periodic 2d": _scene(2, container="periodic"),
+    "cylinder": _scene(3, container="cylinder"),
+}
+
+
+def _step0_contacts(program: str, run_dir) -> float:
+    done = subprocess.run(
+        [program, "-in", "in.granpack", "-log", "log.run"],
+        cwd=run_dir,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    lines = (run_dir / "log.run").read_text().splitlines()
+    k = max(n for n, ln in enumerate(lines) if ln.split()[:1] == ["Step"])
+    return float(lines[k + 1].split()[3])
+
+
+@pytest.mark.parametrize("name", list(CONTAINER_SCENES))
+def test_peers_count_the_contacts_of_packs_made_in_each_container(name, lmp, liggghts, tmp_path):
+    # the engine's periodic and cylinder packs: LAMMPS (and LIGGGHTS in 3D) find the
+    # same particle-particle contacts, across the seam too
+    pack = gp.generate(CONTAINER_SCENES[name])
+    export.export(pack, tmp_path / "pack.data", "lammps")
+    assert _step0_contacts(lmp, tmp_path) == 2 * n_pairs(pack)
+    if pack.dim == 3:
+        export.export(pack, tmp_path / "pack.data", "liggghts")
+        assert _step0_contacts(liggghts, tmp_path) == 2 * n_pairs(pack)
