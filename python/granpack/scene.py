@@ -429,8 +429,8 @@ class PackScene:
                     expected=f"({2 * R:g}, {2 * R:g})",
                 )
             s(self, "base", (2 * R, 2 * R))
+        assert self.cylinder_radius is not None  # set above
         R = self.cylinder_radius
-        assert R is not None
         if R < 2 * self.r_max:
             raise InvalidParameterError(
                 f"invalid cylinder_radius = {R:g} m: must be at least 2 r_max = "
