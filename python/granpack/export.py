@@ -81,6 +81,7 @@ __all__ = [
     "export",
     "write_vtk",
     "write_lammps",
+    "input_text",
     "write_yade",
     "write_xyz",
     "write_vtk_container",
@@ -153,7 +154,9 @@ def export(
     if format == "vtk":
         return [write_vtk(pack, path), write_vtk_container(pack, container_path(path))]
     if format in ("lammps", "liggghts"):
-        return write_lammps(pack, path, snippet=format)
+        # the input first: it refuses a 2D pack for LIGGGHTS before anything is written
+        text = input_text(pack, path.name, format)
+        return [write_lammps(pack, path), atomic_write(path.with_name(SNIPPET_NAME), text.encode())]
     if format == "yade":
         return [write_yade(pack, path)]
     if format == "xyz":
@@ -459,12 +462,23 @@ def lammps_positions(pack: Pack) -> np.ndarray:
     return x
 
 
-def write_lammps(pack: Pack, path: str | Path, snippet: str | None = None) -> list[Path]:
+def input_text(pack: Pack, data_name: str, code: str) -> str:
+    """The text of ``in.granpack`` for `code` ("lammps" or "liggghts") reading the data
+    file `data_name` (see `granpack.dem_input`)."""
+    if code == "lammps":
+        return lammps_input(pack, data_name)
+    if code == "liggghts":
+        return liggghts_input(pack, data_name)
+    raise InvalidParameterError(
+        f"invalid code = {code!r}: must be 'lammps' or 'liggghts'", parameter="code", value=code
+    )
+
+
+def write_lammps(pack: Pack, path: str | Path) -> Path:
     """Writes a LAMMPS/LIGGGHTS data file for ``atom_style sphere`` (SI units; read it
     with ``units si``, ``atom_style sphere`` and ``read_data``; 2D needs
-    ``dimension 2`` and ``boundary f f p``) and, with `snippet` "lammps" or "liggghts",
-    the input ``in.granpack`` beside it that continues the run in that code. Returns the
-    paths written."""
+    ``dimension 2`` and ``boundary f f p``). Returns the path. `export` also writes the
+    input ``in.granpack`` beside it (`input_text`)."""
     path = Path(path)
     s = pack.scene
     n = len(pack)
@@ -479,17 +493,6 @@ def write_lammps(pack: Pack, path: str | Path, snippet: str | None = None) -> li
     else:
         half = float(np.max(pack.radii)) if n else float(s.r_max or 0.0)
         bounds = [(0.0, s.base[0]), (0.0, pack.height), (-half, half)]
-    text = None
-    if snippet == "lammps":
-        text = lammps_input(pack, path.name)
-    elif snippet == "liggghts":
-        text = liggghts_input(pack, path.name)  # refuses a 2D pack before anything is written
-    elif snippet is not None:
-        raise InvalidParameterError(
-            f"invalid snippet = {snippet!r}: must be None, 'lammps' or 'liggghts'",
-            parameter="snippet",
-            value=snippet,
-        )
     mass = ""
     if s.dim == 2:
         mass = f", mass convention {s.inertia_2d}" + (
@@ -518,10 +521,7 @@ def write_lammps(pack: Pack, path: str | Path, snippet: str | None = None) -> li
     vel = np.column_stack([v, w])
     for k in range(n):
         out.write(f"{ids[k]} " + " ".join(repr(float(val)) for val in vel[k]) + "\n")
-    written = [atomic_write(path, out.getvalue().encode())]
-    if text is not None:
-        written.append(atomic_write(path.with_name(SNIPPET_NAME), text.encode()))
-    return written
+    return atomic_write(path, out.getvalue().encode())
 
 
 # -- YADE and extended XYZ -----------------------------------------------------------------
