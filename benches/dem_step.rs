@@ -117,5 +117,36 @@ fn bench_sizes(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_step, bench_grid_and_rsa, bench_sizes);
+/// The step in the three containers, on packs of about 4 000 spheres made by granpack
+/// over the same cross-section (`common::container_world`), on one thread: the
+/// periodic cell's minimum image and the cylinder's curved wall should cost little.
+fn bench_containers(c: &mut Criterion) {
+    use _core::pipeline::Container;
+    let mut g = c.benchmark_group("container_step");
+    g.sample_size(20).measurement_time(Duration::from_secs(4));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (name, container) in [
+        ("box", Container::Box),
+        ("periodic", Container::Periodic),
+        ("cylinder", Container::Cylinder(0.0)),
+    ] {
+        let mut w = common::container_world(container);
+        g.throughput(Throughput::Elements(w.len() as u64 * STEPS));
+        g.bench_function(BenchmarkId::new(name, w.len()), |b| {
+            b.iter(|| pool.install(|| w.step_n(STEPS).unwrap()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_step,
+    bench_grid_and_rsa,
+    bench_sizes,
+    bench_containers
+);
 criterion_main!(benches);

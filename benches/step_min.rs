@@ -4,7 +4,8 @@
 //! `cargo bench --bench step_min [-- THREADS] [sizes | tiles3]`: `sizes` adds the tiled
 //! packs (3D: 8 952, 80 568 and 572 928 spheres; 2D: 1 397 and 100 584 discs), to check
 //! that the cost per particle-step stays flat with size; `tiles3` runs the 80 568-sphere
-//! pack alone.
+//! pack alone; `containers` compares packs made in the box, the periodic cell and the
+//! cylinder at the same N.
 
 mod common;
 
@@ -25,14 +26,22 @@ fn measure<const D: usize>(label: &str, tiles: usize, threads: usize)
 where
     _core::Dim<D>: _core::Spatial<D>,
 {
+    // The peers' packs are already settled; the tiled copies get a short settle only
+    // (2000 steps of half a million spheres would take minutes).
+    let settle = if tiles == 1 { 2000 } else { 50 };
+    let w = common::settled_world::<D>(tiles, settle, threads);
+    time_steps(label, w, threads);
+}
+
+/// Steps `w` in 7 batches and prints the minimum and median cost per particle-step.
+fn time_steps<const D: usize>(label: &str, mut w: _core::World<D>, threads: usize)
+where
+    _core::Dim<D>: _core::Spatial<D>,
+{
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    // The peers' packs are already settled; the tiled copies get a short settle only
-    // (2000 steps of half a million spheres would take minutes).
-    let settle = if tiles == 1 { 2000 } else { 50 };
-    let mut w = common::settled_world::<D>(tiles, settle, threads);
     let n = w.len();
     // batches of about 4e6 particle-steps (~1 s), so 10 ms CPU ticks resolve 1 %
     let steps = (4_000_000 / n).max(5) as u64;
@@ -59,6 +68,19 @@ fn main() {
         .skip(1)
         .find_map(|a| a.parse().ok())
         .unwrap_or(1);
+    // `containers`: packs of about 4 000 spheres made in the box, the periodic cell and
+    // the cylinder, over the same cross-section
+    if std::env::args().any(|a| a == "containers") {
+        use _core::pipeline::Container;
+        for (label, c) in [
+            ("3d box", Container::Box),
+            ("3d periodic", Container::Periodic),
+            ("3d cylinder", Container::Cylinder(0.0)),
+        ] {
+            time_steps::<3>(label, common::container_world(c), threads);
+        }
+        return;
+    }
     // `tiles3` measures the 80 568-sphere pack alone (a memory-bound case, quickly)
     if std::env::args().any(|a| a == "tiles3") {
         measure::<3>("3d 3x3 tiles", 3, threads);

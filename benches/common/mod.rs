@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 use _core::math::{Dim, Spatial};
+use _core::pipeline::Container;
 use _core::{PackConfig, Packer, RadiusLaw, SimConfig, Vector, World};
 use std::path::PathBuf;
 
@@ -110,4 +111,43 @@ where
         .unwrap();
     pool.install(|| w.step_n(settle).unwrap());
     w
+}
+
+/// A 3D pack of example 4.3's spheres (r = 0.02 m, the paper's material, 0.3 s per
+/// layer) made by granpack in `container`, over the same cross-section of 0.36 m^2 (a
+/// 0.6 m square, or a cylinder of radius 0.6 / sqrt(pi) m), 0.5 m high: about 4 000
+/// spheres, so that the containers compare at the same N.
+pub fn container_world(container: Container) -> World<3> {
+    let side = match container {
+        Container::Cylinder(_) => 2.0 * 0.6 / std::f64::consts::PI.sqrt(),
+        _ => 0.6,
+    };
+    let container = match container {
+        Container::Cylinder(_) => Container::Cylinder(0.5 * side),
+        other => other,
+    };
+    let mut sim = SimConfig::<3>::paper();
+    sim.drag = 0.005;
+    sim.container = container;
+    let mut p = Packer::new(PackConfig {
+        sim,
+        base: Vector::<3>::new(side, side, 0.0),
+        height: 0.5,
+        radii: RadiusLaw::Constant(0.02),
+        h_layer: 0.1,
+        phi_layer: 0.25,
+        settle_time: 0.3,
+        seed: 1,
+        stream: 0,
+        max_attempts: 1_000_000,
+        max_layers: 1000,
+        adaptive_settle: None,
+        freeze_depth: None,
+        freeze_speed: 1e-3,
+        freeze_force: 0.1,
+        settle_dt: None,
+    })
+    .unwrap();
+    p.run(|_| {}).unwrap();
+    p.world().clone()
 }

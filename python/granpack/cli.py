@@ -259,6 +259,21 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="on|off",
         help="integrate spins during jamming (default: the scene's, on)",
     )
+    g.add_argument(
+        "--container",
+        choices=["box", "periodic", "cylinder"],
+        default=None,
+        help="what bounds the pack laterally: the walled box, periodic horizontal axes, "
+        "or a vertical cylinder (3D) (default: the scene's, box)",
+    )
+    g.add_argument(
+        "--cylinder-radius",
+        type=_positive_float,
+        default=None,
+        metavar="R",
+        help="radius of the cylinder (m); the base becomes (2R, 2R) (default: half the "
+        "scene's base)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _add_run_options(g)
@@ -406,6 +421,8 @@ def _dev_changes(scene, args) -> dict:
     if args.scale is not None:
         changes["base"] = tuple(b * args.scale for b in scene.base)
         changes["height"] = scene.height * args.scale
+        if scene.cylinder_radius is not None:
+            changes["cylinder_radius"] = scene.cylinder_radius * args.scale
     return changes
 
 
@@ -594,6 +611,21 @@ def cmd_generate(args, console: _Console) -> int:
     scene, name = _scene_from_arg(args.scene)
     if args.rotations is not None:
         scene = scene.replace(rotations=args.rotations)
+    if args.cylinder_radius is not None and (args.container or scene.container) != "cylinder":
+        raise InvalidParameterError(
+            "invalid --cylinder-radius: only --container cylinder has a radius",
+            parameter="cylinder_radius",
+            value=args.cylinder_radius,
+            expected="--container cylinder",
+        )
+    if args.container is not None or args.cylinder_radius is not None:
+        changes: dict = {"container": args.container or scene.container}
+        if args.cylinder_radius is not None:
+            R = args.cylinder_radius
+            changes.update(cylinder_radius=R, base=(2 * R, 2 * R))
+        elif changes["container"] != "cylinder":
+            changes["cylinder_radius"] = None
+        scene = scene.replace(**changes)
     dev = _dev_changes(scene, args)
     if dev:
         scene = scene.replace(**dev)

@@ -92,6 +92,13 @@ class Simulation:
         unstable. Default 0.5.
     inertia_2d : {"sphere", "disc"}
         2D mass model: a sphere confined to the plane (default) or a unit-thickness disc.
+    container : {"box", "periodic", "cylinder"}
+        What bounds the particles laterally inside `box` (needed for the other two):
+        side walls (default), periodic horizontal axes with periods hi - lo, or (3D) a
+        vertical cylinder of radius `cylinder_radius` with its axis through lo + (R, R)
+        (the box's sides must then be 2R). See docs/physics.md, "Containers".
+    cylinder_radius : float or None
+        Radius of the cylinder (m); only with container="cylinder".
     """
 
     dim: int
@@ -112,6 +119,8 @@ class Simulation:
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
         inertia_2d: str = "sphere",
+        container: str = "box",
+        cylinder_radius: float | None = None,
     ) -> None:
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
             raise InvalidParameterError(f"invalid dim = {dim!r}: must be 2 or 3")
@@ -168,6 +177,8 @@ class Simulation:
             skin_ratio=as_real("skin_ratio", skin_ratio, 0, 10),
             max_overlap_ratio=as_real("max_overlap_ratio", max_overlap_ratio, 0, 1, lo_open=True),
             inertia_2d=inertia_2d,
+            container=container,
+            cylinder_radius=cylinder_radius,
         )
 
     def add_particles(self, positions, radii, velocities=None, spins=None) -> None:

@@ -429,14 +429,14 @@ class PackScene:
                     expected=f"({2 * R:g}, {2 * R:g})",
                 )
             s(self, "base", (2 * R, 2 * R))
-        assert self.cylinder_radius is not None  # set above
-        R = self.cylinder_radius
-        if R < 2 * self.r_max:
+        radius = self.cylinder_radius
+        assert radius is not None
+        if radius < 2 * self.r_max:
             raise InvalidParameterError(
-                f"invalid cylinder_radius = {R:g} m: must be at least 2 r_max = "
+                f"invalid cylinder_radius = {radius:g} m: must be at least 2 r_max = "
                 f"{2 * self.r_max:g} m",
                 parameter="cylinder_radius",
-                value=R,
+                value=radius,
                 expected=f">= {2 * self.r_max:g} m",
             )
 
