@@ -113,3 +113,18 @@ def test_trim_keeps_the_contacts_consistent():
     assert c.i.max() < len(pack) and c.j.max() < len(pack)
     m = gp.microstructure(pack, core_margin=0.02)
     assert m.n_particles == len(pack) and math.isfinite(m.z)
+
+
+def test_generate_trim_flag_cuts_every_pack(tmp_path, capsys):
+    from granpack.cli import main
+
+    toml = tmp_path / "s.toml"
+    toml.write_text(SCENES["2d"].to_toml())
+    out = tmp_path / "out"
+    argv = ["generate", str(toml), "--packs", "2", "--trim", "--no-figures", "-q", "--out"]
+    assert main([*argv, str(out)]) == 0
+    assert "trim = true" in (out / "scene.toml").read_text()
+    assert "Flat top (trim)" in (out / "report.md").read_text()
+    for k in range(2):
+        pack = gp.load_pack(out / "packs" / f"pack_{k:03d}.npz")
+        assert pack.trim is not None and pack.height <= SCENES["2d"].height

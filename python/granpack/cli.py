@@ -274,6 +274,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="radius of the cylinder (m); the base becomes (2R, 2R) (default: half the "
         "scene's base)",
     )
+    g.add_argument(
+        "--trim",
+        action="store_true",
+        default=None,
+        help="a flat top: after the last layer remove every particle above the desired "
+        "height and relax the rest (default: the scene's, off)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _add_run_options(g)
@@ -626,6 +633,8 @@ def cmd_generate(args, console: _Console) -> int:
         elif changes["container"] != "cylinder":
             changes["cylinder_radius"] = None
         scene = scene.replace(**changes)
+    if args.trim:
+        scene = scene.replace(trim=True)
     dev = _dev_changes(scene, args)
     if dev:
         scene = scene.replace(**dev)
