@@ -7,6 +7,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
+from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
 from .contact_files import ContactFile, read_contacts
 from .contacts import Contacts
 from .engine import Material, Simulation
@@ -18,7 +19,6 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
-from .microstructure import microstructure
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
@@ -44,6 +44,10 @@ __all__ = [
     "ContactFile",
     "UnsettledPackWarning",
     "microstructure",
+    "rdf",
+    "steinhardt",
+    "profiles",
+    "radial_profiles",
     "__version__",
     "cpu_level",
     "cpu_levels",
