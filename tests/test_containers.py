@@ -6,15 +6,13 @@ for the periodic cell's flat profile."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from functools import cache
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scenes import outputs_on_threads
 
 import granpack as gp
 from granpack import _core
@@ -170,17 +168,7 @@ print(len(p), h.hexdigest())
 
 @pytest.mark.parametrize("container", ["box", "periodic", "cylinder"])
 def test_bit_identical_on_one_and_two_threads_in_every_container(container):
-    out = {}
-    for threads in ("1", "2"):
-        env = {**os.environ, "RAYON_NUM_THREADS": threads}
-        res = subprocess.run(
-            [sys.executable, "-c", THREADS_SCRIPT, container],
-            env=env,
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        out[threads] = res.stdout.split()
+    out = outputs_on_threads(THREADS_SCRIPT, container)
     assert int(out["1"][0]) > 100
     assert out["1"] == out["2"]
 

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import polars as pl
 import pytest
+from scenes import small_scene
 
 import granpack as gp
 from granpack import export
@@ -15,17 +16,9 @@ from granpack import export
 meshio = pytest.importorskip("meshio")
 
 
-def _scene(dim: int, **kw) -> gp.PackScene:
-    if dim == 2:
-        base = gp.PackScene.preset("4.2").replace(base=(0.2,), height=0.08, settle_time=0.5)
-    else:
-        base = gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5)
-    return base.replace(seed=11, **kw)
-
-
 @pytest.fixture(scope="module", params=[2, 3], ids=["2d", "3d"])
 def pack(request) -> gp.Pack:
-    p = gp.generate(_scene(request.param))
+    p = gp.generate(small_scene(request.param))
     # The checks below need both kinds of contacts to mean anything.
     assert (p.contacts.j >= 0).sum() > 5 and (p.contacts.j < 0).sum() > 2
     return p
@@ -109,7 +102,7 @@ def test_lammps_data_round_trip(pack, tmp_path):
 
 
 def test_lammps_density_gives_the_disc_mass_for_inertia_2d_disc(tmp_path):
-    pack = gp.generate(_scene(2, inertia_2d="disc"))
+    pack = gp.generate(small_scene(2, inertia_2d="disc"))
     data = export.read_lammps_data(export.write_lammps(pack, tmp_path / "d.data"))
     r = data["diameter"] / 2
     lammps_mass = data["density"] * 4 / 3 * math.pi * r**3  # what read_data computes

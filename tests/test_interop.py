@@ -12,6 +12,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from scenes import small_scene
 
 import granpack as gp
 from granpack import export
@@ -21,22 +22,14 @@ from granpack.dem_input import lammps_restitution, liggghts_restitution, tsuji_a
 meshio = pytest.importorskip("meshio")
 
 
-def _scene(dim: int, **kw) -> gp.PackScene:
-    if dim == 2:
-        base = gp.PackScene.preset("4.2").replace(base=(0.2,), height=0.08, settle_time=0.5)
-    else:
-        base = gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5)
-    return base.replace(seed=11, **kw)
-
-
 @pytest.fixture(scope="module", params=[2, 3], ids=["2d", "3d"])
 def pack(request) -> gp.Pack:
-    return gp.generate(_scene(request.param))
+    return gp.generate(small_scene(request.param))
 
 
 @pytest.fixture(scope="module")
 def pack3d() -> gp.Pack:
-    return gp.generate(_scene(3))
+    return gp.generate(small_scene(3))
 
 
 # -- YADE and extended XYZ -------------------------------------------------------------------

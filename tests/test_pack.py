@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pytest
+from scenes import outputs_on_threads
 
 import granpack as gp
 
@@ -122,17 +120,7 @@ def test_bit_identical_on_one_and_two_threads(mode):
     """More than one parallel chunk (512 particles) so that threads really split work;
     in `fast` mode particles freeze, thaw and the pair list is partly rebuilt, and the
     step changes to settle_dt once each layer has fallen."""
-    out = {}
-    for threads in ("1", "2"):
-        env = {**os.environ, "RAYON_NUM_THREADS": threads}
-        res = subprocess.run(
-            [sys.executable, "-c", THREAD_SCRIPT, mode],
-            env=env,
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        out[threads] = res.stdout.split()
+    out = outputs_on_threads(THREAD_SCRIPT, mode)
     assert int(out["1"][0]) > 2 * 512
     if mode == "fast":
         assert int(out["1"][1]) > 0, "some particles froze"

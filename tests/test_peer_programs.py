@@ -19,6 +19,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from scenes import small_scene
 
 import granpack as gp
 from granpack import export
@@ -26,22 +27,14 @@ from granpack import export
 CORE = 0.02  # a core window that fits in the small packs (m)
 
 
-def _scene(dim: int, **kw) -> gp.PackScene:
-    if dim == 2:
-        base = gp.PackScene.preset("4.2").replace(base=(0.2,), height=0.08, settle_time=0.5)
-    else:
-        base = gp.PackScene.preset("4.4").replace(base=(0.2, 0.2), height=0.1, settle_time=0.5)
-    return base.replace(seed=11, **kw)
-
-
 @pytest.fixture(scope="module")
 def pack3d() -> gp.Pack:
-    return gp.generate(_scene(3))
+    return gp.generate(small_scene(3))
 
 
 @pytest.fixture(scope="module", params=["sphere", "disc"])
 def pack2d(request) -> gp.Pack:
-    return gp.generate(_scene(2, inertia_2d=request.param))
+    return gp.generate(small_scene(2, inertia_2d=request.param))
 
 
 def run(program: str, run_dir, text: str) -> str:
@@ -233,9 +226,9 @@ def test_lammps_pair_local_read_by_read_contacts(lmp, tmp_path, pack3d):
 
 
 CONTAINER_SCENES = {
-    "periodic 3d": _scene(3, container="periodic"),
-    "periodic 2d": _scene(2, container="periodic"),
-    "cylinder": _scene(3, container="cylinder"),
+    "periodic 3d": small_scene(3, container="periodic"),
+    "periodic 2d": small_scene(2, container="periodic"),
+    "cylinder": small_scene(3, container="cylinder"),
 }
 
 

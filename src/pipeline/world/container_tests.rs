@@ -61,12 +61,8 @@ fn cylinder_wall_head_on_restitution() {
     assert!(plane > 0.5 && plane < 0.95, "{plane}");
 }
 
-/// A sphere that rolls around the inside of the cylinder under gravity, on the floor,
-/// stays on the wall: its distance to the axis stays within a small overlap of R - r
-/// for 4 s (more than a lap), and it never crosses the wall.
-#[test]
-fn sphere_rolling_inside_the_cylinder_stays_on_the_wall() {
-    let (rc, r) = (0.2, 0.02);
+/// The paper's material in a cylinder of radius `rc` (m) under 9.81 m/s^2.
+fn cylinder_under_gravity(rc: Real) -> SimConfig<3> {
     let mut cfg = SimConfig::<3>::paper();
     cfg.walls = Some((
         Vector::<3>::zeros(),
@@ -74,6 +70,16 @@ fn sphere_rolling_inside_the_cylinder_stays_on_the_wall() {
     ));
     cfg.container = Container::Cylinder(rc);
     cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+    cfg
+}
+
+/// A sphere that rolls around the inside of the cylinder under gravity, on the floor,
+/// stays on the wall: its distance to the axis stays within a small overlap of R - r
+/// for 4 s (more than a lap), and it never crosses the wall.
+#[test]
+fn sphere_rolling_inside_the_cylinder_stays_on_the_wall() {
+    let (rc, r) = (0.2, 0.02);
+    let cfg = cylinder_under_gravity(rc);
     let mut w = World::new(cfg).unwrap();
     // on the floor, touching the wall at (rc + (rc - r), rc), moving around it
     w.add_particles(
@@ -111,13 +117,7 @@ fn sphere_rolling_inside_the_cylinder_stays_on_the_wall() {
 #[test]
 fn settled_bed_stays_inside_the_cylinder() {
     let rc = 0.1;
-    let mut cfg = SimConfig::<3>::paper();
-    cfg.walls = Some((
-        Vector::<3>::zeros(),
-        Vector::<3>::new(2.0 * rc, 2.0 * rc, f64::INFINITY),
-    ));
-    cfg.container = Container::Cylinder(rc);
-    cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+    let mut cfg = cylinder_under_gravity(rc);
     cfg.drag = 0.05;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     let (mut x, mut r) = (Vec::new(), Vec::new());
@@ -197,13 +197,7 @@ fn periodic_contacts_equal_brute_force_minimum_image() {
         for _ in 0..40 {
             w.step_n(2000).unwrap();
             let c = w.contacts().unwrap();
-            let mut got: Vec<[u32; 2]> =
-                c.i.iter()
-                    .zip(&c.j)
-                    .filter(|(_, &j)| j >= 0)
-                    .map(|(&i, &j)| [i as u32, j as u32])
-                    .collect();
-            got.sort();
+            let got = super::tests::particle_pairs(&c);
             let xs = w.positions_in_cell();
             let expect = crate::geometry::brute_force_pairs_periodic(&xs, w.radii(), &per);
             assert_eq!(got, expect, "step {}", w.steps());

@@ -249,13 +249,8 @@ fn rotations_off_keeps_spins_zero() {
     assert!(w.velocities()[0][0] < 0.3);
 }
 
-/// The particle pairs `contacts()` reports are exactly the overlapping pairs of a
-/// brute-force search on the current positions (the pair list lost none).
-fn assert_contacts_are_the_overlaps<const D: usize>(w: &mut World<D>)
-where
-    Dim<D>: Spatial<D>,
-{
-    let c = w.contacts().unwrap();
+/// The particle-particle pairs (i, j) of a contact list, sorted.
+pub(super) fn particle_pairs<const D: usize>(c: &Contacts<D>) -> Vec<[u32; 2]> {
     let mut got: Vec<[u32; 2]> =
         c.i.iter()
             .zip(&c.j)
@@ -263,6 +258,17 @@ where
             .map(|(&i, &j)| [i as u32, j as u32])
             .collect();
     got.sort();
+    got
+}
+
+/// The particle pairs `contacts()` reports are exactly the overlapping pairs of a
+/// brute-force search on the current positions (the pair list lost none).
+fn assert_contacts_are_the_overlaps<const D: usize>(w: &mut World<D>)
+where
+    Dim<D>: Spatial<D>,
+{
+    let c = w.contacts().unwrap();
+    let got = particle_pairs(&c);
     let expect = crate::geometry::brute_force_pairs(w.positions(), w.radii());
     assert_eq!(got, expect, "step {}", w.steps());
 }
