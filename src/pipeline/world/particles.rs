@@ -94,7 +94,7 @@ where
                     return Err(Error::invalid(
                         &format!("positions[{k}]"),
                         format!("{:?}", xk.as_slice()),
-                        "centre lies outside the box's walls",
+                        "centre lies outside the container's walls",
                     ));
                 }
             }

@@ -495,19 +495,43 @@ fn every_level_gives_the_same_bits() {
         assert!(n > 15, "the 2D bed is in contact: {n}");
         w.state_checksum()
     };
+    // the same bed in a periodic cell (the minimum image) and in a cylinder of radius
+    // 0.2 m (the curved wall)
+    let run_in = |container: Container| {
+        // the periodic cell 0.19 m wide, so that the bed meets its images across the
+        // seam; the cylinder's box 0.4 m, the bed moved to its middle
+        let (side, shift) = match container {
+            Container::Periodic => (0.19, 0.0),
+            _ => (0.4, 0.1),
+        };
+        let mut cfg = falling_box(side);
+        cfg.container = container;
+        let mut w = World::new(cfg).unwrap();
+        let x: Vec<Vector<3>> = x3
+            .iter()
+            .map(|p| p + Vector::<3>::new(shift, shift, 0.0))
+            .collect();
+        w.add_particles(&x, &r3, None, None).unwrap();
+        w.step_n(4000).unwrap();
+        w.state_checksum()
+    };
     let before = cpu::level();
     let mut seen = Vec::new();
     for l in cpu::available() {
         cpu::set_level(l).unwrap();
         assert_eq!(cpu::level(), l);
-        seen.push((l, run3(false), run3(true), run2()));
+        let containers = (
+            run_in(Container::Periodic),
+            run_in(Container::Cylinder(0.2)),
+        );
+        seen.push((l, run3(false), run3(true), run2(), containers));
     }
     cpu::set_level(before).unwrap();
     let first = seen[0];
     for s in &seen {
         assert_eq!(
-            (s.1, s.2, s.3),
-            (first.1, first.2, first.3),
+            (s.1, s.2, s.3, s.4),
+            (first.1, first.2, first.3, first.4),
             "{} against {}",
             s.0.name(),
             first.0.name()
