@@ -17,6 +17,7 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
+from .grading import Grading, grading, target_grading
 from .microstructure import microstructure
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
@@ -41,6 +42,9 @@ __all__ = [
     "ParticleFile",
     "UnsettledPackWarning",
     "microstructure",
+    "grading",
+    "target_grading",
+    "Grading",
     "__version__",
     "cpu_level",
     "cpu_levels",

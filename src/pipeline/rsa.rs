@@ -223,8 +223,32 @@ pub fn place_layer_polled<const D: usize>(
         }
     }
     let mut volume = 0.0;
-    while volume < target {
-        let rad = spec.radii.sample(rng);
+    // Wide laws draw the layer's radii first, until their volume reaches the target,
+    // and place them largest first: a large particle drawn late would find no hole
+    // among the small ones. The radii are the same i.i.d. draws with the same
+    // stopping rule; constant and gaussian keep the paper's order (draw, place, repeat).
+    let largest_first = spec.radii.places_largest_first();
+    let mut queue: Vec<Real> = Vec::new();
+    if largest_first {
+        let mut drawn = 0.0;
+        while drawn < target {
+            let rad = spec.radii.sample(rng);
+            drawn += particle_volume::<D>(rad);
+            queue.push(rad);
+        }
+        queue.sort_by(|a, b| a.total_cmp(b));
+    }
+    loop {
+        let rad = if largest_first {
+            match queue.pop() {
+                Some(rad) => rad,
+                None => break,
+            }
+        } else if volume < target {
+            spec.radii.sample(rng)
+        } else {
+            break;
+        };
         let z_min = z_lo.max(spec.lo[v] + rad);
         let mut failures = 0u64;
         loop {
@@ -357,5 +381,39 @@ mod tests {
         });
         assert!(matches!(stopped, Ok(None)));
         assert_eq!(polls, 1);
+    }
+
+    #[test]
+    fn a_sieve_layer_is_placed_largest_first_from_iid_draws() {
+        // size ratio 4 in a box of four large diameters: drawn and placed one by one,
+        // the large ones drawn late find no hole; largest first the layer fills
+        let law = RadiusLaw::Sieve(
+            crate::pipeline::SieveLaw::new(&[0.02, 0.03, 0.05, 0.08], &[0.0, 0.3, 0.7, 1.0], 3)
+                .unwrap(),
+        );
+        let spec = LayerSpec::<3> {
+            container: Container::Box,
+            lo: Vector::<3>::zeros(),
+            hi: Vector::<3>::new(0.3, 0.3, f64::INFINITY),
+            vertical: 2,
+            height: 0.0,
+            h_layer: 0.1,
+            phi_layer: 0.25,
+            radii: law.clone(),
+            max_attempts: 100_000,
+            existing: (&[], &[]),
+            layer: 0,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let (x, r) = place_layer(&spec, &mut rng).unwrap();
+        assert!(brute_force_pairs(&x, &r).is_empty());
+        let phi: f64 = r.iter().map(|&r| particle_volume::<3>(r)).sum::<f64>() / (0.09 * 0.1);
+        assert!(phi >= 0.25, "{phi}");
+        assert!(r.windows(2).all(|w| w[0] >= w[1]), "largest first");
+        // the radii are the law's first draws of the stream, in another order
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut draws: Vec<f64> = (0..r.len()).map(|_| law.sample(&mut rng)).collect();
+        draws.sort_by(|a, b| b.total_cmp(a));
+        assert_eq!(draws, r);
     }
 }

@@ -164,9 +164,8 @@ impl DiscreteLaw {
                 n.iter().map(|&x| x / total).collect()
             }
         };
-        let pick = WeightedIndex::new(number.iter().copied()).map_err(|e| {
-            Error::invalid("fractions", format!("{fractions:?}"), &e.to_string())
-        })?;
+        let pick = WeightedIndex::new(number.iter().copied())
+            .map_err(|e| Error::invalid("fractions", format!("{fractions:?}"), &e.to_string()))?;
         Ok(DiscreteLaw {
             radii: radii.into(),
             number: number.into(),
@@ -185,10 +184,17 @@ impl DiscreteLaw {
     }
 
     fn support(&self) -> (Real, Real) {
-        let mut held = self.radii.iter().zip(self.number.iter()).filter(|(_, &n)| n > 0.0);
-        let lo = *held.next().expect("a fraction > 0").0;
-        let hi = held.last().map_or(lo, |(&r, _)| r);
-        (lo, hi)
+        let first = self
+            .number
+            .iter()
+            .position(|&n| n > 0.0)
+            .expect("a fraction");
+        let last = self
+            .number
+            .iter()
+            .rposition(|&n| n > 0.0)
+            .expect("a fraction");
+        (self.radii[first], self.radii[last])
     }
 }
 
@@ -281,9 +287,8 @@ impl SieveLaw {
             .collect();
         let total: Real = number.iter().sum();
         let number: Vec<Real> = number.iter().map(|&n| n / total).collect();
-        let pick = WeightedIndex::new(number.iter().copied()).map_err(|e| {
-            Error::invalid("sieve_passing", format!("{passing:?}"), &e.to_string())
-        })?;
+        let pick = WeightedIndex::new(number.iter().copied())
+            .map_err(|e| Error::invalid("sieve_passing", format!("{passing:?}"), &e.to_string()))?;
         Ok(SieveLaw {
             sizes: sizes.into(),
             passing: passing.into(),
@@ -558,7 +563,12 @@ impl RadiusLaw {
                 (0.5 * (min + max), (max - min) / (12.0 as Real).sqrt())
             }
             RadiusLaw::Discrete(d) => {
-                let m1: Real = d.radii.iter().zip(d.number.iter()).map(|(r, n)| r * n).sum();
+                let m1: Real = d
+                    .radii
+                    .iter()
+                    .zip(d.number.iter())
+                    .map(|(r, n)| r * n)
+                    .sum();
                 let m2: Real = d
                     .radii
                     .iter()
@@ -582,6 +592,13 @@ impl RadiusLaw {
                 (m1, (m2 - m1 * m1).max(0.0).sqrt())
             }
         }
+    }
+
+    /// True for the laws whose layers are placed largest first (see
+    /// `place_layer`): every law but the constant and the Gaussian, which keep the
+    /// paper's order and so their packs.
+    pub fn places_largest_first(&self) -> bool {
+        !matches!(self, RadiusLaw::Constant(_) | RadiusLaw::Gaussian { .. })
     }
 
     /// One radius (m).
@@ -803,10 +820,12 @@ mod tests {
         assert!(e(&d, &[0.0, 0.5, 0.4, 1.0]).contains("invalid sieve_passing[2]"));
         assert!(e(&d, &[0.1, 0.3, 0.7, 1.0]).contains("invalid sieve_passing[0]"));
         assert!(e(&d, &[0.0, 0.3, 0.7, 0.9]).contains("invalid sieve_passing[3]"));
-        assert!(e(&[0.02, 0.05, 0.03, 0.08], &[0.0, 0.3, 0.7, 1.0])
-            .contains("invalid sieve_sizes[2]"));
-        assert!(e(&[-0.02, 0.03, 0.05, 0.08], &[0.0, 0.3, 0.7, 1.0])
-            .contains("invalid sieve_sizes[0]"));
+        assert!(
+            e(&[0.02, 0.05, 0.03, 0.08], &[0.0, 0.3, 0.7, 1.0]).contains("invalid sieve_sizes[2]")
+        );
+        assert!(
+            e(&[-0.02, 0.03, 0.05, 0.08], &[0.0, 0.3, 0.7, 1.0]).contains("invalid sieve_sizes[0]")
+        );
         assert!(e(&d, &[0.0, 1.0]).contains("one passing fraction per sieve size"));
         assert!(e(&[0.02], &[0.0]).contains("at least 2"));
     }
@@ -872,7 +891,10 @@ mod tests {
         // the number moments match the draws
         let (mean, sd) = rl.number_moments();
         let m1 = s.iter().sum::<Real>() / s.len() as Real;
-        assert!((m1 - mean).abs() < 4.0 * sd / (s.len() as Real).sqrt(), "{m1} {mean}");
+        assert!(
+            (m1 - mean).abs() < 4.0 * sd / (s.len() as Real).sqrt(),
+            "{m1} {mean}"
+        );
     }
 
     #[test]
