@@ -363,6 +363,24 @@ def test_a_sieve_pack_meets_its_curve_within_the_dkw_band(sieve_pack):
     assert g.d50_mass == pytest.approx(t.d50_mass, rel=0.2)
 
 
+def test_the_grading_figure_draws_the_realised_and_the_target_curve(sieve_pack, tmp_path):
+    from granpack.plot import grading_figure, save
+
+    fig = grading_figure(sieve_pack, title="sieve pack")
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log"
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert any(lab.startswith("realised") for lab in labels)
+    assert any(lab.startswith("target (sieve)") for lab in labels)
+    assert "sieve curve" in labels
+    # the realised curve rises from 0 to 100 %
+    y = ax.get_lines()[0].get_ydata()
+    assert y[0] == 0 and y[-1] == pytest.approx(100)
+    assert save(fig, tmp_path / "grading.png").stat().st_size > 1000
+    # bare radii, no target
+    assert len(grading_figure(sieve_pack.radii, dim=3).axes[0].get_lines()) == 1
+
+
 THREAD_SCRIPT = textwrap.dedent(
     """
     import hashlib, granpack as gp
