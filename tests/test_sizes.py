@@ -36,7 +36,9 @@ def kolmogorov_p(x: float) -> float:
     """P(K > x) for the Kolmogorov distribution: 2 sum_k (-1)^(k-1) exp(-2 k^2 x^2)."""
     if x < 0.2:
         return 1.0
-    return min(1.0, 2.0 * sum((-1) ** (k - 1) * math.exp(-2 * k * k * x * x) for k in range(1, 101)))
+    return min(
+        1.0, 2.0 * sum((-1) ** (k - 1) * math.exp(-2 * k * k * x * x) for k in range(1, 101))
+    )
 
 
 def ks_p(sample: np.ndarray, cdf) -> float:
@@ -231,8 +233,13 @@ def test_a_sieve_scene_round_trips_through_toml(tmp_path):
     t = gp.PackScene.from_toml_string(text)
     assert t.sieve_sizes == (0.02, 0.03, 0.05, 0.08) and t.r_max == 0.04
     d = gp.PackScene(
-        dim=3, base=(0.5, 0.5), radius_law="discrete", radii=[0.01, 0.02],
-        fractions=[0.4, 0.6], fractions_by="mass", phi_layer=0.25,
+        dim=3,
+        base=(0.5, 0.5),
+        radius_law="discrete",
+        radii=[0.01, 0.02],
+        fractions=[0.4, 0.6],
+        fractions_by="mass",
+        phi_layer=0.25,
     )
     assert gp.PackScene.from_toml_string(d.to_toml()) == d
 
@@ -250,11 +257,19 @@ DISCRETE_LAW = {"radius_law": "discrete", "radii": (0.01, 0.02)}
         ({**SIEVE_LAW, "sieve_passing": (0.0, 0.3, 0.7, 0.9)}, r"sieve_passing\[3\].*must be 1"),
         ({**SIEVE_LAW, "sieve_passing": (0.0, 0.3, 1.0)}, "sieve_passing.*one passing fraction"),
         (
-            {**SIEVE_LAW, "sieve_sizes": (0.02, 0.05, 0.03, 0.08), "sieve_passing": (0, 0.3, 0.7, 1)},
+            {
+                **SIEVE_LAW,
+                "sieve_sizes": (0.02, 0.05, 0.03, 0.08),
+                "sieve_passing": (0, 0.3, 0.7, 1),
+            },
             r"sieve_sizes\[2\].*strictly increasing",
         ),
         (
-            {**SIEVE_LAW, "sieve_sizes": (0.0, 0.03, 0.05, 0.08), "sieve_passing": (0, 0.3, 0.7, 1)},
+            {
+                **SIEVE_LAW,
+                "sieve_sizes": (0.0, 0.03, 0.05, 0.08),
+                "sieve_passing": (0, 0.3, 0.7, 1),
+            },
             r"sieve_sizes\[0\].*> 0",
         ),
         ({"radius_law": "sieve"}, "sieve_sizes.*needs"),
@@ -268,11 +283,23 @@ DISCRETE_LAW = {"radius_law": "discrete", "radii": (0.01, 0.02)}
         ({"radius_law": "gaussian", "r_mean": 0.02, "r_std": -0.001}, "r_std.*>= 0"),
         ({"radius_law": "lognormal", "r_mean": 0.02, "r_std": -0.001}, "r_std.*>= 0"),
         (
-            {"radius_law": "lognormal", "r_mean": 0.01, "r_std": 0.001, "r_min": 0.05, "r_max": 0.06},
+            {
+                "radius_law": "lognormal",
+                "r_mean": 0.01,
+                "r_std": 0.001,
+                "r_min": 0.05,
+                "r_max": 0.06,
+            },
             "r_min.*holds no mass",
         ),
         (
-            {"radius_law": "lognormal", "r_mean": 0.02, "r_std": 0.001, "r_min": 1e-3, "r_max": 5e-3},
+            {
+                "radius_law": "lognormal",
+                "r_mean": 0.02,
+                "r_std": 0.001,
+                "r_min": 1e-3,
+                "r_max": 5e-3,
+            },
             "r_max.*holds no mass",
         ),
         ({"radius_law": "uniform", "r_min": 0.02}, "r_max.*needs r_min and r_max"),
@@ -403,7 +430,10 @@ def test_a_sieve_pack_is_bit_identical_on_one_and_two_threads():
     for threads in ("1", "2"):
         env = {**os.environ, "RAYON_NUM_THREADS": threads}
         res = subprocess.run(
-            [sys.executable, "-c", THREAD_SCRIPT], env=env, capture_output=True, text=True,
+            [sys.executable, "-c", THREAD_SCRIPT],
+            env=env,
+            capture_output=True,
+            text=True,
             check=True,
         )
         out[threads] = res.stdout.split()

@@ -42,7 +42,9 @@ Box: TypeAlias = tuple[list[float], list[float]]
 ContainerName: TypeAlias = Literal["box", "periodic", "cylinder"]
 Inertia2D: TypeAlias = Literal["sphere", "disc"]
 """2D mass model: a sphere's mass and inertia, or a disc of unit thickness."""
-RadiusLawName: TypeAlias = Literal["constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"]
+RadiusLawName: TypeAlias = Literal[
+    "constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"
+]
 CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
 
 class MaterialFields(Protocol):

@@ -84,7 +84,9 @@ class Grading:
         out: dict[str, float] = {}
         for by, d in (("mass", by_mass), ("number", by_number)):
             d10, d30, d50, d60, d90 = d
-            out.update({f"d{int(round(100 * f))}_{by}": v for f, v in zip(FRACTIONS, d)})
+            out.update(
+                {f"d{int(round(100 * f))}_{by}": v for f, v in zip(FRACTIONS, d, strict=True)}
+            )
             out[f"cu_{by}"] = d60 / d10
             out[f"cc_{by}"] = d30 * d30 / (d10 * d60)
         return cls(**out)
@@ -252,7 +254,7 @@ class _Law:
         r_all, fn_all = self.segments
         grids, cums, total = [], [], 0.0
         scale = max(float(r[-1]) for r in r_all)
-        for r, f in zip(r_all, fn_all):
+        for r, f in zip(r_all, fn_all, strict=True):
             g = f * (r / scale) ** self.p if by == "mass" else f
             # trapezoids in the radius, on the log-spaced grid
             part = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(r))])
