@@ -95,7 +95,7 @@ def read_dump(path: Path, dim: int) -> tuple[np.ndarray, np.ndarray]:
 def analyse(positions, radii, dim: int) -> dict:
     """phi and Z of a final pack, by granpack's analysis in the paper's unit box."""
     import granpack as gp
-    from granpack.microstructure import MicrostructureWarning
+    from granpack.analysis import MicrostructureWarning
 
     lo = np.zeros(dim)
     hi = np.ones(dim)

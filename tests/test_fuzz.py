@@ -653,7 +653,7 @@ def test_microstructure_of_random_arrays(kw):
     GranpackError, never another exception (ZeroDivisionError, OverflowError, a hang
     in the cell grid)."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        warnings.simplefilter("ignore", gp.analysis.MicrostructureWarning)
         try:
             m = gp.microstructure(**kw)
         except gp.GranpackError:
@@ -767,7 +767,7 @@ def test_random_command_lines(cli_files, data):
         contextlib.redirect_stderr(sink),
         warnings.catch_warnings(),
     ):
-        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        warnings.simplefilter("ignore", gp.analysis.MicrostructureWarning)
         try:
             rc = main(argv)
         except SystemExit as exc:  # argparse: --help, or a usage error

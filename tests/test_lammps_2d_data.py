@@ -12,7 +12,7 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack.microstructure import read_xyzr
+from granpack.analysis import read_xyzr
 
 PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"
 

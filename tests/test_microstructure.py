@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import granpack as gp
-from granpack.microstructure import (
+from granpack.analysis import (
     Microstructure,
     MicrostructureWarning,
     force_tensors,
@@ -401,9 +401,18 @@ def test_generated_pack_forces_and_geometric_contacts_agree(tiny_scene_2d):
     assert m.a_n[1, 1] > 0
 
 
-def test_granpack_microstructure_exposes_helpers():
-    assert gp.microstructure.read_xyzr is read_xyzr
-    assert gp.microstructure.Microstructure is Microstructure
+def test_the_entry_point_does_not_shadow_the_analysis_package():
+    import importlib
+    import types
+
+    assert isinstance(gp.analysis, types.ModuleType)
+    assert gp.microstructure is gp.analysis.microstructure
+    assert gp.analysis.read_xyzr is read_xyzr
+    assert gp.analysis.Microstructure is Microstructure
+    # no module is hidden behind a function of the same name
+    for name in ("compute", "result", "tensors", "volumes", "reader", "relations", "inputs"):
+        mod = importlib.import_module(f"granpack.analysis.{name}")
+        assert getattr(gp.analysis, name) is mod
 
 
 @pytest.mark.parametrize(

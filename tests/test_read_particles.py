@@ -343,7 +343,7 @@ def test_bad_arguments_are_invalid_parameters(two_snapshots):
 def _phi(x) -> float:
     # these four spheres touch nothing: the analysis warns that the fabric is undefined
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", gp.microstructure.MicrostructureWarning)
+        warnings.simplefilter("ignore", gp.analysis.MicrostructureWarning)
         return gp.microstructure(positions=x, radii=R, box=(LO, HI)).phi
 
 

@@ -348,22 +348,22 @@ def test_the_target_grading_of_a_sieve_curve_is_read_log_linearly():
 
 
 def test_grading_of_simple_sets():
-    g = gp.grading(np.full(10, 0.01), dim=3)
+    g = gp.realised_grading(np.full(10, 0.01), dim=3)
     assert g.d10_mass == g.d90_number == 0.02 and g.cu_mass == g.cc_number == 1.0
     r = np.array([0.01] * 8 + [0.02])  # equal masses in 3D
-    g = gp.grading(r, dim=3)
+    g = gp.realised_grading(r, dim=3)
     # D_x: the smallest diameter at which the cumulative fraction reaches x
     assert (g.d30_mass, g.d50_mass, g.d60_mass) == (0.02, 0.02, 0.04)
     assert (g.d10_number, g.d90_number) == (0.02, 0.04)
     # in 2D with discs of unit thickness the mass goes with the area
-    g2 = gp.grading(np.array([0.01] * 4 + [0.02]), dim=2, inertia_2d="disc")
+    g2 = gp.realised_grading(np.array([0.01] * 4 + [0.02]), dim=2, inertia_2d="disc")
     assert (g2.d50_mass, g2.d60_mass) == (0.02, 0.04)
     assert set(g.to_dict()) >= {"d10_mass", "cu_mass", "cc_mass", "d50_number", "cu_number"}
     uniform = gp.target_grading(scene(radius_law="uniform", r_min=0.01, r_max=0.03))
     assert uniform.d50_number == pytest.approx(0.04, rel=1e-7)
     assert uniform.d10_number == pytest.approx(0.024, rel=1e-7)
     with pytest.raises(gp.InvalidParameterError, match="radii"):
-        gp.grading(np.array([0.01, -1.0]))
+        gp.realised_grading(np.array([0.01, -1.0]))
 
 
 # -- a sieve-curve pack -------------------------------------------------------------------------
@@ -386,7 +386,7 @@ def test_a_sieve_pack_meets_its_curve_within_the_dkw_band(sieve_pack):
     target = target_passing(sieve_pack.scene, fine)
     assert np.max(np.abs(realised - target)) < dkw(n_eff)
     assert np.allclose(target_passing(sieve_pack.scene, sizes), SIEVE["sieve_passing"])
-    g, t = gp.grading(sieve_pack), gp.target_grading(sieve_pack.scene)
+    g, t = gp.realised_grading(sieve_pack), gp.target_grading(sieve_pack.scene)
     assert g.d50_mass == pytest.approx(t.d50_mass, rel=0.2)
 
 

@@ -9,7 +9,7 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack.microstructure import empirical_z, phi_from_void_ratio
+from granpack.analysis import empirical_z, phi_from_void_ratio
 from granpack.tables import (
     PRESET_TABLES,
     STAT_LABELS,
@@ -106,7 +106,7 @@ def test_paper_standard_deviations_are_ddof_1():
 # --------------------------------------------------------------------------------------
 # ensembles
 # --------------------------------------------------------------------------------------
-def lattice_result(n: int) -> gp.microstructure.Microstructure:
+def lattice_result(n: int) -> gp.analysis.Microstructure:
     """An n x n square lattice of touching discs: Z = 4 (n - 1)/n."""
     r = 0.01
     s = 2 * r * (1 - 1e-9)
@@ -248,3 +248,14 @@ def test_markdown_formats_numbers_like_the_paper():
     lines = to_markdown(df).splitlines()
     assert lines[2] == "| 1 | 0.8537 | 10.248 |"
     assert lines[3] == "| mean |  | inf |"
+
+
+def test_the_analysis_beyond_the_paper_has_columns_in_the_extra_tables():
+    from granpack.tables import EXTRA_COLUMNS
+
+    row = lattice_result(4).to_dict()
+    beyond = {"z_std", "z_mech_iterative", "k0", "strong_fraction", "a_r_strong_mag", "q6_mean"}
+    assert beyond <= set(EXTRA_COLUMNS) and beyond | {"crystal_fraction"} <= set(row)
+    # every column the extra tables name is a key of to_dict() (in 2D or 3D, binned or not)
+    optional = {"fabric_eig3", "stress_zz", "f0_binned", "a_n_binned_mag", "a_t_binned_mag"}
+    assert set(EXTRA_COLUMNS) - optional <= set(row)

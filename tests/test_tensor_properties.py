@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from granpack import GranpackError
-from granpack.microstructure import (
+from granpack.analysis import (
     anisotropy_measures,
     anisotropy_tensor,
     eigen_sorted,

@@ -151,3 +151,66 @@ pub fn container_world(container: Container) -> World<3> {
     p.run(|_| {}).unwrap();
     p.world().clone()
 }
+
+/// A settled 3D pack of about `n` spheres whose radii spread over a size ratio `ratio`
+/// (r_max / r_min, r_min = 0.01 m), graded as soils and powders are: by number mostly
+/// fines, by volume spread over the sizes (a half-Gaussian from r_min, sd 0.4 (r_max -
+/// r_min), truncated at r_max; at a ratio of 8, 5 % of the spheres hold half the
+/// volume). The base is chosen from the mean sphere volume so that N is about the same
+/// at every ratio; the time step is half the Rayleigh step of r_min; layers of 3 r_max
+/// fall under 9.81 m/s^2 and settle adaptively (at most 0.6 s each) to 15 r_max.
+/// Returns the packer, which can place one more layer on top (the RSA benchmark).
+pub fn ratio_packer(ratio: f64, n: usize) -> Packer<3> {
+    let r_min = 0.01;
+    let r_max = ratio * r_min;
+    let sd = 0.4 * (r_max - r_min);
+    let law = if ratio == 1.0 {
+        RadiusLaw::Constant(r_min)
+    } else {
+        RadiusLaw::Gaussian {
+            mean: r_min,
+            std: sd,
+            min: r_min,
+            max: r_max,
+        }
+    };
+    // the law's mean sphere volume, by the midpoint rule on 1000 intervals
+    let mean_vol = if ratio == 1.0 {
+        4.0 / 3.0 * std::f64::consts::PI * r_min.powi(3)
+    } else {
+        let (mut w, mut v) = (0.0, 0.0);
+        for k in 0..1000 {
+            let r = r_min + (k as f64 + 0.5) / 1000.0 * (r_max - r_min);
+            let p = (-0.5 * ((r - r_min) / sd).powi(2)).exp();
+            w += p;
+            v += p * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+        }
+        v / w
+    };
+    let height = 15.0 * r_max;
+    // a settled pack is about 0.6 solid
+    let side = (n as f64 * mean_vol / (0.6 * height)).sqrt().max(4.0 * r_max);
+    let mut sim = SimConfig::<3>::paper();
+    sim.drag = 0.005;
+    sim.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+    sim.dt = 0.5 * sim.material.rayleigh_time_step(r_min);
+    Packer::new(PackConfig {
+        sim,
+        base: Vector::<3>::new(side, side, 0.0),
+        height,
+        radii: law,
+        h_layer: 3.0 * r_max,
+        phi_layer: 0.25,
+        settle_time: 0.6,
+        seed: 1,
+        stream: 0,
+        max_attempts: 1_000_000,
+        max_layers: 1000,
+        adaptive_settle: Some(1e-2),
+        freeze_depth: None,
+        freeze_speed: 1e-3,
+        freeze_force: 0.1,
+        settle_dt: None,
+    })
+    .unwrap()
+}

@@ -7,6 +7,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
+from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -17,8 +18,7 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
-from .grading import Grading, grading, target_grading
-from .microstructure import microstructure
+from .grading import Grading, realised_grading, target_grading
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
@@ -42,7 +42,11 @@ __all__ = [
     "ParticleFile",
     "UnsettledPackWarning",
     "microstructure",
-    "grading",
+    "rdf",
+    "steinhardt",
+    "profiles",
+    "radial_profiles",
+    "realised_grading",
     "target_grading",
     "Grading",
     "__version__",

@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
-import importlib
 import json
 import math
 import os
@@ -374,12 +373,6 @@ def build_parser() -> argparse.ArgumentParser:
 # -- shared pieces -------------------------------------------------------------------------------
 
 
-def _microstructure_module():
-    # `granpack.microstructure` is also the name of the function exported by the
-    # package, so the module is fetched from the import system, not as an attribute.
-    return importlib.import_module("granpack.microstructure")
-
-
 def _scene_from_arg(text: str):
     from .scene import PRESETS, PackScene
 
@@ -529,7 +522,8 @@ def _microstructure(console: _Console, label: str, *args, **kwargs):
     """granpack.microstructure(...), with its MicrostructureWarnings (an undefined
     quantity, e.g. an empty core window in a small pack) turned into notes that the
     console prints once per message, instead of warnings with a source line."""
-    ms = _microstructure_module()
+    from . import analysis as ms
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ms.MicrostructureWarning)
         m = ms.microstructure(*args, **kwargs)
@@ -625,11 +619,10 @@ def cmd_generate(args, console: _Console) -> int:
 
 
 def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
-    from . import plot, report
+    from . import plot, report, tables
     from .ensemble import ensemble_tasks, run_tasks
     from .pack import atomic_write
 
-    tables = importlib.import_module("granpack.tables")
     t0 = time.perf_counter()
     tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
     console.say(f"granpack generate: {args.packs} pack(s) of {name} -> {out}")
@@ -656,6 +649,12 @@ def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text
         for (pack, _, _), path in zip(results, paths, strict=True):
             label = f"{name}, rotations {'ON' if scene.rotations else 'OFF'}, {path.stem}"
             figures += _pack_figures(pack, path, fig_dir, label)
+        figures.append(
+            plot.save(
+                plot.analysis_figure([p for p, _, _ in results], ms, title=f"{name}: structure"),
+                fig_dir / "analysis.png",
+            )
+        )
         phis = [rec["phi"] for rec in records]
         figures.append(
             plot.save(
@@ -696,11 +695,10 @@ def cmd_paper(args, console: _Console) -> int:
 
 
 def _paper_into(args, console: _Console) -> int:
-    from . import mass2d, plot, report
+    from . import mass2d, plot, report, tables
     from .ensemble import ensemble_tasks, run_tasks
     from .scene import PackScene
 
-    tables = importlib.import_module("granpack.tables")
     n_packs = args.packs if args.packs is not None else (QUICK_PACKS if args.quick else PAPER_PACKS)
     out: Path = args.out
     examples = sorted(set(args.examples), key=list(PAPER_EXAMPLES).index)
@@ -781,6 +779,12 @@ def _paper_into(args, console: _Console) -> int:
             plot.force_chain_figure(packs[0], title=f"example {ex}, rotations {onoff}, pack 1"),
             fig_dir / f"{name}_forces.png",
         )
+        f["analysis"] = plot.save(
+            plot.analysis_figure(
+                packs, by_case[ex, rot], title=f"example {ex}, rotations {onoff}: structure"
+            ),
+            fig_dir / f"{name}_analysis.png",
+        )
         figures[ex, rot] = f
 
     paper = tables.paper_tables(by_case)
@@ -842,7 +846,8 @@ def paper_phi() -> dict[tuple[str, bool], list[float]]:
     and 11, from `granpack.tables.paper_values`)."""
     import polars as pl
 
-    tables = importlib.import_module("granpack.tables")
+    from . import tables
+
     out: dict[tuple[str, bool], list[float]] = {}
     for ex, (number, _, _) in tables.PRESET_TABLES.items():
         df = tables.paper_values(number).filter(~pl.col("pack").is_in(list(tables.STAT_LABELS)))

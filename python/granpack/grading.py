@@ -29,7 +29,7 @@ from ._validate import InvalidParameterError, as_array, short_repr
 __all__ = [
     "Grading",
     "FRACTIONS",
-    "grading",
+    "realised_grading",
     "target_grading",
     "passing",
     "target_passing",
@@ -135,11 +135,11 @@ def _quantiles(d: np.ndarray, w: np.ndarray) -> list[float]:
     return [float(d[min(i, len(d) - 1)]) for i in idx]
 
 
-def grading(
+def realised_grading(
     pack_or_radii: Any, dim: int | None = None, *, inertia_2d: str | None = None
 ) -> Grading:
-    """The realised grading of a pack (`gp.grading(pack)`) or of a set of radii
-    (`gp.grading(radii, dim=3)`).
+    """The realised grading of a pack (`gp.realised_grading(pack)`) or of a set of radii
+    (`gp.realised_grading(radii, dim=3)`).
 
     Parameters
     ----------

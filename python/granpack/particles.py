@@ -709,7 +709,7 @@ def _read_data(path: Path, dim: int | None) -> ParticleFile:
 
 
 def _read_xyzr(path: Path, dim: int | None) -> ParticleFile:
-    from .microstructure import read_xyzr
+    from .analysis import read_xyzr
 
     x, r, d = read_xyzr(path, dim=dim)
     return ParticleFile(path=path, format="xyzr", positions=x, radii=r)

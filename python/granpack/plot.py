@@ -37,6 +37,7 @@ from ._validate import InvalidParameterError
 from .pack import atomic_write
 
 __all__ = [
+    "analysis_figure",
     "save",
     "pack_figure",
     "packs_figure",
@@ -448,6 +449,137 @@ def phi_histogram_figure(
     return fig
 
 
+# -- the analysis beyond the paper ----------------------------------------------------------
+
+
+def _nanmean_rows(rows: Sequence) -> np.ndarray:
+    """Mean over rows ignoring NaN; NaN where every row is NaN (no warning)."""
+    a = np.asarray(rows, dtype=float)
+    ok = np.isfinite(a)
+    cnt = ok.sum(axis=0)
+    tot = np.where(ok, a, 0.0).sum(axis=0)
+    return np.where(cnt > 0, tot / np.maximum(cnt, 1), np.nan)
+
+
+def _padded_mean(arrays: Sequence[np.ndarray]) -> np.ndarray:
+    k = max(a.shape[0] for a in arrays)
+    return np.mean([np.pad(a, (0, k - a.shape[0])) for a in arrays], axis=0)
+
+
+def analysis_figure(packs: Sequence, micro: Sequence, title: str | None = None) -> Figure:
+    """Six panels over an ensemble of packs and their microstructures: the coordination
+    distribution P(Z); the normal-force distribution P(f_n/<f_n>) on a log scale; the pair
+    correlation g(r) of the first pack; the depth profiles of phi and Z (mean over the packs,
+    10 slices); the vertical stress profile with K0; the local bond order q6 (psi6 in 2D)
+    with the crystalline threshold and the crystallised fraction. For packs in a cylinder, a
+    seventh panel: the radial profiles of phi and of the centres' density (20 shells), which
+    show the wall's layering."""
+    from .analysis import CRYSTAL_THRESHOLD, profiles, radial_profiles, rdf
+    from .errors import GranpackError
+
+    cylinder = micro[0].container == "cylinder"
+    fig = _figure(17.0 if cylinder else 13.0, 7.5)
+    axs = fig.subplots(2, 4 if cylinder else 3)
+    if cylinder:
+        ax = axs[0, 3]
+        rps = [radial_profiles(p_, shells=20) for p_ in packs]
+        rc = 0.5 * (rps[0]["r_lo"].to_numpy() + rps[0]["r_hi"].to_numpy())
+        area = rps[0]["r_hi"].to_numpy() ** 2 - rps[0]["r_lo"].to_numpy() ** 2
+        ax.plot(rc, _nanmean_rows([rp["phi"].to_numpy() for rp in rps]), "o-", label="phi")
+        dens = np.mean([rp["n_particles"].to_numpy() / area for rp in rps], axis=0)
+        ax2 = ax.twinx()
+        ax2.plot(rc, dens / np.mean(dens), "s--", color="C3", label="centres")
+        ax2.set_ylabel("centre density / mean", color="C3")
+        ax.set_xlabel("distance from the axis (m)")
+        ax.set_ylabel("phi (shell)")
+        ax.set_title("radial profiles: phi (o), centres (s)", fontsize=9)
+        axs[1, 3].set_axis_off()
+    d = micro[0].dim
+    # P(Z)
+    ax = axs[0, 0]
+    p = _padded_mean([m.coordination_distribution for m in micro])
+    k = np.arange(p.shape[0])
+    zbar = float(np.mean([m.z for m in micro]))
+    zsd = float(np.mean([m.z_std for m in micro]))
+    ax.bar(k, p, color="C0", alpha=0.8)
+    ax.axvline(zbar, color="k", lw=1)
+    ax.set_xlabel("contacts per particle k")
+    ax.set_ylabel("P(k)")
+    ax.set_title(f"P(Z): Z = {zbar:.2f}, width {zsd:.2f}", fontsize=9)
+    # P(f)
+    ax = axs[0, 1]
+    have_forces = all(m.has_forces for m in micro)
+    if have_forces:
+        ratio = np.concatenate(
+            [
+                p_.contacts.particle_pairs().force_normal / m.force_normal_mean
+                for p_, m in zip(packs, micro, strict=True)
+            ]
+        )
+        edges = np.arange(0.0, max(1.0, float(ratio.max())) + 0.2, 0.2)
+        hist, _ = np.histogram(ratio, bins=edges, density=True)
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        ax.semilogy(mid[hist > 0], hist[hist > 0], "o-", ms=3)
+        ax.axvline(1.0, color="k", lw=0.8, ls="--")
+        sf = float(np.mean([m.strong_fraction for m in micro]))
+        ax.set_title(f"P(f_n/<f_n>): strong fraction {sf:.3f}", fontsize=9)
+    else:
+        ax.text(0.5, 0.5, "no forces", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlabel("f_n / <f_n>")
+    ax.set_ylabel("probability density")
+    # g(r)
+    ax = axs[0, 2]
+    try:
+        # the core window of the analysis, or a fifth of the height in a low pack
+        margin = min(0.1, 0.2 * float(micro[0].h_top - micro[0].box[0][-1]))
+        r, g = rdf(packs[0], bins=120, margin=margin)
+        dmean = 2.0 * float(np.mean(packs[0].radii))
+        ax.plot(r / dmean, g, lw=1)
+        ax.axhline(1.0, color="k", lw=0.6, ls=":")
+        ax.set_xlabel("r / mean diameter")
+        ax.set_title("g(r), pack 1 (core window)", fontsize=9)
+    except GranpackError as exc:
+        ax.text(0.5, 0.5, str(exc)[:80], ha="center", va="center", fontsize=6, wrap=True)
+    ax.set_ylabel("g(r)")
+    # depth profiles
+    dfs = [profiles(p_, slices=10) for p_ in packs]
+    zc = 0.5 * (dfs[0]["z_lo"].to_numpy() + dfs[0]["z_hi"].to_numpy())
+    ax = axs[1, 0]
+    phi = _nanmean_rows([df["phi"].to_numpy() for df in dfs])
+    ax.plot(phi, zc, "o-", color="C0", label="phi")
+    ax.set_xlabel("phi (slice)")
+    ax.set_ylabel("height (m)")
+    ax2 = ax.twiny()
+    zz = _nanmean_rows([df["Z"].to_numpy() for df in dfs])
+    ax2.plot(zz, zc, "s--", color="C3", label="Z")
+    ax2.set_xlabel("Z (slice)", color="C3")
+    ax.set_title("depth profiles: phi (o), Z (s)", fontsize=9)
+    # stress profile
+    ax = axs[1, 1]
+    if have_forces:
+        szz = _nanmean_rows([df["stress_zz"].to_numpy() for df in dfs])
+        ax.plot(szz, zc, "o-")
+        k0 = float(_nanmean_rows([[m.k0] for m in micro])[0])
+        ax.set_title(f"vertical stress profile; K0 = {k0:.3f}", fontsize=9)
+    ax.set_xlabel("sigma_zz (Pa)" if d == 3 else "sigma_yy (N/m)")
+    ax.set_ylabel("height (m)")
+    # bond order
+    ax = axs[1, 2]
+    q = np.concatenate([m.q6[np.isfinite(m.q6)] for m in micro])
+    ax.hist(q, bins=np.linspace(0, 1, 41).tolist(), color="C2", alpha=0.8)
+    ax.axvline(CRYSTAL_THRESHOLD[d], color="k", lw=1, ls="--")
+    cf = float(np.mean([m.crystal_fraction for m in micro]))
+    ax.set_xlabel("local q6 (contact neighbours)" if d == 3 else "local psi6")
+    ax.set_ylabel("particles")
+    ax.set_title(
+        f"bond order: crystallised {cf:.3f} (q >= {CRYSTAL_THRESHOLD[d]} and solid-like contacts)",
+        fontsize=8,
+    )
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 # -- grading ----------------------------------------------------------------------------------
 
 
@@ -458,13 +590,13 @@ def grading_figure(
     realised one of a pack (or of radii, with `dim`) as steps and, where a scene is
     known (the pack's, or `scene`), its law's target as a line, with the sieve sizes of
     a sieve law marked. D10, D50 and D90 of both are in the legend."""
-    from .grading import grading, passing, target_grading, target_passing
+    from .grading import passing, realised_grading, target_grading, target_passing
 
     scene = scene if scene is not None else getattr(pack_or_radii, "scene", None)
     if dim is None and scene is not None:
         dim = scene.dim
     inertia = scene.inertia_2d if scene is not None else None
-    g = grading(pack_or_radii, dim, inertia_2d=inertia)
+    g = realised_grading(pack_or_radii, dim, inertia_2d=inertia)
     radii = np.asarray(getattr(pack_or_radii, "radii", pack_or_radii), dtype=np.float64)
     d = np.sort(2.0 * radii)
     lo, hi = float(d[0]), float(d[-1])

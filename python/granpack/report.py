@@ -256,6 +256,7 @@ def ensemble_report(
         f"phi = {_mean_sd(_col(records, 'phi'), 4)}, Z = {_mean_sd(_col(records, 'z'), 3)} "
         "(mean ± sample standard deviation).",
         "",
+        *_grading_lines(scene, records),
         "| pack | N | layers | H_top (m) | phi | Z | Z_m | seconds | file |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
@@ -282,6 +283,27 @@ def ensemble_report(
         "",
     ]
     return atomic_write(out / "report.md", "\n".join(lines).encode())
+
+
+def _grading_lines(scene, records: Sequence[Mapping]) -> list[str]:
+    """The realised grading by mass (mean ± sd over the packs) against the target of
+    the scene's radius law (docs/grading.md); nothing for records without it."""
+    if not records or "d50_mass" not in records[0]:
+        return []
+    from .grading import target_grading
+
+    target = target_grading(scene).to_dict()
+    keys = ("d10_mass", "d50_mass", "d90_mass", "cu_mass", "cc_mass")
+    names = ("D10 (m)", "D50 (m)", "D90 (m)", "Cu", "Cc")
+    return [
+        "Grading by mass, realised (mean ± sd over the packs) and the radius law's target:",
+        "",
+        "| | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(keys),
+        "| realised | " + " | ".join(_mean_sd(_col(records, k), 4) for k in keys) + " |",
+        "| target | " + " | ".join(f"{target[k]:.4f}" for k in keys) + " |",
+        "",
+    ]
 
 
 def _fmt(v) -> str:

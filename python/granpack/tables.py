@@ -19,8 +19,11 @@ and then "mean", "st. deviation", "coef. variation"):
 - ``extra_<preset>``: column ``rotations`` ("ON"/"OFF") and, per pack and then the three
   statistics, measured Z, Z with walls, Z_m, rattlers, phi_core (exact and the peers'
   centres recipe), fabric eigenvalues, Phi_d, the Table 1 measures, |a^r|, f0, |a^n|, |a^t|
-  (amplitudes as in :func:`granpack.microstructure.anisotropy_magnitude`) and the binned
-  ones when present.
+  (amplitudes as in :func:`granpack.analysis.anisotropy_magnitude`) and the binned
+  ones when present; then beyond the paper: the width of P(Z) and P(3..6), the rattlers
+  removed iteratively and Z_m without them (D + 1 and D contacts needed), the Love-Weber
+  stress's normal components and K0, the mean normal force, the strong fraction and the
+  strong and weak fabric anisotropies, the bond order q6 and the crystallised fraction.
 
 Statistics: mean, sample standard deviation (ddof = 1, as the paper: its table 2 prints
 0.012 for rotations ON, 0.011 would be ddof = 0) and coefficient of variation std/mean.
@@ -38,7 +41,7 @@ from typing import cast
 import polars as pl
 
 from ._validate import InvalidParameterError
-from .microstructure import Microstructure
+from .analysis import Microstructure
 from .pack import atomic_write
 
 __all__ = [
@@ -84,6 +87,33 @@ EXTRA_COLUMNS = (
     "f0_binned",
     "a_n_binned_mag",
     "a_t_binned_mag",
+    "z_std",
+    "coordination_p3",
+    "coordination_p4",
+    "coordination_p5",
+    "coordination_p6",
+    "n_rattlers_iterative",
+    "z_mech_iterative",
+    "n_rattlers_frictional",
+    "z_mech_frictional",
+    "stress_xx",
+    "stress_yy",
+    "stress_zz",
+    "k0",
+    "force_normal_mean",
+    "strong_fraction",
+    "a_r_strong_mag",
+    "a_r_weak_mag",
+    "q6_mean",
+    "q6_global",
+    "crystal_fraction",
+    "d10_mass",
+    "d50_mass",
+    "d90_mass",
+    "cu_mass",
+    "cc_mass",
+    "d50_number",
+    "cu_number",
 )
 _PAPER_DATA = "paper_tables.csv"
 

@@ -275,6 +275,11 @@ where
         })
     }
 
+    /// The scene.
+    pub fn config(&self) -> &PackConfig<D> {
+        &self.cfg
+    }
+
     /// True once the pack height has reached the desired height.
     pub fn done(&self) -> bool {
         self.height >= self.cfg.height
