@@ -408,6 +408,18 @@ def test_the_grading_figure_draws_the_realised_and_the_target_curve(sieve_pack, 
     assert len(grading_figure(sieve_pack.radii, dim=3).axes[0].get_lines()) == 1
 
 
+def test_the_microstructure_and_the_report_carry_the_grading(sieve_pack):
+    from granpack.report import _grading_lines
+
+    d = gp.microstructure(sieve_pack, core_margin=0.02).to_dict()
+    g = gp.realised_grading(sieve_pack).to_dict()
+    assert {k: d[k] for k in g} == g
+    lines = _grading_lines(sieve_pack.scene, [d, d])
+    assert any(line.startswith("| realised |") for line in lines)
+    target = gp.target_grading(sieve_pack.scene)
+    assert f"{target.d50_mass:.4f}" in next(x for x in lines if x.startswith("| target |"))
+
+
 THREAD_SCRIPT = textwrap.dedent(
     """
     import hashlib, granpack as gp
