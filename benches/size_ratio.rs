@@ -64,7 +64,9 @@ fn main() {
             // the engine's widest half skin: skin_ratio r_min / 2
             let reach: Vec<f64> = r.iter().map(|r| r + 0.1 * 0.01).collect();
             let mut pairs = 0;
-            let t_search = best(5, || pairs = _core::geometry::neighbor_pairs(&x, &reach).len());
+            let t_search = best(5, || {
+                pairs = _core::geometry::neighbor_pairs(&x, &reach).len()
+            });
             let height = x.iter().zip(&r).map(|(q, r)| q[2] + r).fold(0.0, f64::max);
             let mut added = 0;
             let t_rsa = best(5, || {

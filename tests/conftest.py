@@ -13,3 +13,31 @@ def tiny_scene_2d() -> gp.PackScene:
     return gp.PackScene.preset("4.1").replace(
         base=(0.3,), height=0.12, h_layer=0.04, settle_time=0.3, seed=5
     )
+
+
+def _peer(names: tuple[str, ...], package: str) -> str:
+    """The path of a peer program, or a skip (a failure where .ci/run installed the
+    peers: GRANPACK_PEERS=required)."""
+    import os
+    import shutil
+
+    for name in names:
+        path = shutil.which(name)
+        if path is not None:
+            return path
+    why = f"{package} not installed (no {' or '.join(names)} on PATH)"
+    if os.environ.get("GRANPACK_PEERS") == "required":
+        pytest.fail(f"{why}, though GRANPACK_PEERS=required", pytrace=False)
+    pytest.skip(f"{why}; apt-get install {package} (.ci/run does where apt is available)")
+
+
+@pytest.fixture(scope="session")
+def lmp() -> str:
+    """LAMMPS' executable (the Debian package lammps), or a skip."""
+    return _peer(("lmp", "lmp_serial"), "lammps")
+
+
+@pytest.fixture(scope="session")
+def liggghts() -> str:
+    """LIGGGHTS' executable (the Debian package liggghts), or a skip."""
+    return _peer(("liggghts",), "liggghts")

@@ -211,7 +211,10 @@ def test_export_command_writes_files_that_read_back(tmp_path, capsys):
     pack = _tiny_pack(3)
     pack.save(tmp_path / "p.npz")
     assert main(["export", str(tmp_path / "p.npz"), "--format", "vtk"]) == 0
-    assert capsys.readouterr().out.strip() == str(tmp_path / "p.vtu")
+    assert capsys.readouterr().out.split() == [
+        str(tmp_path / "p.vtu"),
+        str(tmp_path / "p.container.vtu"),
+    ]
     mesh = meshio.read(tmp_path / "p.vtu")
     np.testing.assert_array_equal(mesh.points[: len(pack)], pack.positions)
     np.testing.assert_array_equal(mesh.point_data["radius"][: len(pack)], pack.radii)

@@ -183,6 +183,8 @@ def test_format_detection_by_content_and_suffix(tmp_path, pack2d, two_snapshots)
         "lammps-dump": tmp_path / "dump_no_suffix",
         "lammps-data": tmp_path / "pack.data",
         "xyzr": tmp_path / "pack.txt",
+        "yade": tmp_path / "yade.txt",
+        "xyz": tmp_path / "pack.xyz",
         "csv": tmp_path / "pack.particles.csv",
         "parquet": tmp_path / "pack.particles.parquet",
         "npz": tmp_path / "pack.npz",
@@ -207,6 +209,8 @@ def test_format_detection_by_content_and_suffix(tmp_path, pack2d, two_snapshots)
         f"{_f(x)} {_f(y)} {_f(r)}" for (x, y), r in zip(pack2d.positions, pack2d.radii, strict=True)
     )
     files["xyzr"].write_text("# x y r\n" + text + "\n")
+    export.export(pack2d, files["yade"], "yade")
+    export.export(pack2d, files["xyz"])
     export.export(pack2d, tmp_path / "pack.csv")
     export.export(pack2d, tmp_path / "pack.parquet")
     pack2d.save(files["npz"])

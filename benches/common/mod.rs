@@ -189,7 +189,9 @@ pub fn ratio_packer(ratio: f64, n: usize) -> Packer<3> {
     };
     let height = 15.0 * r_max;
     // a settled pack is about 0.6 solid
-    let side = (n as f64 * mean_vol / (0.6 * height)).sqrt().max(4.0 * r_max);
+    let side = (n as f64 * mean_vol / (0.6 * height))
+        .sqrt()
+        .max(4.0 * r_max);
     let mut sim = SimConfig::<3>::paper();
     sim.drag = 0.005;
     sim.gravity = Vector::<3>::new(0.0, 0.0, -9.81);

@@ -8,6 +8,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
 from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
+from .contact_files import ContactFile, read_contacts
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -40,6 +41,8 @@ __all__ = [
     "load_pack",
     "read_particles",
     "ParticleFile",
+    "read_contacts",
+    "ContactFile",
     "UnsettledPackWarning",
     "microstructure",
     "rdf",

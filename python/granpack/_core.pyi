@@ -167,6 +167,13 @@ class LayerReport(TypedDict):
     wall_seconds: float
     frozen: int
 
+class TrimReport(TypedDict):
+    """What LayerPacker.trim did: particles removed, relax steps, the final top (m)."""
+
+    removed: int
+    steps: int
+    height: float
+
 class PackerState(TypedDict):
     """The particle arrays of a layer loop, and its clock (s)."""
 
@@ -249,6 +256,9 @@ class LayerPacker:
     def height(self) -> float: ...
     def next_layer(self) -> LayerReport:
         """One RSA layer and its jamming run (GIL released); the layer's report."""
+    def trim(self, height: float) -> TrimReport:
+        """After the last layer: removes every particle whose top lies above `height`
+        (m) and relaxes the rest as the final relax does (GIL released)."""
     def state(self) -> PackerState:
         """positions, velocities, spins, radii, layer, time."""
     def contacts(self) -> ContactArrays: ...

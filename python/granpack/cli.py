@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import GranpackError, InvalidParameterError
+from .contact_files import LAYOUTS as CONTACT_LAYOUTS
 from .particles import FORMATS
 
 __all__ = ["main", "build_parser"]
@@ -272,6 +273,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="radius of the cylinder (m); the base becomes (2R, 2R) (default: half the "
         "scene's base)",
     )
+    g.add_argument(
+        "--trim",
+        action="store_true",
+        default=None,
+        help="a flat top: after the last layer remove every particle above the desired "
+        "height and relax the rest (default: the scene's, off)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _add_run_options(g)
@@ -317,10 +325,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="microstructure of a saved pack or of particles from another code",
         description="Prints the microstructure of a granpack pack (.npz), a LAMMPS or "
         "LIGGGHTS dump custom file (columns x y z or xs ys zs, radius or diameter, id), a "
-        "LAMMPS data file (atom_style sphere), a CSV or Parquet table with columns x y (z) "
+        "LAMMPS data file (atom_style sphere), YADE's text export (#format x_y_z_r), "
+        "extended XYZ with a radius property, a CSV or Parquet table with columns x y (z) "
         "and r, radius or diameter, or a plain text file with columns x y r (2D) or "
         "x y z r (3D; lines starting with # are comments). The format is detected from the "
-        "content and the suffix, and printed.",
+        "content and the suffix, and printed. --contacts adds another code's contact "
+        "forces.",
     )
     a.add_argument("file", type=Path, metavar="FILE")
     a.add_argument(
@@ -335,6 +345,20 @@ def build_parser() -> argparse.ArgumentParser:
         default=-1,
         metavar="K",
         help="which snapshot of a dump: 0 the first, -1 the last (default)",
+    )
+    a.add_argument(
+        "--contacts",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="contact forces of the same step: a LIGGGHTS compute pair/gran/local or LAMMPS "
+        "compute pair/local dump local file (docs/interop.md); gives f0, a^n, a^t",
+    )
+    a.add_argument(
+        "--contact-layout",
+        choices=tuple(CONTACT_LAYOUTS),
+        default=None,
+        help="the columns of --contacts (default: told from their number)",
     )
     a.add_argument("--dim", type=int, choices=(2, 3), default=None, help="dimension of a text file")
     a.add_argument(
@@ -352,16 +376,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser(
         "export",
-        help="write a pack for ParaView (vtk), LAMMPS/LIGGGHTS (lammps), csv or parquet",
+        help="write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "
+        "csv or parquet",
         description="Writes a saved pack as a VTK XML unstructured grid (.vtu: particles "
         "with radius, layer, velocity, spin, contact count; contacts as lines with their "
-        "forces), a LAMMPS data file for atom_style sphere (read_data), or CSV/Parquet "
+        "forces; the container in <stem>.container.vtu), a LAMMPS data file for atom_style "
+        "sphere with in.granpack, the input that continues the run in LAMMPS (lammps) or "
+        "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), or CSV/Parquet "
         "tables of particles and contacts.",
     )
     e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
     e.add_argument(
         "--format",
-        choices=("vtk", "lammps", "csv", "parquet"),
+        choices=("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet"),
         default=None,
         help="output format (default: from the suffix of --out)",
     )
@@ -496,6 +523,10 @@ def _micro_record(pack, m, k: int) -> dict:
         "height": pack.height,
         "wall_time": pack.wall_time,
     }
+    if pack.trim is not None:
+        rec.update(
+            trim_removed=pack.trim["removed"], trim_top=pack.trim["top"], phi_hd=pack.trim["phi_hd"]
+        )
     rec.update(_jsonable(m.to_dict()))
     return rec
 
@@ -596,6 +627,8 @@ def cmd_generate(args, console: _Console) -> int:
         elif changes["container"] != "cylinder":
             changes["cylinder_radius"] = None
         scene = scene.replace(**changes)
+    if args.trim:
+        scene = scene.replace(trim=True)
     dev = _dev_changes(scene, args)
     if dev:
         scene = scene.replace(**dev)
@@ -871,8 +904,20 @@ def _load_for_analysis(args, console: _Console):
     particles = read_particles(path, format=fmt, snapshot=args.snapshot, dim=args.dim)
     for note in particles.notes:
         console.note(note, path.name)
+    if args.contacts is not None:
+        from .contact_files import read_contacts
+
+        found = read_contacts(args.contacts, particles, layout=args.contact_layout)
+        for note in found.notes:
+            console.note(note, args.contacts.name)
+        particles = particles.with_contacts(found)
+        args.contacts_read = found
+    elif args.contact_layout is not None:
+        raise GranpackError("--contact-layout needs --contacts FILE")
     if args.box is None:
         return particles, {}
+    if particles.contacts is not None and args.contacts is not None:
+        raise GranpackError("--box cannot be combined with --contacts: the dump gives the box")
     dim = particles.dim
     if args.box is not None:
         if len(args.box) != 2 * dim:
@@ -912,6 +957,13 @@ def cmd_analyze(args, console: _Console) -> int:
             snapshot=particles.snapshot,
             n_snapshots=particles.n_snapshots,
             timestep=particles.timestep,
+        )
+    found = getattr(args, "contacts_read", None)
+    if found is not None:
+        head.update(
+            contacts_file=str(found.path),
+            contacts_layout=found.layout,
+            contacts_timestep=found.timestep,
         )
     d = {**head, "n_particles": len(particles), **d}
     if args.json:
@@ -976,7 +1028,9 @@ def cmd_export(args, console: _Console) -> int:
 
     fmt = args.format
     if fmt is None and args.out is None:
-        raise GranpackError("give --format (vtk, lammps, csv, parquet) or an --out file name")
+        raise GranpackError(
+            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet) or an --out file name"
+        )
     out = args.out
     if out is None:
         out = args.pack.with_suffix(FORMATS[fmt])

@@ -1,4 +1,5 @@
-"""Pack files for other tools: ParaView (VTK), LAMMPS/LIGGGHTS (data file), CSV, Parquet.
+"""Pack files for other tools: ParaView (VTK), LAMMPS/LIGGGHTS (data file and input
+snippet), YADE (text), OVITO/ASE (extended XYZ), CSV, Parquet.
 
 Every writer goes through `granpack.pack.atomic_write`, so an interrupted export never
 leaves a half-written file behind.
@@ -24,6 +25,11 @@ VTK
     Threshold ``kind`` >= 1 and Tube (radius by ``force_normal``) for force chains.
     2D packs lie in the plane z = 0.
 
+    A second file, ``<stem>.container.vtu``, draws the container up to H_top: the box's
+    edges (line cells), the periodic cell's outline (line cells; `kind` 1, where the
+    walls' are 0), or the cylinder's side as quads (24 around) with its floor and top
+    circles as lines; cell data ``kind`` (0 wall, 1 periodic side).
+
 LAMMPS / LIGGGHTS
     A data file for ``atom_style sphere`` (``read_data``): Atoms columns
     ``atom-ID atom-type diameter density x y z`` and a Velocities section
@@ -32,6 +38,22 @@ LAMMPS / LIGGGHTS
     for the default ``inertia_2d = "sphere"``; rho pi r^2 / (4/3 pi r^3) for "disc").
     The box is [0, L] x [0, B2] x [0, H_top] (3D); 2D packs lie at z = 0 in a thin slab
     [-r_max, r_max] (LAMMPS' ``dimension 2`` needs a periodic z; the vertical is y).
+    A periodic pack's centres are wrapped into [0, L) (its images across the seam are
+    LAMMPS' own). The header names the 2D mass convention.
+
+    Beside it, ``in.granpack`` continues the run (`granpack.dem_input`): the LAMMPS input
+    for format ``lammps``, the LIGGGHTS one for ``liggghts``. The data file is the same for
+    both: LIGGGHTS 3.8 reads it for ``atom_style granular`` with the same masses.
+
+YADE
+    ``#format x_y_z_r`` then ``x y z r`` a line, full precision: what YADE's
+    ``export.text`` writes and ``ymport.text`` reads. 2D packs lie at z = 0.
+
+Extended XYZ
+    As OVITO and ASE read it: the count, a comment line with
+    ``Lattice="L 0 0 0 B2 0 0 0 H_top"`` (2D: L, H_top and 2 r_max), ``Origin``,
+    ``pbc`` and ``Properties=species:S:1:pos:R:3:radius:R:1``, then ``X x y z r`` a line
+    (species X, ASE's placeholder element).
 
 CSV / Parquet
     Two polars tables, ``<stem>.particles.<ext>`` and ``<stem>.contacts.<ext>``
@@ -51,6 +73,7 @@ import numpy as np
 import polars as pl
 
 from ._validate import FileFormatError, GranpackError, InvalidParameterError
+from .dem_input import SNIPPET_NAME, container_of, lammps_input, liggghts_input
 from .pack import Pack, atomic_write
 
 __all__ = [
@@ -58,6 +81,11 @@ __all__ = [
     "export",
     "write_vtk",
     "write_lammps",
+    "input_text",
+    "write_yade",
+    "write_xyz",
+    "write_vtk_container",
+    "lammps_positions",
     "write_csv",
     "write_parquet",
     "particle_table",
@@ -66,10 +94,19 @@ __all__ = [
 ]
 
 #: Export formats and the suffix of the file they write.
-FORMATS = {"vtk": ".vtu", "lammps": ".data", "csv": ".csv", "parquet": ".parquet"}
+FORMATS = {
+    "vtk": ".vtu",
+    "lammps": ".data",
+    "liggghts": ".data",
+    "yade": ".txt",
+    "xyz": ".xyz",
+    "csv": ".csv",
+    "parquet": ".parquet",
+}
 
 _VTK_VERTEX = 1
 _VTK_LINE = 3
+_VTK_QUAD = 9
 
 
 def export(
@@ -83,8 +120,11 @@ def export(
     path : path
         Output file. For csv/parquet its stem names the two tables
         (``<stem>.particles.csv``, ``<stem>.contacts.csv``).
-    format : {"vtk", "lammps", "csv", "parquet"}, optional
-        Default: from the suffix of `path` (.vtu/.vtk, .data/.lmp, .csv, .parquet).
+    format : {"vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet"}, optional
+        Default: from the suffix of `path` (.vtu/.vtk, .data/.lmp, .xyz, .csv,
+        .parquet; yade and liggghts are named, not guessed). lammps and liggghts also
+        write ``in.granpack`` beside the data file; vtk also writes
+        ``<stem>.container.vtu``.
     refuse : sequence of paths
         Files that must not be overwritten (the pack file read, say): an output that is
         one of them is a GranpackError before anything is written.
@@ -96,7 +136,14 @@ def export(
         raise InvalidParameterError(
             f"invalid format = {format!r}: choose one of {', '.join(FORMATS)}"
         )
-    targets = _table_paths(path, FORMATS[format]) if format in ("csv", "parquet") else (path,)
+    if format in ("csv", "parquet"):
+        targets: tuple[Path, ...] = _table_paths(path, FORMATS[format])
+    elif format in ("lammps", "liggghts"):
+        targets = (path, path.with_name(SNIPPET_NAME))
+    elif format == "vtk":
+        targets = (path, container_path(path))
+    else:
+        targets = (path,)
     for target in targets:
         for source in map(Path, refuse):
             if _same_file(target, source):
@@ -105,9 +152,15 @@ def export(
                     "file); choose another --out"
                 )
     if format == "vtk":
-        return [write_vtk(pack, path)]
-    if format == "lammps":
-        return [write_lammps(pack, path)]
+        return [write_vtk(pack, path), write_vtk_container(pack, container_path(path))]
+    if format in ("lammps", "liggghts"):
+        # the input first: it refuses a 2D pack for LIGGGHTS before anything is written
+        text = input_text(pack, path.name, format)
+        return [write_lammps(pack, path), atomic_write(path.with_name(SNIPPET_NAME), text.encode())]
+    if format == "yade":
+        return [write_yade(pack, path)]
+    if format == "xyz":
+        return [write_xyz(pack, path)]
     if format == "csv":
         return write_csv(pack, path)
     return write_parquet(pack, path)
@@ -127,6 +180,7 @@ def _format_from_suffix(path: Path) -> str:
         ".vtk": "vtk",
         ".data": "lammps",
         ".lmp": "lammps",
+        ".xyz": "xyz",
         ".csv": "csv",
         ".parquet": "parquet",
     }
@@ -289,6 +343,97 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
     return atomic_write(path, "\n".join(lines).encode())
 
 
+def container_path(path: str | Path) -> Path:
+    """``<stem>.container.vtu`` beside the particles' VTK file."""
+    path = Path(path)
+    stem = path.name[: -len(path.suffix)] if path.suffix else path.name
+    return path.with_name(f"{stem}.container.vtu")
+
+
+#: Quads around the cylinder's side in the container file.
+CYLINDER_SEGMENTS = 24
+
+
+def container_geometry(pack: Pack) -> tuple[np.ndarray, list[tuple[int, np.ndarray]], np.ndarray]:
+    """(points (P, 3), [(VTK cell type, connectivity (C, k))...], kind per cell) drawing
+    the pack's container up to H_top (2D in the plane z = 0, vertical y)."""
+    s = pack.scene
+    kind, radius = container_of(pack)
+    h = float(pack.height)
+    if kind == "cylinder":
+        assert radius is not None
+        k = CYLINDER_SEGMENTS
+        t = 2.0 * math.pi * np.arange(k) / k
+        ring = np.column_stack([radius + radius * np.cos(t), radius + radius * np.sin(t)])
+        points = np.vstack(
+            [np.column_stack([ring, np.zeros(k)]), np.column_stack([ring, np.full(k, h)])]
+        )
+        a = np.arange(k)
+        b = (a + 1) % k
+        quads = np.column_stack([a, b, b + k, a + k])
+        rims = np.vstack([np.column_stack([a, b]), np.column_stack([a + k, b + k])])
+        cells = [(_VTK_QUAD, quads), (_VTK_LINE, rims)]
+        return points, cells, np.zeros(k + 2 * k, dtype=np.uint8)
+    if s.dim == 2:
+        length = s.base[0]
+        points = np.array([[0.0, 0.0, 0.0], [length, 0.0, 0.0], [length, h, 0.0], [0.0, h, 0.0]])
+        edges = np.array([[0, 1], [1, 2], [3, 0], [2, 3]])
+        # floor, the two sides, the open top (drawn so the cell is closed); the sides are
+        # periodic in a periodic cell
+        side = 1 if kind == "periodic" else 0
+        kinds = np.array([0, side, side, 1 if kind == "periodic" else 0], dtype=np.uint8)
+        return points, [(_VTK_LINE, edges)], kinds
+    lx, ly = s.base
+    corners = np.array(
+        [[x, y, z] for z in (0.0, h) for y in (0.0, ly) for x in (0.0, lx)], dtype=np.float64
+    )
+    bottom = [[0, 1], [1, 3], [3, 2], [2, 0]]
+    top = [[a + 4, b + 4] for a, b in bottom]
+    vertical = [[a, a + 4] for a in range(4)]
+    edges = np.array(bottom + top + vertical)
+    kinds = np.zeros(len(edges), dtype=np.uint8)
+    if kind == "periodic":
+        kinds[4:] = 1  # only the floor's edges are a wall
+    return corners, [(_VTK_LINE, edges)], kinds
+
+
+def write_vtk_container(pack: Pack, path: str | Path) -> Path:
+    """Writes the pack's container (box edges, periodic cell outline, or cylinder side) as
+    a VTK XML unstructured grid, to open beside the particles in ParaView. Returns the
+    path."""
+    points, cells, kinds = container_geometry(pack)
+    conn = np.concatenate([c.ravel() for _, c in cells]).astype(np.int64)
+    sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in cells]).astype(np.int64)
+    types = np.concatenate([np.full(len(c), t, np.uint8) for t, c in cells])
+    kind, radius = container_of(pack)
+    lines = [
+        '<?xml version="1.0"?>',
+        f"<!-- granpack container: {kind}"
+        + (f" radius={radius!r} m" if radius is not None else "")
+        + f" H_top={pack.height!r} m -->",
+        '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+        'header_type="UInt64">',
+        "<UnstructuredGrid>",
+        f'<Piece NumberOfPoints="{len(points)}" NumberOfCells="{len(types)}">',
+        '<CellData Scalars="kind">',
+        _data_array("kind", kinds),
+        "</CellData>",
+        "<Points>",
+        _data_array("Points", np.ascontiguousarray(points, dtype=np.float64)),
+        "</Points>",
+        "<Cells>",
+        _data_array("connectivity", conn),
+        _data_array("offsets", np.cumsum(sizes)),
+        _data_array("types", types),
+        "</Cells>",
+        "</Piece>",
+        "</UnstructuredGrid>",
+        "</VTKFile>",
+        "",
+    ]
+    return atomic_write(Path(path), "\n".join(lines).encode())
+
+
 # -- LAMMPS --------------------------------------------------------------------------------
 
 
@@ -304,29 +449,65 @@ def lammps_density(pack: Pack) -> np.ndarray:
     return np.full(r.shape, rho)
 
 
+def lammps_positions(pack: Pack) -> np.ndarray:
+    """(N, 3) centres as the data file writes them: 2D at z = 0, and a periodic pack's
+    wrapped into [0, L) along each periodic axis."""
+    x = _pad3(pack.positions)
+    kind, _ = container_of(pack)
+    if kind == "periodic":
+        for ax, length in enumerate(pack.scene.base):
+            x[:, ax] = np.mod(x[:, ax], length)
+            # mod can round a tiny negative up to L itself
+            x[x[:, ax] >= length, ax] = 0.0
+    return x
+
+
+def input_text(pack: Pack, data_name: str, code: str) -> str:
+    """The text of ``in.granpack`` for `code` ("lammps" or "liggghts") reading the data
+    file `data_name` (see `granpack.dem_input`)."""
+    if code == "lammps":
+        return lammps_input(pack, data_name)
+    if code == "liggghts":
+        return liggghts_input(pack, data_name)
+    raise InvalidParameterError(
+        f"invalid code = {code!r}: must be 'lammps' or 'liggghts'", parameter="code", value=code
+    )
+
+
 def write_lammps(pack: Pack, path: str | Path) -> Path:
     """Writes a LAMMPS/LIGGGHTS data file for ``atom_style sphere`` (SI units; read it
     with ``units si``, ``atom_style sphere`` and ``read_data``; 2D needs
-    ``dimension 2`` and ``boundary f f p``). Returns the path."""
+    ``dimension 2`` and ``boundary f f p``). Returns the path. `export` also writes the
+    input ``in.granpack`` beside it (`input_text`)."""
     path = Path(path)
     s = pack.scene
     n = len(pack)
-    x = _pad3(pack.positions)
+    x = lammps_positions(pack)
     d = 2.0 * np.asarray(pack.radii, dtype=np.float64)
     rho = lammps_density(pack)
     v = _pad3(pack.velocities)
     w = _pad3(pack.spins)
+    kind, radius = container_of(pack)
     if s.dim == 3:
         bounds = [(0.0, s.base[0]), (0.0, s.base[1]), (0.0, pack.height)]
     else:
         half = float(np.max(pack.radii)) if n else float(s.r_max or 0.0)
         bounds = [(0.0, s.base[0]), (0.0, pack.height), (-half, half)]
+    mass = ""
+    if s.dim == 2:
+        mass = f", mass convention {s.inertia_2d}" + (
+            " (disc of unit thickness: m = pi r^2 rho)"
+            if s.inertia_2d == "disc"
+            else " (sphere: m = 4/3 pi r^3 rho)"
+        )
+    where = f", container {kind}" + (f" radius {radius!r}" if radius is not None else "")
     # A particle touching the top sits exactly on H_top; nothing is outside the box.
     out = io.StringIO()
     out.write(
         f"LAMMPS data file from granpack: dim={s.dim} N={n} seed={s.seed} "
         f"stream={s.stream} rotations={'on' if s.rotations else 'off'} (SI units, "
-        f"atom_style sphere{', dimension 2, vertical y' if s.dim == 2 else ', vertical z'})\n\n"
+        f"atom_style sphere{', dimension 2, vertical y' if s.dim == 2 else ', vertical z'}"
+        f"{mass}{where})\n\n"
     )
     out.write(f"{n} atoms\n1 atom types\n\n")
     for (lo, hi), ax in zip(bounds, "xyz", strict=True):
@@ -341,6 +522,56 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     for k in range(n):
         out.write(f"{ids[k]} " + " ".join(repr(float(val)) for val in vel[k]) + "\n")
     return atomic_write(path, out.getvalue().encode())
+
+
+# -- YADE and extended XYZ -----------------------------------------------------------------
+
+
+def write_yade(pack: Pack, path: str | Path) -> Path:
+    """Writes YADE's text format (``#format x_y_z_r``, then ``x y z r`` a line at full
+    precision), which ``yade.ymport.text`` reads. Returns the path."""
+    x = _pad3(pack.positions)
+    r = np.asarray(pack.radii, dtype=np.float64)
+    out = io.StringIO()
+    out.write("#format x_y_z_r\n")
+    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
+        out.write(f"{x0!r} {x1!r} {x2!r} {rk!r}\n")
+    return atomic_write(Path(path), out.getvalue().encode())
+
+
+def _cell(pack: Pack) -> tuple[list[float], list[bool]]:
+    """Lattice lengths (3) and periodic flags (3) of the pack's cell up to H_top."""
+    s = pack.scene
+    kind, _ = container_of(pack)
+    periodic = kind == "periodic"
+    if s.dim == 3:
+        return [s.base[0], s.base[1], pack.height], [periodic, periodic, False]
+    half = float(np.max(pack.radii)) if len(pack) else float(s.r_max or 0.0)
+    return [s.base[0], pack.height, 2.0 * half], [periodic, False, False]
+
+
+def write_xyz(pack: Pack, path: str | Path) -> Path:
+    """Writes extended XYZ with a radius column, as OVITO and ASE read it (layout in the
+    module docstring). Returns the path."""
+    s = pack.scene
+    x = lammps_positions(pack)
+    r = np.asarray(pack.radii, dtype=np.float64)
+    lengths, pbc = _cell(pack)
+    origin = [0.0, 0.0, 0.0 if s.dim == 3 else -lengths[2] / 2.0]
+    lattice = " ".join(
+        repr(float(lengths[a])) if a == b else "0.0" for a in range(3) for b in range(3)
+    )
+    comment = (
+        f'Lattice="{lattice}" Origin="{" ".join(repr(float(o)) for o in origin)}" '
+        "Properties=species:S:1:pos:R:3:radius:R:1 "
+        f'pbc="{" ".join("T" if p else "F" for p in pbc)}" '
+        f'granpack="dim={s.dim} seed={s.seed} stream={s.stream} H_top={pack.height!r}"'
+    )
+    out = io.StringIO()
+    out.write(f"{len(pack)}\n{comment}\n")
+    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
+        out.write(f"X {x0!r} {x1!r} {x2!r} {rk!r}\n")
+    return atomic_write(Path(path), out.getvalue().encode())
 
 
 def read_lammps_data(path: str | Path) -> dict:

@@ -83,6 +83,11 @@ class Pack:
         wall_seconds.
     wall_time : float
         Seconds spent generating.
+    trim : dict or None
+        What the flat top did (``PackScene.trim``): ``removed`` (particles taken out
+        above H_d), ``top`` (the final H_top after the relax, m, <= H_d), ``phi_hd``
+        (solid fraction of the container up to H_d), ``steps`` (relax steps). None for
+        a pack made without it.
     """
 
     scene: PackScene
@@ -95,6 +100,7 @@ class Pack:
     height: float
     layers: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
+    trim: dict | None = None
 
     @property
     def dim(self) -> int:
@@ -143,6 +149,8 @@ class Pack:
             "layers": self.layers,
             "wall_time": self.wall_time,
         }
+        if self.trim is not None:
+            meta["trim"] = self.trim
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
@@ -280,6 +288,7 @@ def load_pack(path: str | Path) -> Pack:
             height=float(meta["height"]),
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
+            trim=_trim_record(meta.get("trim")),
         )
     except (
         KeyError,
@@ -293,6 +302,20 @@ def load_pack(path: str | Path) -> Pack:
         raise FileFormatError(
             f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
+
+
+def _trim_record(value) -> dict | None:
+    """The flat top's record of a pack file (None when it has none)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise ValueError(f"'trim' is {type(value).__name__}, expected a table")
+    return {
+        "removed": int(value["removed"]),
+        "top": float(value["top"]),
+        "phi_hd": float(value["phi_hd"]),
+        "steps": int(value["steps"]),
+    }
 
 
 def _text(data: dict, key: str) -> str:
@@ -459,8 +482,20 @@ def generate(
     finally:
         if bar is not None:
             bar.close()
+    trim = None
+    if scene.trim:
+        done = packer.trim(scene.height)
+        trim = {
+            "removed": int(done["removed"]),
+            "top": float(done["height"]),
+            "steps": done["steps"],
+        }
     state = packer.state()
     contacts = Contacts.from_dict(packer.contacts())
+    if trim is not None:
+        r = np.asarray(state["radii"])
+        solid = float(np.sum(np.pi * r**2 if scene.dim == 2 else 4 / 3 * np.pi * r**3))
+        trim["phi_hd"] = solid / (scene.base_area * scene.height)
     pack = Pack(
         scene=scene,
         positions=state["positions"],
@@ -472,6 +507,7 @@ def generate(
         height=float(packer.height),
         layers=reports,
         wall_time=time.perf_counter() - t0,
+        trim=trim,
     )
     issue = settling_issue(pack)
     if issue is not None:

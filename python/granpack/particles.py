@@ -9,6 +9,11 @@ Formats (the names `format=` takes and ``ParticleFile.format`` gives):
   text file, one or more snapshots; columns found by name;
 - ``"lammps-data"``: a LAMMPS data file for ``atom_style sphere`` (as granpack's export
   writes it);
+- ``"yade"``: YADE's text export (``yade.export.text``/``textExt``, the file
+  ``yade.ymport.text`` reads): a header comment ``#format x_y_z_r`` (or
+  ``x_y_z_r_matId``, ``id_x_y_z_r_matId``), then one sphere a line;
+- ``"xyz"``: extended XYZ (OVITO, ASE) with ``pos`` and ``radius`` properties, as
+  granpack's export writes it;
 - ``"xyzr"``: plain text, ``x y z r`` or ``x y r`` a line;
 - ``"csv"``: comma-separated text with a header row naming the columns;
 - ``"parquet"``: a Parquet table with named columns;
@@ -39,7 +44,7 @@ if TYPE_CHECKING:
 __all__ = ["FORMATS", "ParticleFile", "detect_format", "read_particles"]
 
 #: The format names `read_particles` takes and reports.
-FORMATS = ("lammps-dump", "lammps-data", "xyzr", "csv", "parquet", "npz")
+FORMATS = ("lammps-dump", "lammps-data", "yade", "xyz", "xyzr", "csv", "parquet", "npz")
 
 # Coordinate columns of a dump, in order of preference: plain, unwrapped, scaled,
 # scaled unwrapped (LAMMPS' names). Scaled ones are fractions of the box.
@@ -51,6 +56,11 @@ _ID_NAMES = ("id",)
 # How many leading lines the content sniffing looks at for a data file's "N atoms".
 _SNIFF_LINES = 40
 _DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
+# YADE's text export: "#format x_y_z_r" (export.text), or another textExt layout
+_YADE_HEADER = re.compile(r"^#\s*format\s+(\S+)\s*$")
+#: The YADE layouts read, as their header names them; columns other than x y z r id are
+#: skipped (matId, the material).
+YADE_LAYOUTS = ("x_y_z_r", "x_y_z_r_matId", "id_x_y_z_r_matId")
 
 
 class ParticleFile:
@@ -129,6 +139,34 @@ class ParticleFile:
     def __len__(self) -> int:
         return int(self.radii.shape[0])
 
+    def with_contacts(self, contacts) -> ParticleFile:
+        """The same particles with `contacts` (a granpack.Contacts, or what
+        :func:`granpack.read_contacts` returns), so that ``gp.microstructure`` takes its
+        forces: ``gp.microstructure(p.with_contacts(gp.read_contacts(f, p)))``."""
+        c = getattr(contacts, "contacts", contacts)
+        if not isinstance(c, Contacts):
+            raise InvalidParameterError(
+                f"invalid contacts = {type(contacts).__name__}: expected granpack.Contacts or "
+                "the result of granpack.read_contacts",
+                parameter="contacts",
+            )
+        notes = self.notes + tuple(getattr(contacts, "notes", ()))
+        return ParticleFile(
+            path=self.path,
+            format=self.format,
+            positions=self.positions,
+            radii=self.radii,
+            ids=self.ids,
+            box=self.box,
+            periodic=self.periodic,
+            timestep=self.timestep,
+            snapshot=self.snapshot,
+            n_snapshots=self.n_snapshots,
+            contacts=c,
+            pack=self.pack,
+            notes=notes,
+        )
+
     def __repr__(self) -> str:
         where = f", snapshot {self.snapshot} of {self.n_snapshots}" if self.n_snapshots > 1 else ""
         return (
@@ -165,8 +203,9 @@ def detect_format(path) -> str:
     A ``.npz`` or ``.parquet`` suffix, or the file's magic bytes (zip, ``PAR1``), decide
     for the binary formats. Text is told by its content, whatever the suffix: a first
     line ``ITEM: ...`` is a dump, an ``N atoms`` header line a data file, a first
-    (non-comment) line with a word that is not a number and a comma a CSV header;
-    anything else is ``x y (z) r`` text.
+    (non-comment) line with a word that is not a number and a comma a CSV header, a
+    first line ``#format x_y_z_r`` (YADE's header) YADE text; anything else is
+    ``x y (z) r`` text.
 
     Raises
     ------
@@ -185,6 +224,10 @@ def detect_format(path) -> str:
     first = next((ln.strip() for ln in lines if ln.strip()), "")
     if first.startswith("ITEM:"):
         return "lammps-dump"
+    if _YADE_HEADER.match(first):
+        return "yade"
+    if first.isdigit() and len(lines) > 1 and "properties=" in lines[1].lower():
+        return "xyz"
     # a data file: a title line, then header lines such as "12 atoms" before "Atoms"
     if _DATA_HEADER.search("\n".join(lines[1:_SNIFF_LINES])):
         return "lammps-data"
@@ -280,6 +323,10 @@ def read_particles(
             return _read_data(path, dim)
         if fmt == "xyzr":
             return _read_xyzr(path, dim)
+        if fmt == "yade":
+            return _read_yade(path, dim)
+        if fmt == "xyz":
+            return _read_extxyz(path, dim)
         return _read_table(path, fmt, dim)
     except FileFormatError:
         raise
@@ -713,6 +760,147 @@ def _read_xyzr(path: Path, dim: int | None) -> ParticleFile:
 
     x, r, d = read_xyzr(path, dim=dim)
     return ParticleFile(path=path, format="xyzr", positions=x, radii=r)
+
+
+def _read_yade(path: Path, dim: int | None) -> ParticleFile:
+    """YADE's text export: the ``#format`` header names the columns."""
+    lines = _read_text(path).splitlines()
+    k0 = next((k for k, ln in enumerate(lines) if ln.strip()), None)
+    head = _YADE_HEADER.match(lines[k0].strip()) if k0 is not None else None
+    if head is None or head.group(1) not in YADE_LAYOUTS:
+        found = repr(lines[k0].strip()[:60]) if k0 is not None else "an empty file"
+        raise FileFormatError(
+            f"{path}:{(k0 or 0) + 1}: expected a YADE header '#format <layout>' with a layout "
+            f"of {', '.join(YADE_LAYOUTS)}, found {found}",
+            path=path,
+        )
+    assert k0 is not None  # a header was matched
+    layout = head.group(1)
+    names = layout.split("_")
+    ncol = len(names)
+    rows: list[list[float]] = []
+    row_line: list[int] = []
+    for k in range(k0 + 1, len(lines)):
+        body = lines[k].split("#", 1)[0].split()
+        if not body:
+            continue
+        if len(body) != ncol:
+            raise FileFormatError(
+                f"{path}:{k + 1}: expected {ncol} numbers ({' '.join(names)}, as the header "
+                f"'#format {layout}' says), found {len(body)} fields",
+                path=path,
+            )
+        bad = next((v for v in body if not is_number(v)), None)
+        if bad is not None:
+            raise FileFormatError(f"{path}:{k + 1}: {bad!r} is not a number", path=path)
+        rows.append([float(v) for v in body])
+        row_line.append(k + 1)
+    if not rows:
+        raise FileFormatError(f"{path}: no spheres after the header '#format {layout}'", path=path)
+    a = np.array(rows, dtype=np.float64)
+    x3 = a[:, [names.index(c) for c in ("x", "y", "z")]]
+    r = a[:, names.index("r")]
+    ids = None
+    order = np.arange(len(rows))
+    if "id" in names:
+        raw = a[:, names.index("id")]
+        if not np.all(raw == np.round(raw)):
+            k = int(np.argmax(raw != np.round(raw)))
+            raise FileFormatError(f"{path}:{row_line[k]}: id {raw[k]} is not an integer", path=path)
+        ids = raw.astype(np.int64)
+        order = _sorted_by_id(path, ids, lambda k: row_line[k])
+        ids, x3, r = ids[order], x3[order], r[order]
+    _check_values(path, x3, r, lambda k: row_line[int(order[k])])
+    d = _choose_dim(path, x3, True, dim)
+    return ParticleFile(path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids)
+
+
+def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
+    """Extended XYZ, one frame: the count, the comment line with ``Properties=`` (and
+    optionally an orthogonal ``Lattice``, ``Origin``, ``pbc``), then the rows."""
+    import shlex
+
+    lines = _read_text(path).splitlines()
+    if not lines or not lines[0].strip().isdigit():
+        raise FileFormatError(
+            f"{path}:1: expected the particle count (an integer), found "
+            f"{repr(lines[0].strip()[:60]) if lines else 'an empty file'}",
+            path=path,
+        )
+    n = int(lines[0])
+    if len(lines) < 2:
+        raise FileFormatError(f"{path}:2: expected the comment line with Properties=", path=path)
+    try:
+        words = shlex.split(lines[1])
+    except ValueError as exc:
+        raise FileFormatError(f"{path}:2: cannot read the comment line: {exc}", path=path) from None
+    info = {}
+    for w in words:
+        if "=" in w:
+            key, value = w.split("=", 1)
+            info[key.lower()] = value
+    spec = info.get("properties", "").split(":")
+    if len(spec) % 3 or not spec[0]:
+        raise FileFormatError(
+            f"{path}:2: expected Properties=name:type:count:..., found "
+            f"{info.get('properties', 'none')!r}",
+            path=path,
+        )
+    cols: dict[str, tuple[int, int]] = {}
+    at = 0
+    for k in range(0, len(spec), 3):
+        name, count = spec[k].lower(), spec[k + 2]
+        if not count.isdigit():
+            raise FileFormatError(f"{path}:2: property {spec[k]!r} has count {count!r}", path=path)
+        cols[name] = (at, int(count))
+        at += int(count)
+    missing = [c for c in ("pos", "radius") if c not in cols]
+    if missing or cols.get("pos", (0, 3))[1] not in (2, 3):
+        raise FileFormatError(
+            f"{path}:2: missing propert{'ies' if len(missing) > 1 else 'y'} "
+            f"{' and '.join(missing) or 'pos with 3 components'} in Properties (expected "
+            "pos:R:3 and radius:R:1)",
+            path=path,
+            reason="missing columns",
+        )
+    if len(lines) < 2 + n:
+        raise FileFormatError(
+            f"{path}:{len(lines) + 1}: expected {n} particle rows after line 2 (line 1 says "
+            f"{n}), found {len(lines) - 2}: a truncated file",
+            path=path,
+        )
+    rows = [ln.split() for ln in lines[2 : 2 + n]]
+    for k, t in enumerate(rows):
+        if len(t) != at:
+            raise FileFormatError(
+                f"{path}:{k + 3}: expected {at} values (Properties), found {len(t)}", path=path
+            )
+    p0, pn = cols["pos"]
+    r0 = cols["radius"][0]
+    num = [[t[c] for c in (*range(p0, p0 + pn), r0)] for t in rows]
+    for k, t in enumerate(num):
+        bad = next((v for v in t if not is_number(v)), None)
+        if bad is not None:
+            raise FileFormatError(f"{path}:{k + 3}: {bad!r} is not a number", path=path)
+    a = np.array(num, dtype=np.float64).reshape(n, pn + 1)
+    x3 = np.zeros((n, 3))
+    x3[:, :pn] = a[:, :pn]
+    r = a[:, pn]
+    _check_values(path, x3, r, lambda k: k + 3)
+    d = _choose_dim(path, x3, pn == 3, dim)
+    box = None
+    lattice = info.get("lattice", "").split()
+    if len(lattice) == 9 and all(is_number(v) for v in lattice):
+        m = np.array(lattice, dtype=np.float64).reshape(3, 3)
+        if np.all(m == np.diag(np.diag(m))):  # orthogonal cells only
+            origin = info.get("origin", "0 0 0").split()
+            o = np.array(origin, dtype=np.float64) if len(origin) == 3 else np.zeros(3)
+            box = (o[:d], (o + np.diag(m))[:d])
+    pbc = info.get("pbc", "").split()
+    periodic = tuple(v.upper() in ("T", "TRUE") for v in pbc[:d]) if len(pbc) == 3 else None
+    return ParticleFile(
+        path=path, format="xyz", positions=x3[:, :d], radii=r, box=box, periodic=periodic
+    )
 
 
 def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:

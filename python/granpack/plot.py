@@ -6,7 +6,10 @@ in worker processes and tests. `save` writes a PNG atomically.
 
 * `pack_figure`: 2D packs as discs coloured by layer (the paper's figs. 2-5); 3D packs
   as an orthographic rendered view (spheres drawn back to front, coloured by layer,
-  shaded by depth) beside a vertical mid-plane slice (figs. 6-9).
+  shaded by depth) beside a vertical mid-plane slice (figs. 6-9). A cylinder pack is
+  drawn in its cylinder (the view's outline, a slice through the axis) with a
+  horizontal slice at mid-height; a periodic pack with the images of the particles
+  that cross the seam (paler, the periodic sides dashed), and in 3D a horizontal slice.
 * `packs_figure`: several packs of an ensemble in a grid.
 * `normals_figure`: contact-normal rose diagram (2D) with the fabric's second-order
   approximation E(theta) = (1 + a^r_ij n_i n_j) / (2 pi); orientation density (3D) on an
@@ -39,6 +42,7 @@ from .pack import atomic_write
 __all__ = [
     "analysis_figure",
     "save",
+    "periodic_images",
     "pack_figure",
     "packs_figure",
     "normals_figure",
@@ -88,8 +92,55 @@ def _parts(pack):
     return dim, x, r, layer, base, float(height)
 
 
-def _walls(ax, width: float, height: float) -> None:
-    ax.plot([0, 0, width, width], [height, 0, 0, height], color="0.2", lw=1.0)
+def _container(pack) -> tuple[str, float | None]:
+    """The container of a pack's scene ("box" where the scene has none) and the
+    cylinder radius (m; None for the others)."""
+    scene = getattr(pack, "scene", None)
+    kind = getattr(scene, "container", "box") if scene is not None else "box"
+    radius = getattr(scene, "cylinder_radius", None) if kind == "cylinder" else None
+    if kind == "cylinder" and radius is None and scene is not None:
+        radius = scene.base[0] / 2.0
+    return kind, radius
+
+
+def _walls(ax, width: float, height: float, periodic: bool = False) -> None:
+    if not periodic:
+        ax.plot([0, 0, width, width], [height, 0, 0, height], color="0.2", lw=1.0)
+        return
+    ax.plot([0, width], [0, 0], color="0.2", lw=1.0)
+    for xs in (0, width):  # the seam: periodic sides, not walls
+        ax.plot([xs, xs], [0, height], color="0.35", lw=0.8, ls="--")
+
+
+#: Opacity of the periodic images drawn across the seam.
+IMAGE_ALPHA = 0.4
+
+
+def periodic_images(x: np.ndarray, r: np.ndarray, periods: Sequence[tuple[int, float]]):
+    """The images of the particles that cross a periodic side: (centres, radii, index
+    of the particle each is an image of). `periods` are (axis, period) pairs; a particle
+    within its radius of a side gets the copy shifted by the period across it (and, with
+    two periodic axes, the corner copies)."""
+    idx = np.arange(len(r))
+    cx, cr, ci = x.copy(), r.copy(), idx.copy()
+    for axis, length in periods:
+        lo = cx[:, axis] < cr
+        hi = cx[:, axis] > length - cr
+        shift = np.zeros(x.shape[1])
+        shift[axis] = length
+        cx = np.vstack([cx, cx[lo] + shift, cx[hi] - shift])
+        cr = np.concatenate([cr, cr[lo], cr[hi]])
+        ci = np.concatenate([ci, ci[lo], ci[hi]])
+    n = len(r)
+    return cx[n:], cr[n:], ci[n:]
+
+
+def _draw_images(ax, x, r, layer, periods, cols) -> None:
+    xi, ri, ii = periodic_images(x, r, periods)
+    if len(ri):
+        colors = _layer_colors(None if layer is None else np.asarray(layer)[ii], len(ri))
+        colors[:, 3] = IMAGE_ALPHA
+        _discs(ax, xi[:, cols], ri, colors, edgecolors="0.5", linewidths=0.2)
 
 
 def _discs(ax, centres: np.ndarray, radii: np.ndarray, colors, **kw) -> None:
@@ -107,9 +158,11 @@ def _discs(ax, centres: np.ndarray, radii: np.ndarray, colors, **kw) -> None:
     )
 
 
-def _draw_2d(ax, x, r, layer, base, height) -> None:
+def _draw_2d(ax, x, r, layer, base, height, kind: str = "box") -> None:
     _discs(ax, x, r, _layer_colors(layer, len(r)), edgecolors="0.15", linewidths=0.2)
-    _walls(ax, base[0], height)
+    if kind == "periodic":
+        _draw_images(ax, x, r, layer, [(0, base[0])], [0, 1])
+    _walls(ax, base[0], height, periodic=kind == "periodic")
     ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
     ax.set_ylim(-0.02 * height, 1.04 * height)
     ax.set_aspect("equal")
@@ -127,7 +180,9 @@ def _view_basis(azimuth_deg: float, elevation_deg: float):
     return right, up, toward
 
 
-def _draw_3d_view(ax, x, r, layer, base, height, azimuth=-60.0, elevation=22.0) -> None:
+def _draw_3d_view(
+    ax, x, r, layer, base, height, azimuth=-60.0, elevation=22.0, radius=None
+) -> None:
     right, up, toward = _view_basis(azimuth, elevation)
     u, v, depth = x @ right, x @ up, x @ toward
     order = np.argsort(depth)  # far spheres first: the painter's algorithm hides them
@@ -137,35 +192,54 @@ def _draw_3d_view(ax, x, r, layer, base, height, azimuth=-60.0, elevation=22.0) 
     shade = 0.55 + 0.45 * (depth[order] - depth.min()) / (span or 1.0)
     colors[:, :3] *= shade[:, None]
     _discs(ax, np.column_stack([u, v])[order], r[order], colors, edgecolors="0.1", linewidths=0.15)
-    # Box edges, for orientation.
-    b1, b2 = base
-    corners = np.array(
-        [[i * b1, j * b2, k * height] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
-    )
-    edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
-    cu, cv = corners @ right, corners @ up
-    ax.add_collection(
-        LineCollection(
-            [[(cu[a], cv[a]), (cu[b], cv[b])] for a, b in edges],
-            colors="0.4",
-            linewidths=0.6,
-            zorder=0,
+    if radius is not None:
+        # The cylinder: floor and top circles and the two vertical silhouette lines.
+        t = np.linspace(0.0, 2 * np.pi, 97)
+        segments = []
+        for z in (0.0, height):
+            ring = np.column_stack(
+                [radius + radius * np.cos(t), radius + radius * np.sin(t), np.full_like(t, z)]
+            )
+            segments.append(np.column_stack([ring @ right, ring @ up]))
+        for sign in (-1.0, 1.0):
+            foot = np.array([radius, radius, 0.0]) + sign * radius * right
+            top = foot + np.array([0.0, 0.0, height])
+            segments.append(np.array([[foot @ right, foot @ up], [top @ right, top @ up]]))
+        ax.add_collection(LineCollection(segments, colors="0.4", linewidths=0.6, zorder=0))
+    else:
+        # Box edges, for orientation.
+        b1, b2 = base
+        corners = np.array(
+            [[i * b1, j * b2, k * height] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
         )
-    )
+        edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+        cu, cv = corners @ right, corners @ up
+        ax.add_collection(
+            LineCollection(
+                [[(cu[a], cv[a]), (cu[b], cv[b])] for a, b in edges],
+                colors="0.4",
+                linewidths=0.6,
+                zorder=0,
+            )
+        )
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_axis_off()
     ax.set_title(f"view (azimuth {azimuth:g}°, elevation {elevation:g}°)", fontsize=9)
 
 
-def _draw_3d_slice(ax, x, r, layer, base, height) -> None:
+def _draw_3d_slice(ax, x, r, layer, base, height, kind: str = "box") -> None:
     y0 = 0.5 * base[1]
     d = np.abs(x[:, 1] - y0)
     cut = d < r
     rc = np.sqrt(r[cut] ** 2 - d[cut] ** 2)
-    colors = _layer_colors(None if layer is None else np.asarray(layer)[cut], int(cut.sum()))
+    lay = None if layer is None else np.asarray(layer)[cut]
+    colors = _layer_colors(lay, int(cut.sum()))
     _discs(ax, x[cut][:, [0, 2]], rc, colors, edgecolors="0.15", linewidths=0.2)
-    _walls(ax, base[0], height)
+    if kind == "periodic":
+        _draw_images(ax, x[cut][:, [0, 2]], rc, lay, [(0, base[0])], [0, 1])
+    # a slice through a cylinder's axis meets its wall at x = 0 and x = 2R
+    _walls(ax, base[0], height, periodic=kind == "periodic")
     ax.set_xlim(-0.02 * base[0], 1.02 * base[0])
     ax.set_ylim(-0.02 * height, 1.04 * height)
     ax.set_aspect("equal")
@@ -174,21 +248,55 @@ def _draw_3d_slice(ax, x, r, layer, base, height) -> None:
     ax.set_title(f"slice y = {y0:g} m", fontsize=9)
 
 
+def _draw_horizontal_slice(ax, x, r, layer, base, height, kind: str, radius) -> None:
+    """The circles a horizontal plane at mid-height cuts, in the container's outline."""
+    z0 = 0.5 * height
+    d = np.abs(x[:, 2] - z0)
+    cut = d < r
+    rc = np.sqrt(r[cut] ** 2 - d[cut] ** 2)
+    lay = None if layer is None else np.asarray(layer)[cut]
+    _discs(
+        ax, x[cut][:, :2], rc, _layer_colors(lay, int(cut.sum())), edgecolors="0.15", linewidths=0.2
+    )
+    b1, b2 = base
+    if kind == "cylinder":
+        t = np.linspace(0.0, 2 * np.pi, 181)
+        ax.plot(radius + radius * np.cos(t), radius + radius * np.sin(t), color="0.2", lw=1.0)
+    elif kind == "periodic":
+        _draw_images(ax, x[cut][:, :2], rc, lay, [(0, b1), (1, b2)], [0, 1])
+        ax.plot([0, b1, b1, 0, 0], [0, 0, b2, b2, 0], color="0.35", lw=0.8, ls="--")
+    else:
+        ax.plot([0, b1, b1, 0, 0], [0, 0, b2, b2, 0], color="0.2", lw=1.0)
+    ax.set_xlim(-0.04 * b1, 1.04 * b1)
+    ax.set_ylim(-0.04 * b2, 1.04 * b2)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"slice z = {z0:.3g} m", fontsize=9)
+
+
 def pack_figure(pack, title: str | None = None) -> Figure:
     """The pack: discs coloured by layer (2D), or a rendered view and a vertical
     mid-plane slice (3D). `pack` is a `Pack` or any object with ``positions``,
     ``radii`` and optionally ``layer``, ``scene`` and ``height``."""
     dim, x, r, layer, base, height = _parts(pack)
+    kind, radius = _container(pack)
     if dim == 2:
         aspect = height / base[0] if base[0] > 0 else 1.0
         fig = _figure(8.0, max(2.5, 8.0 * aspect + 0.8))
         ax = fig.add_subplot()
-        _draw_2d(ax, x, r, layer, base, height)
-    else:
+        _draw_2d(ax, x, r, layer, base, height, kind)
+    elif kind == "box":
         fig = _figure(12.0, 5.0)
         ax1, ax2 = fig.subplots(1, 2, width_ratios=[1.1, 1.0])
         _draw_3d_view(ax1, x, r, layer, base, height)
         _draw_3d_slice(ax2, x, r, layer, base, height)
+    else:
+        fig = _figure(16.0, 5.0)
+        ax1, ax2, ax3 = fig.subplots(1, 3, width_ratios=[1.1, 1.0, 0.8])
+        _draw_3d_view(ax1, x, r, layer, base, height, radius=radius)
+        _draw_3d_slice(ax2, x, r, layer, base, height, kind)
+        _draw_horizontal_slice(ax3, x, r, layer, base, height, kind, radius)
     if title:
         fig.suptitle(title)
     return fig

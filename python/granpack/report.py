@@ -256,6 +256,7 @@ def ensemble_report(
         f"phi = {_mean_sd(_col(records, 'phi'), 4)}, Z = {_mean_sd(_col(records, 'z'), 3)} "
         "(mean ± sample standard deviation).",
         "",
+        *_trim_lines(records, scene),
         *_grading_lines(scene, records),
         "| pack | N | layers | H_top (m) | phi | Z | Z_m | seconds | file |",
         "|---|---|---|---|---|---|---|---|---|",
@@ -283,6 +284,19 @@ def ensemble_report(
         "",
     ]
     return atomic_write(out / "report.md", "\n".join(lines).encode())
+
+
+def _trim_lines(records: Sequence[Mapping], scene) -> list[str]:
+    """The flat top's line of the report (empty for packs made without it)."""
+    if not any("phi_hd" in rec for rec in records):
+        return []
+    return [
+        f"Flat top (trim): every particle above H_d = {scene.height} m removed, then a relax; "
+        f"removed per pack {_mean_sd(_col(records, 'trim_removed'), 1)}, final top "
+        f"{_mean_sd(_col(records, 'trim_top'), 4)} m, phi to H_d "
+        f"{_mean_sd(_col(records, 'phi_hd'), 4)}.",
+        "",
+    ]
 
 
 def _grading_lines(scene, records: Sequence[Mapping]) -> list[str]:

@@ -201,6 +201,11 @@ class PackScene:
         Net force over weight under which a particle may freeze and above which a frozen
         one thaws (-). Default 0.1 (0.5 thaws less often and runs faster, but moved the
         force anisotropy |a^n| of example 4.1 well beyond the full runs' spread).
+    trim : bool
+        A flat top (default False): after the last layer, remove every particle whose
+        top z + r lies above H_d (``height``), then relax the rest as the final relax
+        does (0.1 s, at most settle_time, every particle thawed). The pack then ends
+        at or below H_d; ``Pack.trim`` records what was removed and phi up to H_d.
     """
 
     dim: int = 2
@@ -240,6 +245,7 @@ class PackScene:
     freeze_depth: float | None = None
     freeze_speed: float = 1e-3
     freeze_force: float = 0.1
+    trim: bool = False
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -349,6 +355,7 @@ class PackScene:
             s(self, "freeze_depth", as_real("freeze_depth", self.freeze_depth, 0, unit="m"))
         s(self, "freeze_speed", as_real("freeze_speed", self.freeze_speed, 0, unit="m/s"))
         s(self, "freeze_force", as_real("freeze_force", self.freeze_force, 0))
+        s(self, "trim", as_bool("trim", self.trim))
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
         if not n_est <= 5e8:  # NaN (inf / inf) is refused too

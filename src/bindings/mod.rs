@@ -880,6 +880,29 @@ impl LayerPacker {
         }
     }
 
+    /// The flat top, after the last layer: removes every particle whose top lies above
+    /// `height` (m) and relaxes the rest as the final relax does (GIL released; Ctrl-C
+    /// as in next_layer). Returns {"removed", "steps", "height"}.
+    fn trim<'py>(&mut self, py: Python<'py>, height: f64) -> PyResult<Bound<'py, PyDict>> {
+        let inner = &mut self.inner;
+        let mut raised = None;
+        let out = py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_packer!(inner, p, _D, p.trim_polled(height, &mut poll))
+        })?;
+        match (out, raised) {
+            (Some((removed, steps)), _) => {
+                let d = PyDict::new(py);
+                d.set_item("removed", removed)?;
+                d.set_item("steps", steps)?;
+                d.set_item("height", with_packer!(&self.inner, p, _D, p.height()))?;
+                Ok(d)
+            }
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(PyRuntimeError::new_err("the relax was stopped midway")),
+        }
+    }
+
     /// Particle arrays: positions, radii, velocities, spins, layer.
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);

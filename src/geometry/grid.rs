@@ -540,6 +540,31 @@ mod tests {
             prop_assert_eq!(neighbor_pairs_periodic(&x, &reach, Some(&per)), brute_force_pairs_periodic(&x, &reach, &per));
         }
 
+        /// Size ratios up to 20 (cells sized for the largest reach hold hundreds of
+        /// the smallest): the search finds exactly the brute-force pairs, in a box and
+        /// in a periodic cell, 2D and 3D, and from the active particles only.
+        #[test]
+        fn wide_size_ratios_equal_brute_force(seed in 0u64..10_000, n in 0usize..500,
+                                              ratio in 1.0f64..20.0, skin in 0.0f64..0.01,
+                                              periodic in proptest::bool::ANY) {
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
+            let reach: Vec<Real> = reach.iter().map(|r| 0.5 * r).collect();
+            let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::repeat(1.0), &[true, true, false]);
+            if periodic {
+                prop_assert_eq!(neighbor_pairs_periodic(&x, &reach, Some(&per)), brute_force_pairs_periodic(&x, &reach, &per));
+            } else {
+                prop_assert_eq!(neighbor_pairs(&x, &reach), brute_force_pairs(&x, &reach));
+            }
+            let (x2, reach2) = cloud::<2>(seed, n, ratio, skin);
+            prop_assert_eq!(neighbor_pairs(&x2, &reach2), brute_force_pairs(&x2, &reach2));
+            let active: Vec<bool> = (0..n).map(|k| k % 3 != 0).collect();
+            let expect: Vec<[u32; 2]> = brute_force_pairs(&x, &reach)
+                .into_iter()
+                .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                .collect();
+            prop_assert_eq!(neighbor_pairs_active(&x, &reach, None, |i| active[i]), expect);
+        }
+
         #[test]
         fn grid_pairs_equal_brute_force_2d(seed in 0u64..10_000, n in 0usize..600,
                                            ratio in 1.0f64..4.0, skin in 0.0f64..0.01) {

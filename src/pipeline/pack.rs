@@ -447,6 +447,51 @@ where
         Ok(Some(rep))
     }
 
+    /// The flat top: removes every particle whose top (z + r) lies above `h` (m), then
+    /// relaxes the rest as the final relax does (every particle thawed, for
+    /// [`FREEZE_RELAX`], at most `settle_time`, at the current step), calling `poll` as
+    /// [`Packer::next_layer_polled`] does. Returns the particles removed and the steps
+    /// run, or None when `poll` stopped the relax. Refused before the last layer.
+    pub fn trim_polled(
+        &mut self,
+        h: Real,
+        poll: &mut dyn FnMut() -> bool,
+    ) -> Result<Option<(usize, u64)>> {
+        if self.stopped || !self.done() {
+            return Err(Error::invalid(
+                "trim",
+                h,
+                "applies to a finished pack (after the last layer)",
+            ));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Error::invalid("trim", h, "must be a height > 0 (m)"));
+        }
+        let v = <Dim<D> as Spatial<D>>::VERTICAL;
+        let keep: Vec<bool> = self
+            .world
+            .positions()
+            .iter()
+            .zip(self.world.radii())
+            .map(|(x, r)| x[v] + r <= h)
+            .collect();
+        let removed = keep.iter().filter(|&&k| !k).count();
+        self.world.remove_particles(&keep)?;
+        let mut k = 0;
+        self.layer_of.retain(|_| {
+            k += 1;
+            keep[k - 1]
+        });
+        let dt = self.world.config().dt;
+        let relax = ((FREEZE_RELAX.min(self.cfg.settle_time)) / dt).round() as u64;
+        if !self.world.step_n_polled(relax, POLL_EVERY, poll)? {
+            self.stopped = true;
+            return Ok(None);
+        }
+        self.height = self.measure_height();
+        Ok(Some((removed, relax)))
+    }
+
     fn stop(&mut self) -> Result<Option<LayerReport>> {
         self.stopped = true;
         Ok(None)

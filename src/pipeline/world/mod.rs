@@ -50,6 +50,7 @@ mod freeze;
 mod integrate;
 mod pair_list;
 mod particles;
+mod remove;
 mod team;
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,469 @@
+"""Contact forces from other codes: :func:`read_contacts`.
+
+LAMMPS and LIGGGHTS write the forces of every contact with ``dump local``. Read together
+with the particles of the same timestep (:func:`granpack.read_particles`), they give a
+pack from another code the whole microstructure: fabric, f0, a^n and a^t.
+
+The two layouts read (``docs/interop.md`` gives the commands that write them):
+
+- ``"liggghts"``: LIGGGHTS ``compute pair/gran/local pos id force`` (12 columns: the two
+  positions, the two ids and the periodic flag, the force on the first particle);
+  ``"liggghts-full"`` adds ``force_normal force_tangential delta`` (19 columns);
+- ``"lammps"``: LAMMPS ``compute property/local patom1 patom2`` and ``compute pair/local
+  fx fy fz p1 p2 p3`` of ``pair_style granular``, in one ``dump local`` (8 columns: the
+  two ids, the normal force on the first particle, its tangential force).
+
+Other layouts are given column by column (`columns`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import FileFormatError, InvalidParameterError, is_number, short_repr
+from .contacts import Contacts
+from .particles import ParticleFile
+
+__all__ = ["LAYOUTS", "COLUMN_NAMES", "ContactFile", "read_contacts"]
+
+#: What a column may hold: the two particle ids, the force on the first particle
+#: (fx fy fz: all of it; fnx.. its normal part; ftx.. its tangential part, N), and
+#: "-" for a column that is not read.
+COLUMN_NAMES = ("id1", "id2", "fx", "fy", "fz", "fnx", "fny", "fnz", "ftx", "fty", "ftz", "-")
+
+_POS = ["-"] * 6
+#: The layouts read by name, and the columns each holds.
+LAYOUTS: dict[str, tuple[str, ...]] = {
+    # compute pair/gran/local pos id force
+    "liggghts": (*_POS, "id1", "id2", "-", "fx", "fy", "fz"),
+    # compute pair/gran/local pos id force force_normal force_tangential delta
+    "liggghts-full": (
+        *_POS,
+        *("id1", "id2", "-", "fx", "fy", "fz", "fnx", "fny", "fnz", "ftx", "fty", "ftz", "-"),
+    ),
+    # property/local patom1 patom2, then pair/local fx fy fz p1 p2 p3 (pair granular)
+    "lammps": ("id1", "id2", "fnx", "fny", "fnz", "ftx", "fty", "ftz"),
+}
+# A layout found by its column count alone, where that count is unambiguous.
+_BY_COUNT = {len(v): k for k, v in LAYOUTS.items()}
+
+
+class ContactFile:
+    """The contacts of one ``dump local`` snapshot, matched to particles.
+
+    Attributes
+    ----------
+    path : Path
+    layout : str
+        The layout read: a name of `LAYOUTS`, or "columns" for columns given one by one.
+    contacts : granpack.Contacts
+        Particle-particle contacts, indices into the particles' rows (as
+        ``ParticleFile.positions``), i the first particle of each row; normals and
+        branches from the particles' positions; f_n and f_t from the file's forces.
+    timestep : int
+        The snapshot's ``TIMESTEP``.
+    snapshot, n_snapshots : int
+        Which snapshot was read (0-based) and how many the file holds.
+    notes : tuple of str
+        What the reader changed or assumed (repeated pairs dropped, attractive normal
+        forces set to 0, ids taken as 1..N).
+    """
+
+    def __init__(self, path, layout, contacts, timestep, snapshot, n_snapshots, notes):
+        self.path = path
+        self.layout = layout
+        self.contacts = contacts
+        self.timestep = timestep
+        self.snapshot = snapshot
+        self.n_snapshots = n_snapshots
+        self.notes = notes
+
+    def __len__(self) -> int:
+        return len(self.contacts)
+
+    def __repr__(self) -> str:
+        return (
+            f"ContactFile({str(self.path)!r}, layout={self.layout!r}, contacts={len(self)}, "
+            f"timestep={self.timestep})"
+        )
+
+
+def _columns(layout, columns) -> tuple[str, tuple[str, ...] | None]:
+    if columns is not None:
+        if layout is not None:
+            raise InvalidParameterError(
+                "give layout or columns, not both", parameter="columns", value=columns
+            )
+        cols = tuple(columns.split()) if isinstance(columns, str) else tuple(columns)
+        bad = [c for c in cols if c not in COLUMN_NAMES]
+        has_force = {"fx", "fy", "fz"} <= set(cols) or {"fnx", "fny", "fnz"} <= set(cols)
+        if bad or "id1" not in cols or "id2" not in cols or not has_force:
+            raise InvalidParameterError(
+                f"invalid columns = {short_repr(columns)}: each one of {', '.join(COLUMN_NAMES)}"
+                ", with id1, id2 and either fx fy fz or fnx fny fnz (with ftx fty ftz)",
+                parameter="columns",
+                value=columns,
+            )
+        return "columns", cols
+    if layout is None:
+        return "", None
+    if layout not in LAYOUTS:
+        raise InvalidParameterError(
+            f"invalid layout = {short_repr(layout)}: must be one of {', '.join(LAYOUTS)} "
+            "(or None to tell it from the column count)",
+            parameter="layout",
+            value=layout,
+        )
+    return layout, LAYOUTS[layout]
+
+
+class _Block:
+    __slots__ = ("start", "timestep", "n", "n_line", "names", "first")
+
+    def __init__(self, start: int) -> None:
+        self.start = start
+        self.timestep: int | None = None
+        self.n: int | None = None
+        self.n_line = 0
+        self.names: list[str] | None = None
+        self.first = 0  # 0-based line of the first entry
+
+
+def _scan(path: Path, lines: list[str]) -> list[_Block]:
+    """The snapshots of a dump local file, their structure checked."""
+    n_lines = len(lines)
+
+    def fail(k: int, what: str) -> FileFormatError:
+        found = repr(lines[k].strip()[:60]) if k < n_lines else "the end of the file"
+        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
+
+    def integer(k: int, what: str) -> int:
+        w = lines[k].split() if k < n_lines else []
+        if len(w) != 1 or not w[0].lstrip("-").isdigit():
+            raise fail(k, what)
+        return int(w[0])
+
+    blocks: list[_Block] = []
+    cur: _Block | None = None
+    i = 0
+    while i < n_lines:
+        line = lines[i].strip()
+        if not line:
+            i += 1
+            continue
+        if not line.startswith("ITEM:"):
+            raise fail(i, "an 'ITEM:' line")
+        item = line[5:].strip()
+        if cur is None or cur.names is not None:
+            if item != "TIMESTEP":
+                raise fail(i, "'ITEM: TIMESTEP' (the start of a snapshot)")
+            cur = _Block(i)
+            blocks.append(cur)
+        if item == "TIMESTEP":
+            cur.timestep = integer(i + 1, "the timestep (an integer)")
+            i += 2
+        elif item == "NUMBER OF ENTRIES":
+            n = integer(i + 1, "the number of entries (an integer >= 0)")
+            if n < 0:
+                raise fail(i + 1, "the number of entries (an integer >= 0)")
+            cur.n, cur.n_line = n, i + 2
+            i += 2
+        elif item == "NUMBER OF ATOMS":
+            raise FileFormatError(
+                f"{path}:{i + 1}: a dump of atoms ({line}), not of contacts: give the dump "
+                "local file of compute pair/gran/local or pair/local",
+                path=path,
+            )
+        elif item.startswith("BOX BOUNDS"):
+            i += 4
+        elif item.startswith("ENTRIES"):
+            if cur.n is None:
+                raise fail(i, "'ITEM: NUMBER OF ENTRIES' before 'ITEM: ENTRIES'")
+            cur.names = item.split()[1:]
+            cur.first = i + 1
+            end = i + 1 + cur.n
+            inside = [j for j in range(i + 1, min(end, n_lines)) if lines[j].startswith("ITEM:")]
+            if end > n_lines or inside:
+                k = inside[0] if inside else n_lines
+                raise FileFormatError(
+                    f"{path}:{k + 1}: expected {cur.n} entries after line {i + 1} (ITEM: "
+                    f"NUMBER OF ENTRIES at line {cur.n_line - 1} says {cur.n}), found "
+                    f"{k - i - 1} before "
+                    f"{'the end of the file' if k >= n_lines else 'the next ITEM'}: a "
+                    "truncated dump",
+                    path=path,
+                )
+            if end < n_lines and lines[end].strip() and not lines[end].startswith("ITEM:"):
+                raise FileFormatError(
+                    f"{path}:{end + 1}: expected 'ITEM: TIMESTEP' after the {cur.n} entries "
+                    f"that line {cur.n_line - 1} announces, found a further row",
+                    path=path,
+                )
+            i = end
+        else:
+            raise fail(i, "ITEM: TIMESTEP, NUMBER OF ENTRIES, BOX BOUNDS or ENTRIES")
+    if not blocks:
+        raise FileFormatError(f"{path}: an empty dump (no snapshot)", path=path)
+    if blocks[-1].names is None:
+        raise fail(n_lines, f"the rest of the snapshot that starts at line {blocks[-1].start + 1}")
+    return blocks
+
+
+def read_contacts(
+    path,
+    particles: ParticleFile,
+    *,
+    layout: str | None = None,
+    columns=None,
+    snapshot: int | None = None,
+) -> ContactFile:
+    """Reads the contact forces a LAMMPS or LIGGGHTS ``dump local`` file holds.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dump local file.
+    particles : granpack.ParticleFile
+        The particles of the same moment (:func:`granpack.read_particles` of a dump, a
+        data file or a pack); the contacts' ids are looked up among ``particles.ids``.
+        Particles without ids (text, a granpack pack) are taken as ids 1..N in their
+        order, the numbering of granpack's LAMMPS export.
+    layout : str, optional
+        One of `LAYOUTS` ("liggghts", "liggghts-full", "lammps"). Default None: told
+        from the number of columns (12, 19 and 8).
+    columns : str or sequence of str, optional
+        Instead of `layout`: what each column holds, one of `COLUMN_NAMES` each (such as
+        ``"id1 id2 fx fy fz"``), for a dump local of other columns.
+    snapshot : int, optional
+        Which snapshot (0 the first, -1 the last). Default None: the snapshot with the
+        particles' timestep where both are known, else the last.
+
+    Returns
+    -------
+    ContactFile
+        Its `contacts` go to ``gp.microstructure`` with the particles:
+        ``gp.microstructure(particles.with_contacts(c.contacts))``.
+
+    Notes
+    -----
+    The normal n of each contact points from the first particle to the second, from the
+    particles' positions (the branch vector; the minimum image across a periodic side
+    of the particles' box). The file gives the force F on the first particle (its
+    normal and tangential parts, or their sum); then f_n = -F . n and the tangential
+    force on the second particle is f_t = -(F - (F . n) n). A net attractive f_n (the
+    damping of a separating pair) is set to 0, as granpack's own law clamps it; the
+    notes count such contacts. A pair listed twice (LAMMPS and LIGGGHTS list a pair
+    across a periodic side once for each of its particles) is read once, and a pair with
+    neither overlap nor force (LAMMPS' pair/local without ``cutoff radius`` lists every
+    pair within the force cutoff) is left out. Wall contacts are not in these dumps: the
+    analysis then counts none.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the line: a truncated dump, a row of the wrong length, a value that is not
+        a number, an id that none of the particles has, a pair of a particle with itself,
+        a snapshot of another timestep than the particles', a column count that names no
+        layout.
+    InvalidParameterError
+        A bad `layout`, `columns` or `snapshot`.
+    """
+    path = Path(path)
+    if not isinstance(particles, ParticleFile):
+        raise InvalidParameterError(
+            f"invalid particles = {type(particles).__name__}: expected the result of "
+            "granpack.read_particles",
+            parameter="particles",
+        )
+    name, cols = _columns(layout, columns)
+    if snapshot is not None and (
+        isinstance(snapshot, bool) or not isinstance(snapshot, int | np.integer)
+    ):
+        raise InvalidParameterError(
+            f"invalid snapshot = {short_repr(snapshot)}: must be an integer or None",
+            parameter="snapshot",
+            value=snapshot,
+        )
+    from .particles import _read_text
+
+    lines = _read_text(path).splitlines()
+    blocks = _scan(path, lines)
+    n_snap = len(blocks)
+    want_step = particles.timestep
+    if snapshot is None:
+        k_snap = n_snap - 1
+        if want_step is not None:
+            k_snap = next((k for k, b in enumerate(blocks) if b.timestep == want_step), n_snap - 1)
+    else:
+        if not -n_snap <= snapshot < n_snap:
+            raise FileFormatError(
+                f"{path}: snapshot = {snapshot} is out of range: the dump holds {n_snap} "
+                f"snapshot{'s' if n_snap > 1 else ''}",
+                path=path,
+                reason="snapshot out of range",
+            )
+        k_snap = int(snapshot) % n_snap
+    b = blocks[k_snap]
+    assert b.names is not None and b.n is not None
+    if want_step is not None and b.timestep != want_step:
+        raise FileFormatError(
+            f"{path}:{b.start + 2}: the contacts are of timestep {b.timestep}, the particles "
+            f"({particles.path}) of timestep {want_step}: write both at the same step",
+            path=path,
+        )
+    ncol = len(b.names)
+    if cols is None:
+        if ncol not in _BY_COUNT:
+            raise FileFormatError(
+                f"{path}:{b.first}: {ncol} columns ({' '.join(b.names)}) name none of the "
+                "layouts read ("
+                + ", ".join(f"{k}: {len(v)} columns" for k, v in LAYOUTS.items())
+                + "); give layout= or columns=",
+                path=path,
+                reason="unknown layout",
+            )
+        name = _BY_COUNT[ncol]
+        cols = LAYOUTS[name]
+    elif len(cols) != ncol:
+        raise FileFormatError(
+            f"{path}:{b.first}: the layout {name} has {len(cols)} columns, the file's ENTRIES "
+            f"line names {ncol} ({' '.join(b.names)})",
+            path=path,
+        )
+    rows = [ln.split() for ln in lines[b.first : b.first + b.n]]
+    for k, t in enumerate(rows):
+        if len(t) != ncol:
+            raise FileFormatError(
+                f"{path}:{b.first + k + 1}: expected {ncol} values, found {len(t)}", path=path
+            )
+    try:
+        a = np.array(rows, dtype=np.float64).reshape(b.n, ncol)
+    except ValueError:
+        for k, t in enumerate(rows):
+            bad = next((v for v in t if not is_number(v)), None)
+            if bad is not None:
+                raise FileFormatError(
+                    f"{path}:{b.first + k + 1}: {bad!r} is not a number", path=path
+                ) from None
+        raise
+
+    def line(k: int) -> int:
+        return b.first + k + 1
+
+    def col(c: str) -> np.ndarray:
+        return a[:, cols.index(c)]
+
+    bad_rows = ~np.all(np.isfinite(a), axis=1)
+    if np.any(bad_rows):
+        k = int(np.argmax(bad_rows))
+        raise FileFormatError(f"{path}:{line(k)}: non-finite value", path=path)
+
+    notes: list[str] = []
+    n = len(particles)
+    d = particles.dim
+    ids = particles.ids
+    if ids is None:
+        ids = np.arange(1, n + 1, dtype=np.int64)
+        if particles.format != "npz":
+            notes.append(f"{particles.path.name} has no ids: particle k is taken as id k + 1")
+    index = []
+    for c in ("id1", "id2"):
+        raw = col(c)
+        frac = raw != np.round(raw)
+        if np.any(frac):
+            k = int(np.argmax(frac))
+            raise FileFormatError(f"{path}:{line(k)}: id {raw[k]} is not an integer", path=path)
+        v = raw.astype(np.int64)
+        at = np.clip(np.searchsorted(ids, v), 0, max(n - 1, 0))
+        unknown = ids[at] != v
+        if np.any(unknown):
+            k = int(np.argmax(unknown))
+            raise FileFormatError(
+                f"{path}:{line(k)}: {c} = {int(v[k])} names no particle of "
+                f"{particles.path} ({n} particles, ids {int(ids[0])} to {int(ids[-1])}): the "
+                "contacts and the particles come from different runs or steps",
+                path=path,
+                reason="unknown id",
+            )
+        index.append(at.astype(np.int64))
+    i, j = index
+    same = i == j
+    if np.any(same):
+        k = int(np.argmax(same))
+        raise FileFormatError(
+            f"{path}:{line(k)}: a contact of particle id {int(ids[i[k]])} with itself", path=path
+        )
+
+    # each pair once: a pair across a periodic side is listed for both of its particles
+    lo_, hi_ = np.minimum(i, j), np.maximum(i, j)
+    _, first = np.unique(np.stack([lo_, hi_], axis=1), axis=0, return_index=True)
+    if first.size < i.size:
+        keep = np.sort(first)
+        notes.append(f"{i.size - keep.size} pairs listed twice were read once")
+        a, i, j = a[keep], i[keep], j[keep]
+
+    x = np.asarray(particles.positions, dtype=np.float64)
+    r = np.asarray(particles.radii, dtype=np.float64)
+    branch = x[j] - x[i]
+    if particles.periodic is not None and particles.box is not None:
+        size = np.asarray(particles.box[1]) - np.asarray(particles.box[0])
+        for ax, p in enumerate(particles.periodic):
+            if p:
+                branch[:, ax] -= size[ax] * np.round(branch[:, ax] / size[ax])
+    dist = np.linalg.norm(branch, axis=1)
+    if np.any(dist == 0.0):
+        k = int(np.argmax(dist == 0.0))
+        raise FileFormatError(
+            f"{path}: the pair of ids {int(ids[i[k]])} and {int(ids[j[k]])} has coincident "
+            "centres: no normal",
+            path=path,
+        )
+    normal = branch / dist[:, None]
+    cols_now = cols
+
+    def vec(prefix: str) -> np.ndarray:
+        return np.column_stack([a[:, cols_now.index(prefix + ax)] for ax in "xyz"])
+
+    if {"fx", "fy", "fz"} <= set(cols):
+        force = vec("f")
+    else:
+        force = vec("fn")
+        if {"ftx", "fty", "ftz"} <= set(cols):
+            force = force + vec("ft")
+    if d == 2:
+        force = force[:, :2]
+    idle = np.all(force == 0.0, axis=1) & (r[i] + r[j] - dist <= 0.0)
+    if np.any(idle):
+        # LAMMPS lists every pair within the force cutoff unless told "cutoff radius"
+        notes.append(f"{int(idle.sum())} pairs without overlap or force were left out")
+        keep = ~idle
+        i, j, force, branch, dist, normal = (
+            i[keep],
+            j[keep],
+            force[keep],
+            branch[keep],
+            dist[keep],
+            normal[keep],
+        )
+    fn_on_i = np.einsum("md,md->m", force, normal)
+    f_n = -fn_on_i
+    attractive = f_n < 0.0
+    if np.any(attractive):
+        notes.append(
+            f"{int(attractive.sum())} of {f_n.size} contacts have a net attractive normal "
+            "force (damping); set to 0"
+        )
+        f_n = np.where(attractive, 0.0, f_n)
+    f_t = -(force - fn_on_i[:, None] * normal)
+    contacts = Contacts(
+        i=i,
+        j=j,
+        normal=normal,
+        overlap=r[i] + r[j] - dist,
+        force_normal=f_n,
+        force_tangential=f_t,
+        branch=branch,
+    )
+    return ContactFile(path, name, contacts, b.timestep, k_snap, n_snap, tuple(notes))
