@@ -79,7 +79,7 @@ fn main() {
                     height,
                     h_layer: cfg.h_layer,
                     phi_layer: cfg.phi_layer,
-                    radii: cfg.radii,
+                    radii: cfg.radii.clone(),
                     max_attempts: 1_000_000,
                     existing: (&x, &r),
                     layer: 0,

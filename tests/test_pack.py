@@ -176,7 +176,7 @@ def test_scene_toml_round_trip_and_errors(tmp_path):
         ({"settle_dt": 0.0}, "settle_dt"),
         ({"settle_dt": 1e-3}, "settle_dt.*Rayleigh"),
         ({"seed": -1}, "seed"),
-        ({"radius_law": "lognormal"}, "radius_law"),
+        ({"radius_law": "weibull"}, "radius_law"),
         ({"r_mean": 1e-5, "dt": 1e-8, "base": (100.0,)}, "about .* particles"),
     ],
 )

@@ -19,6 +19,7 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
+from .grading import Grading, realised_grading, target_grading
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
@@ -48,6 +49,9 @@ __all__ = [
     "steinhardt",
     "profiles",
     "radial_profiles",
+    "realised_grading",
+    "target_grading",
+    "Grading",
     "__version__",
     "cpu_level",
     "cpu_levels",

@@ -7,7 +7,7 @@ Users call the documented Python layer (`granpack.Simulation`, `granpack.generat
 check these stubs in CI.
 """
 
-from typing import Literal, Self, TypeAlias, TypedDict, final
+from typing import Literal, Protocol, Self, TypeAlias, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,10 @@ __all__ = [
     "LayerPacker",
     "find_contacts",
     "rayleigh_time_step",
+    "validate_scene",
+    "radius_law_summary",
+    "number_fractions",
+    "sample_radii",
 ]
 
 __version__: str
@@ -38,8 +42,103 @@ Box: TypeAlias = tuple[list[float], list[float]]
 ContainerName: TypeAlias = Literal["box", "periodic", "cylinder"]
 Inertia2D: TypeAlias = Literal["sphere", "disc"]
 """2D mass model: a sphere's mass and inertia, or a disc of unit thickness."""
-RadiusLawName: TypeAlias = Literal["constant", "gaussian"]
+RadiusLawName: TypeAlias = Literal[
+    "constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"
+]
 CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
+
+class MaterialFields(Protocol):
+    """What the engine reads from a `granpack.Material`, by attribute."""
+
+    @property
+    def density(self) -> float: ...
+    @property
+    def young(self) -> float: ...
+    @property
+    def poisson(self) -> float: ...
+    @property
+    def damping(self) -> float: ...
+    @property
+    def friction(self) -> float: ...
+
+class RadiusLawFields(Protocol):
+    """What the engine reads of a scene's radius law, by attribute (`PackScene`'s keys)."""
+
+    @property
+    def dim(self) -> int: ...
+    @property
+    def inertia_2d(self) -> str: ...
+    @property
+    def radius_law(self) -> str: ...
+    @property
+    def r_mean(self) -> float: ...
+    @property
+    def r_std(self) -> float: ...
+    @property
+    def r_min(self) -> float | None: ...
+    @property
+    def r_max(self) -> float | None: ...
+    @property
+    def radii(self) -> tuple[float, ...] | None: ...
+    @property
+    def fractions(self) -> tuple[float, ...] | None: ...
+    @property
+    def fractions_by(self) -> str: ...
+    @property
+    def sieve_sizes(self) -> tuple[float, ...] | None: ...
+    @property
+    def sieve_passing(self) -> tuple[float, ...] | None: ...
+
+class SceneFields(RadiusLawFields, Protocol):
+    """What the engine reads of a `granpack.PackScene`, by attribute: every key the
+    layer loop needs, under the scene's own names (errors name them so)."""
+
+    @property
+    def base(self) -> tuple[float, ...]: ...
+    @property
+    def container(self) -> str: ...
+    @property
+    def cylinder_radius(self) -> float | None: ...
+    @property
+    def height(self) -> float: ...
+    @property
+    def h_layer(self) -> float: ...
+    @property
+    def phi_layer(self) -> float: ...
+    @property
+    def material(self) -> MaterialFields: ...
+    @property
+    def dt(self) -> float: ...
+    @property
+    def settle_time(self) -> float: ...
+    @property
+    def gravity(self) -> float: ...
+    @property
+    def drag(self) -> float: ...
+    @property
+    def rotations(self) -> bool: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def stream(self) -> int: ...
+    @property
+    def skin_ratio(self) -> float: ...
+    @property
+    def max_overlap_ratio(self) -> float: ...
+    @property
+    def max_attempts(self) -> int: ...
+    @property
+    def max_layers(self) -> int: ...
+    @property
+    def settle_tol(self) -> float | None: ...
+    @property
+    def settle_dt(self) -> float | None: ...
+    @property
+    def freeze_depth(self) -> float | None: ...
+    @property
+    def freeze_speed(self) -> float: ...
+    @property
+    def freeze_force(self) -> float: ...
 
 Float64Array: TypeAlias = npt.NDArray[np.float64]
 Int64Array: TypeAlias = npt.NDArray[np.int64]
@@ -149,35 +248,8 @@ class Simulation:
 class LayerPacker:
     """The layer loop of Algorithm 1 (see granpack.generate)."""
 
-    def __new__(
-        cls,
-        dim: int,
-        material: Material,
-        dt: float,
-        gravity: list[float],
-        drag: float,
-        rotations: bool,
-        base: list[float],
-        height: float,
-        radii: tuple[RadiusLawName, float, float, float, float],  # law, mean, std, min, max
-        h_layer: float,
-        phi_layer: float,
-        settle_time: float,
-        seed: int,
-        stream: int = 0,
-        max_attempts: int = 1_000_000,
-        max_layers: int = 10_000,
-        skin_ratio: float = 0.2,
-        max_overlap_ratio: float = 0.5,
-        inertia_2d: Inertia2D = "sphere",
-        adaptive_settle: float | None = None,
-        freeze_depth: float | None = None,
-        freeze_speed: float = 1e-3,
-        freeze_force: float = 0.1,
-        settle_dt: float | None = None,
-        container: ContainerName = "box",
-        cylinder_radius: float | None = None,
-    ) -> Self: ...
+    def __new__(cls, scene: SceneFields) -> Self:
+        """The layer loop of a scene (read by attribute, validated)."""
     @property
     def done(self) -> bool: ...
     @property
@@ -205,6 +277,24 @@ def find_contacts(
 
 def rayleigh_time_step(density: float, young: float, poisson: float, r_min: float) -> float:
     """pi r_min sqrt(rho / G) / (0.1631 nu + 0.8766) (s)."""
+
+def validate_scene(scene: SceneFields) -> None:
+    """The engine's checks of a whole scene, those `LayerPacker(scene)` runs; the error
+    names the scene key."""
+
+def radius_law_summary(scene: RadiusLawFields) -> tuple[float, float, float, float]:
+    """(r_min, r_max, r_mean, r_std) of the scene's radius law (m), checked; mean and
+    sd by number (the parameters before truncation for gaussian and lognormal)."""
+
+def number_fractions(scene: RadiusLawFields) -> list[float] | None:
+    """Number fractions of a discrete law's radii or a sieve law's classes, after any
+    conversion from mass; None for the other laws."""
+
+def sample_radii(
+    scene: RadiusLawFields, n: int, seed: int = 0, stream: int = 0
+) -> npt.NDArray[np.float64]:
+    """n radii (m) from the scene's law with the engine's sampler (n <= 1e8), from the
+    generator of (seed, stream); GIL released."""
 
 def cpu_level() -> CpuLevel:
     """The instruction-set level the hot kernels run at: the CPU's highest, or the one

@@ -17,7 +17,7 @@ import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
@@ -392,42 +392,8 @@ def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
 
 
 def _packer(scene: PackScene) -> _core.LayerPacker:
-    s = scene
-    gravity = [0.0] * s.dim
-    gravity[s.vertical] = -s.gravity
-    law: tuple[Literal["constant", "gaussian"], float, float, float, float]
-    law = ("constant", s.r_mean, 0.0, s.r_mean, s.r_mean)
-    if s.radius_law == "gaussian":
-        assert s.r_min is not None and s.r_max is not None  # set by __post_init__
-        law = ("gaussian", s.r_mean, s.r_std, s.r_min, s.r_max)
-    return _core.LayerPacker(
-        s.dim,
-        s.material.as_tuple(),
-        s.dt,
-        gravity,
-        s.drag,
-        s.rotations,
-        list(s.base),
-        s.height,
-        law,
-        s.h_layer,
-        s.phi_layer,
-        s.settle_time,
-        s.seed,
-        stream=s.stream,
-        max_attempts=s.max_attempts,
-        max_layers=s.max_layers,
-        skin_ratio=s.skin_ratio,
-        max_overlap_ratio=s.max_overlap_ratio,
-        inertia_2d=s.inertia_2d,
-        adaptive_settle=s.settle_tol,
-        freeze_depth=s.freeze_depth,
-        freeze_speed=s.freeze_speed,
-        freeze_force=s.freeze_force,
-        settle_dt=s.settle_dt,
-        container=s.container,
-        cylinder_radius=s.cylinder_radius,
-    )
+    """The engine's layer loop for `scene` (which the engine reads by attribute)."""
+    return _core.LayerPacker(scene)
 
 
 def fall_time(scene: PackScene) -> float:

@@ -18,6 +18,8 @@ in worker processes and tests. `save` writes a PNG atomically.
   in 3D the contacts of a vertical slab at mid-depth).
 * `phi_histogram_figure`: histograms of phi over ensembles, with reference values
   (e.g. the paper's) as markers.
+* `grading_figure`: the grading curve, percentage passing by mass against the diameter
+  on a log axis, realised and target.
 """
 
 from __future__ import annotations
@@ -683,4 +685,69 @@ def analysis_figure(packs: Sequence, micro: Sequence, title: str | None = None) 
     )
     if title:
         fig.suptitle(title)
+    return fig
+
+
+# -- grading ----------------------------------------------------------------------------------
+
+
+def grading_figure(
+    pack_or_radii, scene=None, dim: int | None = None, title: str | None = None
+) -> Figure:
+    """Grading curve: percentage passing by mass against the diameter (log axis), the
+    realised one of a pack (or of radii, with `dim`) as steps and, where a scene is
+    known (the pack's, or `scene`), its law's target as a line, with the sieve sizes of
+    a sieve law marked. D10, D50 and D90 of both are in the legend."""
+    from .grading import passing, realised_grading, target_grading, target_passing
+
+    scene = scene if scene is not None else getattr(pack_or_radii, "scene", None)
+    if dim is None and scene is not None:
+        dim = scene.dim
+    inertia = scene.inertia_2d if scene is not None else None
+    g = realised_grading(pack_or_radii, dim, inertia_2d=inertia)
+    radii = np.asarray(getattr(pack_or_radii, "radii", pack_or_radii), dtype=np.float64)
+    d = np.sort(2.0 * radii)
+    lo, hi = float(d[0]), float(d[-1])
+    if scene is not None:
+        lo, hi = min(lo, 2.0 * scene.r_min), max(hi, 2.0 * scene.r_max)
+    pad = (hi / lo) ** 0.05 if hi > lo else 1.1
+    x = np.exp(np.linspace(math.log(lo / pad), math.log(hi * pad), 400))
+    fig = _figure(6.5, 4.2)
+    ax = fig.add_subplot()
+    realised = 100.0 * passing(pack_or_radii, x, dim, inertia_2d=inertia)
+    label = (
+        f"realised (N = {radii.size}): D10 {g.d10_mass:.3g}, D50 {g.d50_mass:.3g}, "
+        f"D90 {g.d90_mass:.3g} m, Cu {g.cu_mass:.3g}"
+    )
+    ax.step(x, realised, where="post", color="C0", lw=1.5, label=label)
+    if scene is not None:
+        t = target_grading(scene)
+        ax.plot(
+            x,
+            100.0 * target_passing(scene, x),
+            color="k",
+            lw=1.2,
+            ls="--",
+            label=(
+                f"target ({scene.radius_law}): D10 {t.d10_mass:.3g}, D50 {t.d50_mass:.3g}, "
+                f"D90 {t.d90_mass:.3g} m, Cu {t.cu_mass:.3g}"
+            ),
+        )
+        if scene.radius_law == "sieve":
+            ax.plot(
+                scene.sieve_sizes,
+                100.0 * np.asarray(scene.sieve_passing),
+                "o",
+                color="k",
+                ms=4,
+                label="sieve curve",
+            )
+    ax.set_xscale("log")
+    ax.set_ylim(0, 100)
+    ax.set_xlabel("diameter (m)")
+    ax.set_ylabel("passing by mass (%)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    if title:
+        ax.set_title(title)
     return fig

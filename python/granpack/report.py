@@ -257,6 +257,7 @@ def ensemble_report(
         "(mean ± sample standard deviation).",
         "",
         *_trim_lines(records, scene),
+        *_grading_lines(scene, records),
         "| pack | N | layers | H_top (m) | phi | Z | Z_m | seconds | file |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
@@ -294,6 +295,27 @@ def _trim_lines(records: Sequence[Mapping], scene) -> list[str]:
         f"removed per pack {_mean_sd(_col(records, 'trim_removed'), 1)}, final top "
         f"{_mean_sd(_col(records, 'trim_top'), 4)} m, phi to H_d "
         f"{_mean_sd(_col(records, 'phi_hd'), 4)}.",
+        "",
+    ]
+
+
+def _grading_lines(scene, records: Sequence[Mapping]) -> list[str]:
+    """The realised grading by mass (mean ± sd over the packs) against the target of
+    the scene's radius law (docs/grading.md); nothing for records without it."""
+    if not records or "d50_mass" not in records[0]:
+        return []
+    from .grading import target_grading
+
+    target = target_grading(scene).to_dict()
+    keys = ("d10_mass", "d50_mass", "d90_mass", "cu_mass", "cc_mass")
+    names = ("D10 (m)", "D50 (m)", "D90 (m)", "Cu", "Cc")
+    return [
+        "Grading by mass, realised (mean ± sd over the packs) and the radius law's target:",
+        "",
+        "| | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(keys),
+        "| realised | " + " | ".join(_mean_sd(_col(records, k), 4) for k in keys) + " |",
+        "| target | " + " | ".join(f"{target[k]:.4f}" for k in keys) + " |",
         "",
     ]
 

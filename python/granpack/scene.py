@@ -28,10 +28,17 @@ from ._validate import (
 )
 from .engine import Material
 
-__all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS"]
+__all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS", "RADIUS_LAWS"]
 
 #: The containers a scene may have (`PackScene.container`).
 CONTAINERS = ("box", "periodic", "cylinder")
+
+#: The radius laws a scene may have (`PackScene.radius_law`; docs/scene.md, "Size
+#: distributions").
+RADIUS_LAWS = ("constant", "gaussian", "uniform", "lognormal", "discrete", "sieve")
+
+#: The scene keys that hold lists of numbers of a radius law.
+_LAW_LISTS = ("radii", "fractions", "sieve_sizes", "sieve_passing")
 
 #: Random sequential addition jams near these fractions (Feder 1980 for discs,
 #: Talbot et al. 2000 / Torquato et al. 2006 for spheres); a layer fraction at or above
@@ -113,14 +120,33 @@ class PackScene:
         (default): R = base / 2 (base must be square). Only with container="cylinder".
     height : float
         Desired pack height H_d (m): layers are added while max(z + r) < H_d.
-    radius_law : {"constant", "gaussian"}
-        Radius distribution.
+    radius_law : {"constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"}
+        Radius distribution (docs/scene.md, "Size distributions"). Default "constant".
     r_mean : float
-        Radius (constant law) or mean of the Gaussian (m).
+        Radius (constant law), or the mean of the radius before truncation (gaussian,
+        lognormal) (m). Derived (the mean by number) for the uniform, discrete and
+        sieve laws. Default 0.01.
     r_std : float
-        Standard deviation of the Gaussian (m), default 0.
+        Standard deviation of the radius before truncation (gaussian, lognormal) (m),
+        >= 0, default 0. Derived (by number) for the uniform, discrete and sieve laws.
     r_min, r_max : float or None
-        Truncation of the Gaussian (m); default r_mean -/+ 3 r_std.
+        Truncation (gaussian, lognormal) or bounds (uniform, both needed) of the radius
+        (m). Defaults: r_mean -/+ 3 r_std (gaussian), exp(mu -/+ 3 sigma) of ln r
+        (lognormal). Derived for every law: the smallest and largest radius it can
+        produce (r_min sets the Rayleigh dt check, r_max the base checks).
+    radii : tuple of float or None
+        The radii of a discrete mixture (m), strictly increasing.
+    fractions : tuple of float or None
+        The fraction of each of `radii`, >= 0, summing to 1 within 1e-9.
+    fractions_by : {"number", "mass"}
+        What `fractions` count. Default "number". Mass is the engine's particle mass:
+        r^3 in 3D and for 2D spheres (inertia_2d = "sphere"), r^2 for 2D discs
+        (inertia_2d = "disc").
+    sieve_sizes : tuple of float or None
+        Sieve openings (diameters, m) of a sieve curve, strictly increasing.
+    sieve_passing : tuple of float or None
+        Cumulative mass fraction passing each of `sieve_sizes`, non-decreasing from 0
+        to 1. Within a class the mass is spread log-linearly in the diameter.
     h_layer : float
         Thickness of the slab in which each layer's centres are placed (m). Default 0.1.
     phi_layer : float
@@ -187,11 +213,18 @@ class PackScene:
     container: Literal["box", "periodic", "cylinder"] = "box"
     cylinder_radius: float | None = None
     height: float = 0.5
-    radius_law: Literal["constant", "gaussian"] = "constant"
+    radius_law: Literal["constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"] = (
+        "constant"
+    )
     r_mean: float = 0.01
     r_std: float = 0.0
     r_min: float | None = None
     r_max: float | None = None
+    radii: tuple[float, ...] | None = None
+    fractions: tuple[float, ...] | None = None
+    fractions_by: Literal["number", "mass"] = "number"
+    sieve_sizes: tuple[float, ...] | None = None
+    sieve_passing: tuple[float, ...] | None = None
     h_layer: float = 0.1
     phi_layer: float = 0.4
     material: Material = field(default_factory=Material)
@@ -233,29 +266,11 @@ class PackScene:
             )
         s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
         s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
-        if self.radius_law not in ("constant", "gaussian"):
+        if self.inertia_2d not in ("sphere", "disc"):
             raise InvalidParameterError(
-                f"invalid radius_law = {short_repr(self.radius_law)}: "
-                "must be 'constant' or 'gaussian'"
+                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'"
             )
-        s(self, "r_mean", as_real("r_mean", self.r_mean, 0, lo_open=True, unit="m"))
-        s(self, "r_std", as_real("r_std", self.r_std, 0, unit="m"))
-        if self.radius_law == "constant":
-            s(self, "r_std", 0.0)
-            s(self, "r_min", self.r_mean)
-            s(self, "r_max", self.r_mean)
-        else:
-            rmin = self.r_mean - 3 * self.r_std if self.r_min is None else self.r_min
-            rmax = self.r_mean + 3 * self.r_std if self.r_max is None else self.r_max
-            rmin = as_real("r_min", rmin, 0, lo_open=True, unit="m")
-            rmax = as_real("r_max", rmax, rmin, unit="m; r_max >= r_min")
-            if not rmin <= self.r_mean <= rmax:
-                raise InvalidParameterError(
-                    f"invalid r_mean = {self.r_mean}: must lie in "
-                    f"[r_min, r_max] = [{rmin}, {rmax}] (m)"
-                )
-            s(self, "r_min", rmin)
-            s(self, "r_max", rmax)
+        self._check_radius_law()
         self._check_container()
         for b in self.base:
             if b < 2 * self.r_max:
@@ -311,10 +326,6 @@ class PackScene:
         s(self, "rotations", as_bool("rotations", self.rotations))
         s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
         s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
-        if self.inertia_2d not in ("sphere", "disc"):
-            raise InvalidParameterError(
-                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'"
-            )
         s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
         s(
             self,
@@ -360,6 +371,53 @@ class PackScene:
                 f"{self.settle_time / self.dt:.3g} steps per layer; at most "
                 f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)"
             )
+        # The engine's own checks, the same that the layer loop runs: a scene that is
+        # built is one that generates.
+        _core.validate_scene(self)
+
+    def _check_radius_law(self) -> None:
+        """Types the radius law's keys, then has the engine check the law and derive
+        r_min, r_max (and r_mean, r_std where the law does not take them)."""
+        s = object.__setattr__
+        if not isinstance(self.radius_law, str) or self.radius_law not in RADIUS_LAWS:
+            raise InvalidParameterError(
+                f"invalid radius_law = {short_repr(self.radius_law)}: must be one of "
+                + ", ".join(repr(n) for n in RADIUS_LAWS),
+                parameter="radius_law",
+                value=self.radius_law,
+                expected=" | ".join(RADIUS_LAWS),
+            )
+        s(self, "r_mean", as_real("r_mean", self.r_mean, unit="m"))
+        s(self, "r_std", as_real("r_std", self.r_std, unit="m"))
+        for key in ("r_min", "r_max"):
+            if getattr(self, key) is not None:
+                s(self, key, as_real(key, getattr(self, key), unit="m"))
+        for key in _LAW_LISTS:
+            value = getattr(self, key)
+            if value is None:
+                continue
+            if isinstance(value, str | bytes) or not hasattr(value, "__iter__"):
+                raise InvalidParameterError(
+                    f"invalid {key} = {short_repr(value)}: expected a list of numbers",
+                    parameter=key,
+                    value=value,
+                    expected="a list of numbers",
+                )
+            s(self, key, tuple(as_real(f"{key}[{k}]", v) for k, v in enumerate(value)))
+        if not isinstance(self.fractions_by, str):
+            raise InvalidParameterError(
+                f"invalid fractions_by = {short_repr(self.fractions_by)}: must be 'number' "
+                "or 'mass'",
+                parameter="fractions_by",
+                value=self.fractions_by,
+                expected="'number' | 'mass'",
+            )
+        r_min, r_max, r_mean, r_std = _core.radius_law_summary(self)
+        s(self, "r_min", r_min)
+        s(self, "r_max", r_max)
+        if self.radius_law in ("constant", "uniform", "discrete", "sieve"):
+            s(self, "r_mean", r_mean)
+            s(self, "r_std", r_std)
 
     def _check_container(self) -> None:
         """Validates container and cylinder_radius against dim, base and r_max."""

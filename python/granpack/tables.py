@@ -107,6 +107,13 @@ EXTRA_COLUMNS = (
     "q6_mean",
     "q6_global",
     "crystal_fraction",
+    "d10_mass",
+    "d50_mass",
+    "d90_mass",
+    "cu_mass",
+    "cc_mass",
+    "d50_number",
+    "cu_number",
 )
 _PAPER_DATA = "paper_tables.csv"
 

@@ -7,8 +7,12 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
+use crate::pipeline::sizes::lognormal_params;
 use crate::pipeline::world::{geometric_contacts, Contacts, Container, Inertia2D};
-use crate::pipeline::{LayerReport, PackConfig, Packer, RadiusLaw, SimConfig, World};
+use crate::pipeline::{
+    DiscreteLaw, FractionsBy, LayerReport, PackConfig, Packer, RadiusLaw, SieveLaw, SimConfig,
+    World,
+};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
@@ -532,20 +536,297 @@ macro_rules! with_packer {
     };
 }
 
-fn radius_law(spec: (&str, f64, f64, f64, f64)) -> PyResult<RadiusLaw> {
-    match spec.0 {
-        "constant" => Ok(RadiusLaw::Constant(spec.1)),
-        "gaussian" => Ok(RadiusLaw::Gaussian {
-            mean: spec.1,
-            std: spec.2,
-            min: spec.3,
-            max: spec.4,
-        }),
-        other => Err(bad(
-            "radius law",
-            format!("{other:?}, expected \"constant\" or \"gaussian\""),
-        )),
+/// A `granpack.Material`, read by attribute.
+#[derive(FromPyObject)]
+struct MaterialArgs {
+    density: f64,
+    young: f64,
+    poisson: f64,
+    damping: f64,
+    friction: f64,
+}
+
+/// The radius-law keys of a `granpack.PackScene`, read by attribute (the scene's own
+/// names: errors name them as the user wrote them).
+#[derive(FromPyObject)]
+struct LawArgs {
+    dim: i64,
+    inertia_2d: String,
+    radius_law: String,
+    r_mean: f64,
+    r_std: f64,
+    r_min: Option<f64>,
+    r_max: Option<f64>,
+    radii: Option<Vec<f64>>,
+    fractions: Option<Vec<f64>>,
+    fractions_by: String,
+    sieve_sizes: Option<Vec<f64>>,
+    sieve_passing: Option<Vec<f64>>,
+}
+
+/// The radius laws a scene may name (`PackScene.radius_law`).
+const RADIUS_LAWS: &str =
+    "\"constant\", \"gaussian\", \"uniform\", \"lognormal\", \"discrete\" or \"sieve\"";
+
+impl LawArgs {
+    /// The power of the radius a particle's mass grows with: 3, or 2 for discs of
+    /// unit thickness (`inertia_2d = "disc"` in 2D).
+    fn mass_exponent(&self) -> i32 {
+        if self.dim == 2 && self.inertia_2d == "disc" {
+            2
+        } else {
+            3
+        }
     }
+
+    /// The law, checked; a key the law does not take, or one it lacks, is named.
+    fn law(&self) -> PyResult<RadiusLaw> {
+        let name = self.radius_law.as_str();
+        let takes = |key: &str, given: bool, law: &str| -> PyResult<()> {
+            if given && name != law {
+                return Err(bad(
+                    key,
+                    format!(
+                        "only radius_law = \"{law}\" takes {key} (radius_law = {name:?}); \
+                         unset it (None)"
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        takes("radii", self.radii.is_some(), "discrete")?;
+        takes("fractions", self.fractions.is_some(), "discrete")?;
+        takes("sieve_sizes", self.sieve_sizes.is_some(), "sieve")?;
+        takes("sieve_passing", self.sieve_passing.is_some(), "sieve")?;
+        let by = match self.fractions_by.as_str() {
+            "number" => FractionsBy::Number,
+            "mass" => FractionsBy::Mass,
+            other => {
+                return Err(bad(
+                    "fractions_by",
+                    format!("{other:?}, expected \"number\" or \"mass\""),
+                ))
+            }
+        };
+        let need = |key: &str, v: &Option<Vec<f64>>| -> PyResult<Vec<f64>> {
+            v.clone().ok_or_else(|| {
+                bad(
+                    key,
+                    format!("radius_law = {name:?} needs {key} (a list of numbers)"),
+                )
+            })
+        };
+        let std = self.r_std;
+        if !(std.is_finite() && std >= 0.0) {
+            return Err(Error::invalid("r_std", std, "must be finite and >= 0 (m)").into());
+        }
+        let law = match name {
+            "constant" => RadiusLaw::Constant(self.r_mean),
+            "gaussian" => RadiusLaw::Gaussian {
+                mean: self.r_mean,
+                std,
+                min: self.r_min.unwrap_or(self.r_mean - 3.0 * std),
+                max: self.r_max.unwrap_or(self.r_mean + 3.0 * std),
+            },
+            "uniform" => {
+                let (Some(min), Some(max)) = (self.r_min, self.r_max) else {
+                    return Err(bad(
+                        if self.r_min.is_none() {
+                            "r_min"
+                        } else {
+                            "r_max"
+                        },
+                        "radius_law = \"uniform\" needs r_min and r_max (m)",
+                    ));
+                };
+                RadiusLaw::Uniform { min, max }
+            }
+            "lognormal" => {
+                // default window: three standard deviations of ln r about its mean
+                let (mu, sigma) = if self.r_mean > 0.0 && std >= 0.0 {
+                    lognormal_params(self.r_mean, std)
+                } else {
+                    (f64::NAN, f64::NAN)
+                };
+                RadiusLaw::Lognormal {
+                    mean: self.r_mean,
+                    std,
+                    min: self.r_min.unwrap_or((mu - 3.0 * sigma).exp()),
+                    max: self.r_max.unwrap_or((mu + 3.0 * sigma).exp()),
+                }
+            }
+            "discrete" => RadiusLaw::Discrete(DiscreteLaw::new(
+                &need("radii", &self.radii)?,
+                &need("fractions", &self.fractions)?,
+                by,
+                self.mass_exponent(),
+            )?),
+            "sieve" => RadiusLaw::Sieve(SieveLaw::new(
+                &need("sieve_sizes", &self.sieve_sizes)?,
+                &need("sieve_passing", &self.sieve_passing)?,
+                self.mass_exponent(),
+            )?),
+            other => {
+                return Err(bad(
+                    "radius_law",
+                    format!("{other:?}, expected {RADIUS_LAWS}"),
+                ))
+            }
+        };
+        law.validate()?;
+        Ok(law)
+    }
+}
+
+/// The fields of a `granpack.PackScene` the layer loop needs, read by attribute (the
+/// radius law's keys are read into [`LawArgs`]).
+#[derive(FromPyObject)]
+struct SceneArgs {
+    dim: i64,
+    base: Vec<f64>,
+    container: String,
+    cylinder_radius: Option<f64>,
+    height: f64,
+    h_layer: f64,
+    phi_layer: f64,
+    material: MaterialArgs,
+    dt: f64,
+    settle_time: f64,
+    gravity: f64,
+    drag: f64,
+    rotations: bool,
+    seed: u64,
+    stream: u64,
+    inertia_2d: String,
+    skin_ratio: f64,
+    max_overlap_ratio: f64,
+    max_attempts: u64,
+    max_layers: usize,
+    settle_tol: Option<f64>,
+    settle_dt: Option<f64>,
+    freeze_depth: Option<f64>,
+    freeze_speed: f64,
+    freeze_force: f64,
+}
+
+/// The scene as the engine takes it, validated (`PackConfig::validate`: every error
+/// names the scene key).
+fn pack_config<const D: usize>(s: &SceneArgs, law: RadiusLaw) -> PyResult<PackConfig<D>>
+where
+    Dim<D>: Spatial<D>,
+{
+    let container = container_from(&s.container, s.cylinder_radius)?;
+    let v = <Dim<D> as Spatial<D>>::VERTICAL;
+    let mut gravity = vec![0.0; D];
+    gravity[v] = -s.gravity;
+    let m = &s.material;
+    let sim = sim_config::<D>(
+        (m.density, m.young, m.poisson, m.damping, m.friction),
+        s.dt,
+        &gravity,
+        s.drag,
+        s.rotations,
+        None,
+        s.skin_ratio,
+        s.max_overlap_ratio,
+        &s.inertia_2d,
+        container,
+    )?;
+    if s.base.len() != D - 1 {
+        return Err(bad(
+            "base",
+            format!("{} lengths, expected {}", s.base.len(), D - 1),
+        ));
+    }
+    let mut b = Vector::<D>::zeros();
+    let mut it = s.base.iter();
+    for k in (0..D).filter(|&k| k != v) {
+        b[k] = *it.next().expect("D - 1 lengths");
+    }
+    let cfg = PackConfig {
+        sim,
+        base: b,
+        height: s.height,
+        radii: law,
+        h_layer: s.h_layer,
+        phi_layer: s.phi_layer,
+        settle_time: s.settle_time,
+        seed: s.seed,
+        stream: s.stream,
+        max_attempts: s.max_attempts,
+        max_layers: s.max_layers,
+        // the scene's settle_tol (the error messages name it so)
+        adaptive_settle: s.settle_tol,
+        freeze_depth: s.freeze_depth,
+        freeze_speed: s.freeze_speed,
+        freeze_force: s.freeze_force,
+        settle_dt: s.settle_dt,
+    };
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// A scene's radius law, checked: (r_min, r_max, r_mean, r_std) of the law (m), the
+/// last two by number (the parameters before truncation for the Gaussian and the
+/// lognormal).
+#[pyfunction]
+fn radius_law_summary(scene: &Bound<'_, PyAny>) -> PyResult<(f64, f64, f64, f64)> {
+    let law = scene.extract::<LawArgs>()?.law()?;
+    let (mean, std) = law.number_moments();
+    Ok((law.r_min(), law.r_max(), mean, std))
+}
+
+/// Validates a whole scene as the layer loop will take it (the same checks as
+/// `LayerPacker(scene)`); the error names the scene key.
+#[pyfunction]
+fn validate_scene(scene: &Bound<'_, PyAny>) -> PyResult<()> {
+    let args: SceneArgs = scene.extract()?;
+    let law = scene.extract::<LawArgs>()?.law()?;
+    match args.dim {
+        2 => pack_config::<2>(&args, law).map(|_| ()),
+        3 => pack_config::<3>(&args, law).map(|_| ()),
+        other => Err(bad("dim", format!("{other}, expected 2 or 3"))),
+    }
+}
+
+/// Number fractions of a scene's discrete radii or sieve classes (as `radii` or the
+/// classes between consecutive `sieve_sizes`), after any conversion from mass; None
+/// for the other laws.
+#[pyfunction]
+fn number_fractions(scene: &Bound<'_, PyAny>) -> PyResult<Option<Vec<f64>>> {
+    Ok(match scene.extract::<LawArgs>()?.law()? {
+        RadiusLaw::Discrete(d) => Some(d.number_fractions().to_vec()),
+        RadiusLaw::Sieve(s) => Some(s.number_fractions().to_vec()),
+        _ => None,
+    })
+}
+
+/// Most radii one `sample_radii` call draws.
+const MAX_SAMPLES: u64 = 100_000_000;
+
+/// `n` radii (m) drawn from a scene's radius law with the engine's sampler, from the
+/// stream (seed, stream) of the layer loop's generator (a pack of that seed draws
+/// other numbers too, so these are not its radii).
+#[pyfunction]
+#[pyo3(signature = (scene, n, seed=0, stream=0))]
+fn sample_radii<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyAny>,
+    n: u64,
+    seed: u64,
+    stream: u64,
+) -> PyResult<Bound<'py, PyAny>> {
+    use rand::SeedableRng;
+    let law = scene.extract::<LawArgs>()?.law()?;
+    if n > MAX_SAMPLES {
+        return Err(Error::invalid("n", n, &format!("must be <= {MAX_SAMPLES}")).into());
+    }
+    let r: Vec<f64> = py.detach(|| {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(stream);
+        (0..n).map(|_| law.sample(&mut rng)).collect()
+    });
+    Ok(Array1::from_vec(r).into_pyarray(py).into_any())
 }
 
 /// The layer loop (see `granpack.generate` for the documented Python API).
@@ -556,93 +837,15 @@ struct LayerPacker {
 
 #[pymethods]
 impl LayerPacker {
+    /// The layer loop of `scene` (a `granpack.PackScene`, read by attribute and
+    /// validated here).
     #[new]
-    #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, base, height, radii,
-                        h_layer, phi_layer, settle_time, seed, stream=0, max_attempts=1_000_000,
-                        max_layers=10_000, skin_ratio=0.2, max_overlap_ratio=0.5,
-                        inertia_2d="sphere", adaptive_settle=None, freeze_depth=None,
-                        freeze_speed=1e-3, freeze_force=0.1, settle_dt=None, container="box",
-                        cylinder_radius=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        dim: i64,
-        material: (f64, f64, f64, f64, f64),
-        dt: f64,
-        gravity: Vec<f64>,
-        drag: f64,
-        rotations: bool,
-        base: Vec<f64>,
-        height: f64,
-        radii: (String, f64, f64, f64, f64),
-        h_layer: f64,
-        phi_layer: f64,
-        settle_time: f64,
-        seed: u64,
-        stream: u64,
-        max_attempts: u64,
-        max_layers: usize,
-        skin_ratio: f64,
-        max_overlap_ratio: f64,
-        inertia_2d: &str,
-        adaptive_settle: Option<f64>,
-        freeze_depth: Option<f64>,
-        freeze_speed: f64,
-        freeze_force: f64,
-        settle_dt: Option<f64>,
-        container: &str,
-        cylinder_radius: Option<f64>,
-    ) -> PyResult<Self> {
-        let law = radius_law((&radii.0, radii.1, radii.2, radii.3, radii.4))?;
-        let container = container_from(container, cylinder_radius)?;
-        macro_rules! make {
-            ($D:literal, $variant:ident) => {{
-                let sim = sim_config::<$D>(
-                    material,
-                    dt,
-                    &gravity,
-                    drag,
-                    rotations,
-                    None,
-                    skin_ratio,
-                    max_overlap_ratio,
-                    inertia_2d,
-                    container,
-                )?;
-                let v = <Dim<$D> as Spatial<$D>>::VERTICAL;
-                let mut b = Vector::<$D>::zeros();
-                if base.len() != $D - 1 {
-                    return Err(bad(
-                        "base",
-                        format!("{} lengths, expected {}", base.len(), $D - 1),
-                    ));
-                }
-                let mut it = base.iter();
-                for k in (0..$D).filter(|&k| k != v) {
-                    b[k] = *it.next().unwrap();
-                }
-                PackInner::$variant(Packer::new(PackConfig {
-                    sim,
-                    base: b,
-                    height,
-                    radii: law,
-                    h_layer,
-                    phi_layer,
-                    settle_time,
-                    seed,
-                    stream,
-                    max_attempts,
-                    max_layers,
-                    adaptive_settle,
-                    freeze_depth,
-                    freeze_speed,
-                    freeze_force,
-                    settle_dt,
-                })?)
-            }};
-        }
-        let inner = match dim {
-            2 => make!(2, D2),
-            3 => make!(3, D3),
+    fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let args: SceneArgs = scene.extract()?;
+        let law = scene.extract::<LawArgs>()?.law()?;
+        let inner = match args.dim {
+            2 => PackInner::D2(Packer::new(pack_config::<2>(&args, law)?)?),
+            3 => PackInner::D3(Packer::new(pack_config::<3>(&args, law)?)?),
             other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
         };
         Ok(LayerPacker { inner })
@@ -929,5 +1132,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(rayleigh_time_step, m)?)?;
+    m.add_function(wrap_pyfunction!(validate_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(radius_law_summary, m)?)?;
+    m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
+    m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
     Ok(())
 }

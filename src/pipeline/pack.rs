@@ -357,7 +357,7 @@ where
             height: self.height,
             h_layer: self.cfg.h_layer,
             phi_layer: self.cfg.phi_layer,
-            radii: self.cfg.radii,
+            radii: self.cfg.radii.clone(),
             max_attempts: self.cfg.max_attempts,
             existing: (&existing, self.world.radii()),
             layer,

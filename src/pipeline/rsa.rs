@@ -11,128 +11,8 @@ use crate::math::{particle_volume, Real, Vector};
 use crate::pipeline::world::Container;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 
-/// Radius distribution of the particles.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum RadiusLaw {
-    /// Every particle has this radius (m).
-    Constant(Real),
-    /// Gaussian with `mean` and `std` (m) truncated to [`min`, `max`], sampled exactly
-    /// from the truncated law (rejection, never clipping).
-    Gaussian {
-        /// Mean of the untruncated Gaussian (m).
-        mean: Real,
-        /// Standard deviation of the untruncated Gaussian (m), >= 0.
-        std: Real,
-        /// Lower truncation (m), 0 < min <= mean.
-        min: Real,
-        /// Upper truncation (m), max >= mean.
-        max: Real,
-    },
-}
-
-impl RadiusLaw {
-    /// Checks the law; the error names the field.
-    pub fn validate(&self) -> Result<()> {
-        match *self {
-            RadiusLaw::Constant(r) => {
-                if !(r.is_finite() && r > 0.0) {
-                    return Err(Error::invalid("radius", r, "must be finite and > 0 (m)"));
-                }
-            }
-            RadiusLaw::Gaussian {
-                mean,
-                std,
-                min,
-                max,
-            } => {
-                if !(min.is_finite() && min > 0.0) {
-                    return Err(Error::invalid("r_min", min, "must be finite and > 0 (m)"));
-                }
-                if !(max.is_finite() && max >= min) {
-                    return Err(Error::invalid(
-                        "r_max",
-                        max,
-                        &format!("must be finite and >= r_min = {min} (m)"),
-                    ));
-                }
-                if !(mean >= min && mean <= max) {
-                    return Err(Error::invalid(
-                        "r_mean",
-                        mean,
-                        &format!("must lie in [r_min, r_max] = [{min}, {max}] (m)"),
-                    ));
-                }
-                if !(std.is_finite() && std >= 0.0) {
-                    return Err(Error::invalid("r_std", std, "must be finite and >= 0 (m)"));
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Largest radius the law can produce (m).
-    pub fn r_max(&self) -> Real {
-        match *self {
-            RadiusLaw::Constant(r) => r,
-            RadiusLaw::Gaussian { max, .. } => max,
-        }
-    }
-
-    /// Mean radius (m): the constant, or the Gaussian's mean parameter.
-    pub fn r_mean(&self) -> Real {
-        match *self {
-            RadiusLaw::Constant(r) => r,
-            RadiusLaw::Gaussian { mean, .. } => mean,
-        }
-    }
-
-    /// Smallest radius the law can produce (m).
-    pub fn r_min(&self) -> Real {
-        match *self {
-            RadiusLaw::Constant(r) => r,
-            RadiusLaw::Gaussian { min, .. } => min,
-        }
-    }
-
-    /// One radius (m).
-    pub fn sample(&self, rng: &mut ChaCha8Rng) -> Real {
-        match *self {
-            RadiusLaw::Constant(r) => r,
-            RadiusLaw::Gaussian {
-                mean,
-                std,
-                min,
-                max,
-            } => {
-                if std == 0.0 || min == max {
-                    return mean;
-                }
-                let (za, zb) = ((min - mean) / std, (max - mean) / std);
-                // The window contains z = 0 (min <= mean <= max). Wide windows: propose
-                // from the normal (acceptance >= 0.47); narrow ones: propose uniformly
-                // and accept with exp(-z^2/2) (acceptance >= exp(-2)). Both are exact.
-                loop {
-                    let z = if zb - za > 2.0 {
-                        let z: f64 = StandardNormal.sample(rng);
-                        if z < za || z > zb {
-                            continue;
-                        }
-                        z
-                    } else {
-                        let z = za + (zb - za) * rng.random::<f64>();
-                        if rng.random::<f64>() >= (-0.5 * z * z).exp() {
-                            continue;
-                        }
-                        z
-                    };
-                    return (mean + std * z).clamp(min, max);
-                }
-            }
-        }
-    }
-}
+pub use crate::pipeline::sizes::RadiusLaw;
 
 /// A growable cell grid over a slab, for overlap tests during insertion. On periodic
 /// axes the grid divides the period into whole cells and wraps around.
@@ -343,8 +223,32 @@ pub fn place_layer_polled<const D: usize>(
         }
     }
     let mut volume = 0.0;
-    while volume < target {
-        let rad = spec.radii.sample(rng);
+    // Wide laws draw the layer's radii first, until their volume reaches the target,
+    // and place them largest first: a large particle drawn late would find no hole
+    // among the small ones. The radii are the same i.i.d. draws with the same
+    // stopping rule; constant and gaussian keep the paper's order (draw, place, repeat).
+    let largest_first = spec.radii.places_largest_first();
+    let mut queue: Vec<Real> = Vec::new();
+    if largest_first {
+        let mut drawn = 0.0;
+        while drawn < target {
+            let rad = spec.radii.sample(rng);
+            drawn += particle_volume::<D>(rad);
+            queue.push(rad);
+        }
+        queue.sort_by(|a, b| a.total_cmp(b));
+    }
+    loop {
+        let rad = if largest_first {
+            match queue.pop() {
+                Some(rad) => rad,
+                None => break,
+            }
+        } else if volume < target {
+            spec.radii.sample(rng)
+        } else {
+            break;
+        };
         let z_min = z_lo.max(spec.lo[v] + rad);
         let mut failures = 0u64;
         loop {
@@ -474,7 +378,7 @@ mod tests {
                 height: 0.0,
                 h_layer: 0.16,
                 phi_layer: 0.12,
-                radii: law,
+                radii: law.clone(),
                 max_attempts: 1_000_000,
                 existing: (&[], &[]),
                 layer: 0,
@@ -528,5 +432,39 @@ mod tests {
         });
         assert!(matches!(stopped, Ok(None)));
         assert_eq!(polls, 1);
+    }
+
+    #[test]
+    fn a_sieve_layer_is_placed_largest_first_from_iid_draws() {
+        // size ratio 4 in a box of four large diameters: drawn and placed one by one,
+        // the large ones drawn late find no hole; largest first the layer fills
+        let law = RadiusLaw::Sieve(
+            crate::pipeline::SieveLaw::new(&[0.02, 0.03, 0.05, 0.08], &[0.0, 0.3, 0.7, 1.0], 3)
+                .unwrap(),
+        );
+        let spec = LayerSpec::<3> {
+            container: Container::Box,
+            lo: Vector::<3>::zeros(),
+            hi: Vector::<3>::new(0.3, 0.3, f64::INFINITY),
+            vertical: 2,
+            height: 0.0,
+            h_layer: 0.1,
+            phi_layer: 0.25,
+            radii: law.clone(),
+            max_attempts: 100_000,
+            existing: (&[], &[]),
+            layer: 0,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let (x, r) = place_layer(&spec, &mut rng).unwrap();
+        assert!(brute_force_pairs(&x, &r).is_empty());
+        let phi: f64 = r.iter().map(|&r| particle_volume::<3>(r)).sum::<f64>() / (0.09 * 0.1);
+        assert!(phi >= 0.25, "{phi}");
+        assert!(r.windows(2).all(|w| w[0] >= w[1]), "largest first");
+        // the radii are the law's first draws of the stream, in another order
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut draws: Vec<f64> = (0..r.len()).map(|_| law.sample(&mut rng)).collect();
+        draws.sort_by(|a, b| b.total_cmp(a));
+        assert_eq!(draws, r);
     }
 }

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 
 from .._validate import InvalidParameterError, as_int, as_real
+from ..grading import realised_grading
 from .prepare import MAX_SLICES, _beyond_the_paper, _prepare
 from .relations import empirical_z
 from .result import Microstructure, MicrostructureWarning
@@ -253,4 +254,8 @@ def microstructure(
         a_t_binned=None if binned_t is None else binned_t.a_t,
     )
     values.update(_beyond_the_paper(prep, values, n_slices, has_forces))
+    scene = getattr(pack, "scene", None)
+    values["grading"] = realised_grading(
+        r, d, inertia_2d=getattr(scene, "inertia_2d", None) or "sphere"
+    )
     return Microstructure(**values)

@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..grading import Grading
 from .coordination import P_Z_KEYS
 from .tensors import anisotropy_magnitude
 
@@ -219,6 +220,10 @@ class Microstructure:
     """Crystallised fraction (-): particles with q6 >= 0.45 (3D; psi6 >= 0.7 in 2D) and at
     least 4 (3D; 3 in 2D) solid-like contacts, whose two particles' bond-order vectors
     correlate by 0.7 or more (see granpack.analysis.BondOrder)."""
+    grading: Grading
+    """The realised grading of the particles (D10 ... D90, Cu, Cc by mass and by number;
+    docs/grading.md), mass weighed by the pack's inertia_2d in 2D ("sphere" for bare
+    positions and radii)."""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -240,7 +245,9 @@ class Microstructure:
         coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative,
         n_rattlers_frictional, z_mech_frictional, stress_* (upper components), k0,
         force_normal_mean, n_strong, strong_fraction, fabric_strong_*, fabric_weak_*,
-        a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global, crystal_fraction.
+        a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global, crystal_fraction; the grading
+        d10_mass, d30_mass, d50_mass, d60_mass, d90_mass, cu_mass, cc_mass and the same
+        by number (d10_number ... cc_number).
         """
         v = vars(self)
         d = v["dim"]
@@ -316,6 +323,7 @@ class Microstructure:
         out["q6_mean"] = float(v["q6_mean"])
         out["q6_global"] = float(v["q6_global"])
         out["crystal_fraction"] = float(v["crystal_fraction"])
+        out.update({k: float(x) for k, x in v["grading"].to_dict().items()})
         return out
 
     def __repr__(self) -> str:
