@@ -266,3 +266,43 @@ def test_cli_generate_in_a_cylinder(tmp_path):
     scene = gp.PackScene.from_toml(out / "scene.toml")
     # --scale (a development option) shrinks the cylinder with the base
     assert (scene.container, scene.cylinder_radius, scene.base) == ("cylinder", 0.05, (0.1, 0.1))
+
+
+def test_another_codes_periodic_file_is_analysed_as_a_periodic_cell(tmp_path):
+    """A periodic pack written as a LAMMPS dump (BOX BOUNDS pp pp fm, unwrapped xu yu
+    columns shifted by whole periods) and read back is analysed as the periodic cell it
+    is: the same contacts across the seam, Z and phi_core as the pack itself."""
+    p = small_pack("periodic")
+    L = p.scene.base
+    x = p.positions.copy()
+    x[::3, 0] += L[0]  # unwrapped coordinates, as a dump's xu holds
+    x[1::4, 1] -= L[1]
+    lines = [
+        "ITEM: TIMESTEP",
+        "0",
+        "ITEM: NUMBER OF ATOMS",
+        str(len(x)),
+        "ITEM: BOX BOUNDS pp pp fm",
+        f"0 {L[0]!r}",
+        f"0 {L[1]!r}",
+        f"0 {1.0!r}",
+        "ITEM: ATOMS id xu yu zu radius",
+    ] + [
+        f"{k + 1} {a:.17g} {b:.17g} {c:.17g} {r:.17g}"
+        for k, ((a, b, c), r) in enumerate(zip(x, p.radii, strict=True))
+    ]
+    path = tmp_path / "dump.periodic"
+    path.write_text("\n".join(lines) + "\n")
+    f = gp.read_particles(path)
+    assert f.periodic == (True, True, False)
+    got = gp.microstructure(f, core_margin=0.02)
+    want = gp.microstructure(
+        positions=p.positions,
+        radii=p.radii,
+        box=(np.zeros(3), np.array([L[0], L[1], 1.0])),
+        periodic=(True, True),
+        core_margin=0.02,
+    )
+    assert got.z == pytest.approx(want.z, rel=1e-12)
+    assert got.phi_core == pytest.approx(want.phi_core, rel=1e-9)
+    assert got.n_contacts == want.n_contacts

@@ -86,9 +86,10 @@ class ParticleFile:
         data file's header, a pack's scene); the analysis puts its walls there. None: the
         analysis uses the particles' bounding box, with no walls.
     periodic : tuple of D bool, or None
-        Periodic axes from a dump's ``BOX BOUNDS`` flags (``pp``). The analysis has no
-        periodic boundaries: it treats every side of the box as a wall and does not
-        count contacts across a periodic side (`notes` says so when an axis is periodic).
+        Periodic axes from a dump's ``BOX BOUNDS`` flags (``pp``) or an XYZ file's pbc.
+        The analysis takes periodic horizontal axes as a periodic cell (no walls there,
+        contacts across the seam by minimum image); the vertical axis is always bounded
+        by the floor and the open top.
     timestep : int or None
         A dump snapshot's ``TIMESTEP``.
     snapshot : int
@@ -273,8 +274,8 @@ def read_particles(
     ``xs ys zs`` or ``xsu ysu zsu``, which are fractions of the box), ``radius`` (else
     ``diameter``) and ``id`` (to sort by; optional). Other columns are ignored. Its box
     is the snapshot's ``BOX BOUNDS`` (orthogonal boxes only), and its flags give
-    `periodic`; granpack's analysis has no periodic boundaries, so they are reported
-    (in `periodic` and `notes`) and otherwise ignored. Snapshots may hold different
+    `periodic`, which the analysis follows on the horizontal axes (a periodic cell).
+    Snapshots may hold different
     numbers of particles (a dump written while particles are inserted); each is read
     with its own header.
 
@@ -694,9 +695,8 @@ def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         axes = [ax for ax, p in zip("xyz", periodic, strict=False) if p]
         if axes:
             notes.append(
-                f"periodic in {' and '.join(axes)} (BOX BOUNDS {' '.join(flags)}): the analysis "
-                "has no periodic boundaries; those sides count as walls and contacts across "
-                "them are not found"
+                f"periodic in {' and '.join(axes)} (BOX BOUNDS {' '.join(flags)}): the "
+                "analysis takes the periodic horizontal axes as a periodic cell"
             )
     return ParticleFile(
         path=path,

@@ -50,8 +50,8 @@ def microstructure(
     ----------
     pack : granpack.Pack or granpack.ParticleFile, optional
         A generated pack (its positions, radii, contacts with forces, and box), or what
-        :func:`granpack.read_particles` read from a file (its box, if the file has one;
-        periodic boundaries are not modelled: see ParticleFile.periodic). Give either
+        :func:`granpack.read_particles` read from a file (its box, if the file has one,
+        and its periodic horizontal axes: see ParticleFile.periodic). Give either
         `pack` or `positions` and `radii`, not both.
     positions : (N, D) array, optional
         Centres (m), D = 2 or 3, vertical axis last (y in 2D, z in 3D).

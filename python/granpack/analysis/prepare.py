@@ -78,6 +78,11 @@ def _container_of(pack, periodic, cylinder_radius, d: int):
                 cylinder_radius = float(scene.base[0]) / 2.0
         if kind == "periodic" and periodic is None:
             periodic = (True,) * (d - 1)
+        flags = getattr(pack, "periodic", None) if scene is None else None
+        if flags is not None and periodic is None and any(flags[: d - 1]):
+            # another code's periodic horizontal axes (a dump's BOX BOUNDS pp); a
+            # periodic vertical axis (LAMMPS' 2D z) is not one of the pack's
+            periodic = tuple(bool(f) for f in flags[: d - 1])
     elif cylinder_radius is not None:
         kind = "cylinder"
     if periodic is not None and any(bool(p) for p in periodic):
