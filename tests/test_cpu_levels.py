@@ -49,3 +49,15 @@ def test_a_bad_level_fails_the_import_by_name(bad):
     last = p.stderr.strip().splitlines()[-1]
     assert last.startswith("granpack.errors.InvalidParameterError: invalid GRANPACK_CPU_LEVEL")
     assert "x86-64-v3" in last and len(last) < 300
+
+
+def test_importing_granpack_leaves_polars_out():
+    """polars' wheels need AVX2 and crash on import without it; granpack's engine runs on
+    any x86-64 CPU (tools/cpu_check.py under qemu's Nehalem in CI), so `import granpack`
+    must not import polars: the tables import it when they are made."""
+    import subprocess
+    import sys
+
+    code = "import sys, granpack; print('polars' in sys.modules)"
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "False"

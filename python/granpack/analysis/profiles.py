@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import polars as pl
 
 from .._validate import InvalidParameterError, as_int
 from .coordination import degrees
@@ -13,6 +13,9 @@ from .prepare import MAX_SLICES, _prepare, stress_slices
 from .stress import contact_forces
 from .tensors import _bin_free
 from .volumes import cylinder_volumes, slab_volumes
+
+if TYPE_CHECKING:
+    import polars as pl
 
 __all__ = ["profiles", "radial_profiles"]
 
@@ -111,6 +114,10 @@ def profiles(
                 f0[k] = out.f0 if out is not None else np.nan
         forces = contact_forces(c.normal, c.force_normal, c.force_tangential)
         szz = stress_slices(prep, edges, forces, prep.branches())[:, d - 1, d - 1]
+    # polars is imported when a table is made, not with granpack: its wheels need AVX2
+    # (a CPU without it crashes on import), and the engine runs on any x86-64 CPU
+    import polars as pl
+
     return pl.DataFrame(
         {
             "z_lo": edges[:-1],
@@ -185,6 +192,8 @@ def radial_profiles(
     c = prep.contacts
     deg = degrees(c.i, c.j, prep.n)
     npart, z, zm = _per_group(group, n_s, deg)
+    import polars as pl
+
     return pl.DataFrame(
         {
             "r_lo": edges[:-1],
