@@ -1,11 +1,15 @@
 //! Cell lists.
 //!
-//! Cells are cubes of side `cell` >= the largest interaction distance (twice the
-//! largest reach, radius + half skin), so every pair closer than its cutoff lies in the
-//! same or an adjacent cell (3^D cells to visit, in 3^(D-1) runs of adjacent cells).
+//! Cells are cubes (squares) of one side. With radii of one size the side is at least
+//! the largest interaction distance (twice the largest reach, radius + half skin), so
+//! every pair closer than its cutoff lies in the same or an adjacent cell (3^D cells to
+//! visit, in 3^(D-1) runs of adjacent cells). At a wide size ratio the pair search
+//! takes smaller cells, sized by a cost estimate: the particles whose reach fits half
+//! a cell pair among themselves in 3^D cells, and the few larger ones visit the ball
+//! of cells within their own reach (`search_cell`, `CellGrid::for_each_row_within`).
 //! Cells are filled by a counting sort, which is stable: inside a cell particles keep
 //! increasing index order. The pair list comes out sorted by (i, j) whatever the thread
-//! count.
+//! count or the cell size.
 
 use super::Period;
 use crate::math::{Real, Vector};
@@ -161,6 +165,129 @@ impl<const D: usize> CellGrid<D> {
                 self.start[base + x_hi + 1] as usize,
             );
             f(s..e);
+        }
+    }
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Calls `f(range)` for runs of [`members`](Self::members) that cover every cell
+    /// within `reach` (m) of `p`: the rows along the first axis whose cells come
+    /// within `reach` of `p` across the other axes, each trimmed to the cells within
+    /// the reach left along it (a ball's stencil, not its bounding cube). A row is one
+    /// run, or two where a periodic seam splits it. On periodic axes each cell is
+    /// visited once, however far the reach spans.
+    pub fn for_each_row_within(
+        &self,
+        p: &Vector<D>,
+        reach: Real,
+        mut f: impl FnMut(std::ops::Range<usize>),
+    ) {
+        // Squared gaps from p to the cells at each offset are tabulated per axis for
+        // up to this many cells; a wider span is visited whole (no pruning there).
+        const TAB: usize = 32;
+        // a hair wider than asked, so that rounding in the gaps never drops a cell
+        // that holds a partner
+        let reach = reach * (1.0 + 1e-9);
+        let reach2 = reach * reach;
+        let c = cell_coords(p, &self.lo, &self.cell, &self.dims);
+        // Per axis: the first cell (possibly past a periodic edge) and how many, and
+        // the squared gap from p to each of them (0 where not tabulated).
+        let mut first = [0isize; D];
+        let mut count = [0usize; D];
+        let mut gap2 = [[0.0 as Real; TAB]; D];
+        for k in 0..D {
+            let d = self.dims[k];
+            // cells beyond the own one: ceil(reach / cell), or one more where that
+            // is whole (truncation: `ceil` is a libm call on plain x86-64)
+            let w = ((reach / self.cell[k]).clamp(0.0, d as Real) as usize + 1).min(d);
+            if self.wrap[k] && 2 * w + 1 >= d {
+                // the whole period, once
+                (first[k], count[k]) = (0, d);
+                continue;
+            }
+            if self.wrap[k] {
+                (first[k], count[k]) = (c[k] as isize - w as isize, 2 * w + 1);
+            } else {
+                let a = c[k].saturating_sub(w);
+                (first[k], count[k]) = (a as isize, (c[k] + w).min(d - 1) - a + 1);
+            }
+            if count[k] <= TAB {
+                // where p lies in its own cell, in cells (past 1 at a clamped edge)
+                let frac = (p[k] - self.lo[k]) / self.cell[k] - c[k] as Real;
+                for (m, g2) in gap2[k][..count[k]].iter_mut().enumerate() {
+                    let o = (first[k] + m as isize - c[k] as isize) as Real;
+                    let gap = if o > 0.0 {
+                        (o - frac).max(0.0)
+                    } else if o < 0.0 {
+                        (frac - 1.0 - o).max(0.0)
+                    } else {
+                        0.0
+                    } * self.cell[k];
+                    *g2 = gap * gap;
+                }
+            }
+        }
+        let gap_of = |k: usize, m: usize| if m < TAB { gap2[k][m] } else { 0.0 };
+        let d0 = self.dims[0] as isize;
+        // the odometer over the rows: per axis the index among its cells and the
+        // wrapped cell, stepped without divisions
+        let mut idx = [0usize; D];
+        let mut cur = [0usize; D];
+        for k in 1..D {
+            cur[k] = first[k].rem_euclid(self.dims[k] as isize) as usize;
+        }
+        loop {
+            let mut base = 0usize;
+            let mut stride = self.dims[0];
+            let mut across = 0.0;
+            for k in 1..D {
+                across += gap_of(k, idx[k]);
+                base += cur[k] * stride;
+                stride *= self.dims[k];
+            }
+            if across < reach2 {
+                // the row, trimmed to the cells within the reach left along it
+                // (counted without branches: the gaps fall to the cell of p and rise
+                // after it, and which cells drop out varies from row to row)
+                let left = reach2 - across;
+                let (mut m0, mut m1) = (0usize, count[0] - 1);
+                if count[0] <= TAB {
+                    let own = (c[0] as isize - first[0]) as usize;
+                    for m in 0..own {
+                        m0 += (gap2[0][m] >= left) as usize;
+                    }
+                    for m in own + 1..count[0] {
+                        m1 -= (gap2[0][m] >= left) as usize;
+                    }
+                }
+                let (a, b) = (first[0] + m0 as isize, first[0] + m1 as isize);
+                let ra = if a < 0 { a + d0 } else { a } as usize;
+                let rb = if b >= d0 { b - d0 } else { b } as usize;
+                if a >= 0 && b < d0 {
+                    f(self.start[base + ra] as usize..self.start[base + rb + 1] as usize);
+                } else {
+                    // split by the seam of a periodic first axis
+                    f(self.start[base + ra] as usize..self.start[base + d0 as usize] as usize);
+                    f(self.start[base] as usize..self.start[base + rb + 1] as usize);
+                }
+            }
+            let mut k = 1;
+            loop {
+                if k == D {
+                    return;
+                }
+                idx[k] += 1;
+                if idx[k] < count[k] {
+                    cur[k] += 1;
+                    if cur[k] == self.dims[k] {
+                        cur[k] = 0;
+                    }
+                    break;
+                }
+                idx[k] = 0;
+                cur[k] = first[k].rem_euclid(self.dims[k] as isize) as usize;
+                k += 1;
+            }
         }
     }
 }
@@ -333,18 +460,115 @@ pub fn neighbor_pairs_periodic<const D: usize>(
     }
 }
 
-/// The search behind both: a grid with cells of one cutoff; each particle `i` with
-/// `from(i)` tests every candidate in the 3^D cells around it and takes the pairs with
-/// j > i, and those with j < i when `lower(j)` (the partner is never visited itself).
+/// The cell side (m) of the pair search, chosen among 2 reach_max / s for a few
+/// divisors s >= 1 by the cost it predicts: each particle tests every candidate in the
+/// cells it visits, 3^D cells for a particle whose reach fits half a cell ("small"),
+/// (2 ceil((reach_i + reach_max) / cell) + 1)^D for the others ("large"), plus a fixed
+/// cost per row of cells visited and per cell built. With radii of one size s = 1
+/// wins (every particle is small, the classic grid); at a wide size ratio the cells
+/// shrink towards the fines, whose stencils then hold a few fines each instead of
+/// hundreds, and the few large particles pay for wide stencils. The choice changes
+/// only the work, never the pairs found.
+fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real) -> Real {
+    let coarse = 2.0 * reach_max;
+    let reach_min = reach.iter().cloned().fold(Real::INFINITY, Real::min);
+    if !(reach_min > 0.0) || !coarse.is_finite() || reach_max < 1.5 * reach_min {
+        return coarse;
+    }
+    // candidates per unit volume: the particles over their bounding box
+    let mut lo = x[0];
+    let mut hi = x[0];
+    for p in x {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let mut volume = 1.0;
+    for k in 0..D {
+        volume *= (hi[k] - lo[k]).max(coarse);
+    }
+    let density = x.len() as Real / volume;
+    // costs relative to a small particle's candidate test, fitted to the size-ratio
+    // benchmark's counts and times: a row of cells, a large particle's candidate
+    // (its loop branches), a cell built
+    const ROW: Real = 8.0;
+    const LARGE: Real = 2.0;
+    const CELL: Real = 1.0;
+    // the reaches of at most about 1024 particles, evenly strided, stand for all:
+    // the estimate then costs little beside the search at any N
+    let stride = (reach.len() / 1024).max(1);
+    let sample = reach.len().div_ceil(stride) as Real;
+    let scale = reach.len() as Real / sample;
+    let cost = |cell: Real| -> Real {
+        let cells_per_particle = volume / cell.powi(D as i32) / x.len() as Real;
+        let small_cost = density * (3.0 * cell).powi(D as i32) + ROW * 3.0_f64.powi(D as i32 - 1);
+        // a ball's stencil: about pi/6 (3D) or pi/4 (2D) of its bounding cube's cells,
+        // and pi/4 of its rows (3D)
+        let (ball, rows) = if D == 3 { (0.52, 0.79) } else { (0.79, 1.0) };
+        let mut total = 0.0;
+        for &r in reach.iter().step_by(stride) {
+            total += if r <= 0.5 * cell {
+                small_cost
+            } else {
+                let side = (2.0 * ((r + reach_max) / cell).ceil() + 1.0).min(1e9);
+                LARGE * ball * density * (side * cell).powi(D as i32)
+                    + ROW * rows * side.powi(D as i32 - 1)
+            };
+        }
+        total *= scale;
+        total + CELL * cells_per_particle.min(8.0) * x.len() as Real
+    };
+    let mut best = (cost(coarse), coarse);
+    for s in [1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0] {
+        let cell = coarse / s;
+        if cell < 2.0 * reach_min {
+            break;
+        }
+        let c = cost(cell);
+        if c < best.0 {
+            best = (c, cell);
+        }
+    }
+    best.1
+}
+
+/// The search behind all three: each particle `i` with `from(i)` (and each large one)
+/// tests the candidates in the cells around it and takes its pairs with j > i, and
+/// those with j < i when `lower(j)` (the partner is never visited itself).
+///
+/// The grid's cells are chosen by [`search_cell`]. A small particle (reach at most half
+/// a cell) visits the 3^D cells around its own and pairs only with small ones there; a
+/// large one visits every cell within reach_i + reach_max and takes all its pairs with
+/// small particles, and those with larger indices among the large ones. A pair is thus
+/// taken once, from its large end if it has one.
 ///
 /// Visiting the whole shell (instead of a half shell) doubles the distance tests, but
 /// every `i` then finds all its partners j > i itself: sorting those few per `i` and
 /// concatenating the parallel chunks in order gives the list sorted by (i, j) without
 /// a global sort, which cost more than the extra tests. Only the pairs taken from their
-/// upper end (few: the active particles next to frozen ones) need a sort and a merge.
+/// upper end (the active particles next to frozen ones, and a large particle's smaller
+/// partners of lower index) need a sort and a merge.
 fn search<const D: usize>(
     x: &[Vector<D>],
     reach: &[Real],
+    period: Option<&Period<D>>,
+    sep: impl Fn(Vector<D>) -> Vector<D> + Sync,
+    from: impl Fn(usize) -> bool + Sync,
+    lower: impl Fn(usize) -> bool + Sync,
+) -> Vec<[u32; 2]> {
+    if x.len() < 2 {
+        return Vec::new();
+    }
+    let reach_max = reach.iter().cloned().fold(0.0, Real::max);
+    let cell = search_cell(x, reach, reach_max);
+    search_in(x, reach, cell, period, sep, from, lower)
+}
+
+/// [`search`] on a grid with cells of side at least `cell` (m); any cell gives the
+/// same pairs.
+fn search_in<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    cell: Real,
     period: Option<&Period<D>>,
     sep: impl Fn(Vector<D>) -> Vector<D> + Sync,
     from: impl Fn(usize) -> bool + Sync,
@@ -355,7 +579,9 @@ fn search<const D: usize>(
         return Vec::new();
     }
     let reach_max = reach.iter().cloned().fold(0.0, Real::max);
-    let grid = CellGrid::build_with(x, 2.0 * reach_max, period);
+    let grid = CellGrid::build_with(x, cell, period);
+    // a small particle's pairs with small ones lie in the 3^D cells around it
+    let half_cell = 0.5 * grid.cell_size();
     // Positions and reaches copied in cell order: a row of cells is then one contiguous
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
@@ -370,31 +596,60 @@ fn search<const D: usize>(
             let mut up = Vec::new();
             let mut down = Vec::new();
             let mut mine: Vec<u32> = Vec::new();
-            for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| from(i)) {
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let (xi, reach_i) = (x[i], reach[i]);
-                // Branch-free: every candidate is written to the next slot, and the
-                // count advances only for a partner above i within the cutoff (a
-                // branch there went either way and mispredicted).
                 let mut w = 0usize;
-                grid.for_each_row(&xi, |run| {
-                    if mine.len() < w + run.len() {
-                        mine.resize(w + run.len(), 0);
-                    }
-                    for ((&j, xj), &reach_j) in members[run.clone()]
-                        .iter()
-                        .zip(&xs[run.clone()])
-                        .zip(&reach_s[run])
-                    {
-                        let ju = j as usize;
-                        let cut = reach_i + reach_j;
-                        let near = sep(xj - xi).norm_squared() < cut * cut;
-                        mine[w] = j;
-                        w += (near & (ju > i)) as usize;
-                        if near & (ju < i) && lower(ju) {
-                            down.push([j, i as u32]);
+                if reach_i > half_cell {
+                    // large: every partner within reach; a pair with another large
+                    // one is taken from its lower index, a pair with a small one here
+                    // with an active filter: a pair with an active particle
+                    let active_i = from(i);
+                    grid.for_each_row_within(&xi, reach_i + reach_max, |run| {
+                        if mine.len() < w + run.len() {
+                            mine.resize(w + run.len(), 0);
                         }
-                    }
-                });
+                        // branch-free as below; i itself is not near (ju > i fails)
+                        for ((&j, xj), &reach_j) in members[run.clone()]
+                            .iter()
+                            .zip(&xs[run.clone()])
+                            .zip(&reach_s[run])
+                        {
+                            let ju = j as usize;
+                            let cut = reach_i + reach_j;
+                            let near = sep(xj - xi).norm_squared() < cut * cut;
+                            mine[w] = j;
+                            w += (near & (ju > i) && (active_i || !lower(ju))) as usize;
+                            if near & (ju < i) & (reach_j <= half_cell) && (active_i || !lower(ju))
+                            {
+                                down.push([j, i as u32]);
+                            }
+                        }
+                    });
+                } else if from(i) {
+                    // Branch-free: every candidate is written to the next slot, and the
+                    // count advances only for a small partner above i within the cutoff
+                    // (a branch there went either way and mispredicted).
+                    grid.for_each_row(&xi, |run| {
+                        if mine.len() < w + run.len() {
+                            mine.resize(w + run.len(), 0);
+                        }
+                        for ((&j, xj), &reach_j) in members[run.clone()]
+                            .iter()
+                            .zip(&xs[run.clone()])
+                            .zip(&reach_s[run])
+                        {
+                            let ju = j as usize;
+                            let cut = reach_i + reach_j;
+                            let near =
+                                (sep(xj - xi).norm_squared() < cut * cut) & (reach_j <= half_cell);
+                            mine[w] = j;
+                            w += (near & (ju > i)) as usize;
+                            if near & (ju < i) && lower(ju) {
+                                down.push([j, i as u32]);
+                            }
+                        }
+                    });
+                }
                 let mine = &mut mine[..w];
                 mine.sort_unstable();
                 up.extend(mine.iter().map(|&j| [i as u32, j]));
@@ -563,6 +818,47 @@ mod tests {
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
             prop_assert_eq!(neighbor_pairs_active(&x, &reach, None, |i| active[i]), expect);
+        }
+
+        /// Cells smaller than the largest cutoff (2 reach_max / s, down to s = 12,
+        /// whatever the cost model would choose): small particles pair among
+        /// themselves in 3^D cells, large ones through their wide stencils, and the
+        /// pairs are exactly the brute-force ones, in a box and in a periodic cell
+        /// (periods of a few cells to many), 2D and 3D, from all particles or from the
+        /// active ones.
+        #[test]
+        fn any_cell_gives_the_brute_force_pairs(seed in 0u64..10_000, n in 0usize..400,
+                                                ratio in 1.0f64..12.0, skin in 0.0f64..0.01,
+                                                s in 1.0f64..12.0, side in 0.3f64..1.0,
+                                                periodic in proptest::bool::ANY) {
+            let active: Vec<bool> = (0..n).map(|k| k % 3 != 0).collect();
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
+            let x: Vec<Vector<3>> = x.iter().map(|p| Vector::<3>::new(p[0] * side, p[1], p[2])).collect();
+            let reach: Vec<Real> = reach.iter().map(|r| 0.5 * r).collect();
+            let reach_max = reach.iter().cloned().fold(0.0, Real::max);
+            let cell = 2.0 * reach_max / s;
+            let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::new(side, 1.0, 1.0), &[true, true, false]);
+            let (pairs, expect) = if periodic {
+                (search_in(&x, &reach, cell, Some(&per), |d| per.image(d), |_| true, |_| false),
+                 brute_force_pairs_periodic(&x, &reach, &per))
+            } else {
+                (search_in(&x, &reach, cell, None, |d| d, |_| true, |_| false),
+                 brute_force_pairs(&x, &reach))
+            };
+            prop_assert_eq!(&pairs, &expect);
+            let expect: Vec<[u32; 2]> = expect
+                .into_iter()
+                .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                .collect();
+            let sep = |d| if periodic { per.image(d) } else { d };
+            let pairs = search_in(&x, &reach, cell, periodic.then_some(&per), sep,
+                                  |i| active[i], |j| !active[j]);
+            prop_assert_eq!(pairs, expect);
+            let (x2, reach2) = cloud::<2>(seed, n, ratio, skin);
+            let cell2 = 2.0 * reach2.iter().cloned().fold(0.0, Real::max) / s;
+            let per2 = Period::new(&Vector::<2>::zeros(), &Vector::<2>::repeat(1.0), &[true, false]);
+            prop_assert_eq!(search_in(&x2, &reach2, cell2, Some(&per2), |d| per2.image(d), |_| true, |_| false),
+                            brute_force_pairs_periodic(&x2, &reach2, &per2));
         }
 
         #[test]
