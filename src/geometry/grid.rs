@@ -253,12 +253,9 @@ impl<const D: usize> CellGrid<D> {
                 let (mut m0, mut m1) = (0usize, count[0] - 1);
                 if count[0] <= TAB {
                     let own = (c[0] as isize - first[0]) as usize;
-                    for m in 0..own {
-                        m0 += (gap2[0][m] >= left) as usize;
-                    }
-                    for m in own + 1..count[0] {
-                        m1 -= (gap2[0][m] >= left) as usize;
-                    }
+                    let row = &gap2[0][..count[0]];
+                    m0 += row[..own].iter().filter(|&&g| g >= left).count();
+                    m1 -= row[own + 1..].iter().filter(|&&g| g >= left).count();
                 }
                 let (a, b) = (first[0] + m0 as isize, first[0] + m1 as isize);
                 let ra = if a < 0 { a + d0 } else { a } as usize;
@@ -472,7 +469,9 @@ pub fn neighbor_pairs_periodic<const D: usize>(
 fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real) -> Real {
     let coarse = 2.0 * reach_max;
     let reach_min = reach.iter().cloned().fold(Real::INFINITY, Real::min);
-    if !(reach_min > 0.0) || !coarse.is_finite() || reach_max < 1.5 * reach_min {
+    // (reach_min > 0.0 is false for a NaN too)
+    let positive = reach_min > 0.0;
+    if !positive || !coarse.is_finite() || reach_max < 1.5 * reach_min {
         return coarse;
     }
     // candidates per unit volume: the particles over their bounding box
