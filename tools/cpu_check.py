@@ -5,6 +5,9 @@ DEM run, for checking that a wheel gives the same bits on every CPU.
     GRANPACK_CPU_LEVEL=x86-64 python tools/cpu_check.py        # a forced level
     qemu-x86_64 -cpu Nehalem "$(command -v python)" tools/cpu_check.py   # an older CPU
 
+(Where OPENBLAS_CORETYPE is set for the host, set it to Nehalem for the Nehalem run, as
+.ci/run does: numpy's OpenBLAS would otherwise run the host's kernels on the emulated CPU.)
+
 The run is small (a few hundred steps: emulators are slow) but takes every hot kernel
 through contacts: a 3D bed of 180 spheres and a 2D one of 60 discs, with friction,
 spins and walls, fall onto their floors; then one RSA layer of the presets with Gaussian
