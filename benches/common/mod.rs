@@ -180,9 +180,12 @@ pub enum RatioLaw {
     HalfGaussian,
 }
 
-/// The [`RatioLaw`] at size ratio `ratio` (r_max / r_min, r_min = 0.01 m).
+/// The smallest radius of the size-ratio benchmarks (m).
+pub const RATIO_R_MIN: f64 = 0.01;
+
+/// The [`RatioLaw`] at size ratio `ratio` (r_max / r_min, r_min = [`RATIO_R_MIN`]).
 pub fn ratio_law(ratio: f64, law: RatioLaw) -> RadiusLaw {
-    let r_min = 0.01;
+    let r_min = RATIO_R_MIN;
     let r_max = ratio * r_min;
     let sd = 0.4 * (r_max - r_min);
     match law {
@@ -210,7 +213,7 @@ pub fn ratio_law(ratio: f64, law: RatioLaw) -> RadiusLaw {
 /// (the RSA benchmark).
 pub fn ratio_packer(ratio: f64, n: usize, law: RatioLaw) -> Packer<3> {
     use rand::SeedableRng;
-    let r_min = 0.01;
+    let r_min = RATIO_R_MIN;
     let r_max = ratio * r_min;
     let law = ratio_law(ratio, law);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);

@@ -559,14 +559,16 @@ fn search<const D: usize>(
     }
     let reach_max = reach.iter().cloned().fold(0.0, Real::max);
     let cell = search_cell(x, reach, reach_max);
-    search_in(x, reach, cell, period, sep, from, lower)
+    search_in(x, reach, reach_max, cell, period, sep, from, lower)
 }
 
 /// [`search`] on a grid with cells of side at least `cell` (m); any cell gives the
-/// same pairs.
+/// same pairs. `reach_max` (m) is the largest of `reach`.
+#[allow(clippy::too_many_arguments)]
 fn search_in<const D: usize>(
     x: &[Vector<D>],
     reach: &[Real],
+    reach_max: Real,
     cell: Real,
     period: Option<&Period<D>>,
     sep: impl Fn(Vector<D>) -> Vector<D> + Sync,
@@ -577,7 +579,6 @@ fn search_in<const D: usize>(
     if n < 2 {
         return Vec::new();
     }
-    let reach_max = reach.iter().cloned().fold(0.0, Real::max);
     let grid = CellGrid::build_with(x, cell, period);
     // a small particle's pairs with small ones lie in the 3^D cells around it
     let half_cell = 0.5 * grid.cell_size();
@@ -838,10 +839,10 @@ mod tests {
             let cell = 2.0 * reach_max / s;
             let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::new(side, 1.0, 1.0), &[true, true, false]);
             let (pairs, expect) = if periodic {
-                (search_in(&x, &reach, cell, Some(&per), |d| per.image(d), |_| true, |_| false),
+                (search_in(&x, &reach, reach_max, cell, Some(&per), |d| per.image(d), |_| true, |_| false),
                  brute_force_pairs_periodic(&x, &reach, &per))
             } else {
-                (search_in(&x, &reach, cell, None, |d| d, |_| true, |_| false),
+                (search_in(&x, &reach, reach_max, cell, None, |d| d, |_| true, |_| false),
                  brute_force_pairs(&x, &reach))
             };
             prop_assert_eq!(&pairs, &expect);
@@ -850,13 +851,14 @@ mod tests {
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
             let sep = |d| if periodic { per.image(d) } else { d };
-            let pairs = search_in(&x, &reach, cell, periodic.then_some(&per), sep,
+            let pairs = search_in(&x, &reach, reach_max, cell, periodic.then_some(&per), sep,
                                   |i| active[i], |j| !active[j]);
             prop_assert_eq!(pairs, expect);
             let (x2, reach2) = cloud::<2>(seed, n, ratio, skin);
-            let cell2 = 2.0 * reach2.iter().cloned().fold(0.0, Real::max) / s;
+            let reach_max2 = reach2.iter().cloned().fold(0.0, Real::max);
+            let cell2 = 2.0 * reach_max2 / s;
             let per2 = Period::new(&Vector::<2>::zeros(), &Vector::<2>::repeat(1.0), &[true, false]);
-            prop_assert_eq!(search_in(&x2, &reach2, cell2, Some(&per2), |d| per2.image(d), |_| true, |_| false),
+            prop_assert_eq!(search_in(&x2, &reach2, reach_max2, cell2, Some(&per2), |d| per2.image(d), |_| true, |_| false),
                             brute_force_pairs_periodic(&x2, &reach2, &per2));
         }
 
