@@ -229,61 +229,57 @@ impl<const D: usize> CellGrid<D> {
         }
         let gap_of = |k: usize, m: usize| if m < TAB { gap2[k][m] } else { 0.0 };
         let d0 = self.dims[0] as isize;
-        // the odometer over the rows: per axis the index among its cells and the
-        // wrapped cell, stepped without divisions
+        let own = (c[0] as isize - first[0]) as usize;
+        let trim = count[0] <= TAB;
+        // The rows across the other axes, in one flat loop whose odometer carries
+        // without branches: a per-axis loop, or a test per row, would mispredict at
+        // every turn, since the counts and which rows fall within the reach change
+        // from particle to particle. A row out of reach becomes an empty run.
         let mut idx = [0usize; D];
-        let mut cur = [0usize; D];
+        let mut first_cell = [0usize; D];
+        let mut rows = 1usize;
         for k in 1..D {
-            cur[k] = first[k].rem_euclid(self.dims[k] as isize) as usize;
+            first_cell[k] = first[k].rem_euclid(self.dims[k] as isize) as usize;
+            rows *= count[k];
         }
-        loop {
+        for _ in 0..rows {
             let mut base = 0usize;
             let mut stride = self.dims[0];
             let mut across = 0.0;
             for k in 1..D {
                 across += gap_of(k, idx[k]);
-                base += cur[k] * stride;
+                let mut cur = first_cell[k] + idx[k];
+                cur -= if cur >= self.dims[k] { self.dims[k] } else { 0 };
+                base += cur * stride;
                 stride *= self.dims[k];
             }
-            if across < reach2 {
-                // the row, trimmed to the cells within the reach left along it
-                // (counted without branches: the gaps fall to the cell of p and rise
-                // after it, and which cells drop out varies from row to row)
-                let left = reach2 - across;
-                let (mut m0, mut m1) = (0usize, count[0] - 1);
-                if count[0] <= TAB {
-                    let own = (c[0] as isize - first[0]) as usize;
-                    let row = &gap2[0][..count[0]];
-                    m0 += row[..own].iter().filter(|&&g| g >= left).count();
-                    m1 -= row[own + 1..].iter().filter(|&&g| g >= left).count();
-                }
-                let (a, b) = (first[0] + m0 as isize, first[0] + m1 as isize);
-                let ra = if a < 0 { a + d0 } else { a } as usize;
-                let rb = if b >= d0 { b - d0 } else { b } as usize;
-                if a >= 0 && b < d0 {
-                    f(self.start[base + ra] as usize..self.start[base + rb + 1] as usize);
-                } else {
-                    // split by the seam of a periodic first axis
-                    f(self.start[base + ra] as usize..self.start[base + d0 as usize] as usize);
-                    f(self.start[base] as usize..self.start[base + rb + 1] as usize);
-                }
+            // the row, trimmed to the cells within the reach left along it (the gaps
+            // fall to the cell of p and rise after it)
+            let left = reach2 - across;
+            let (mut m0, mut m1) = (0usize, count[0] - 1);
+            if trim {
+                let row = &gap2[0][..count[0]];
+                m0 += row[..own].iter().filter(|&&g| g >= left).count();
+                m1 -= row[own + 1..].iter().filter(|&&g| g >= left).count();
             }
-            let mut k = 1;
-            loop {
-                if k == D {
-                    return;
-                }
-                idx[k] += 1;
-                if idx[k] < count[k] {
-                    cur[k] += 1;
-                    if cur[k] == self.dims[k] {
-                        cur[k] = 0;
-                    }
-                    break;
-                }
-                idx[k] = 0;
-                cur[k] = first[k].rem_euclid(self.dims[k] as isize) as usize;
-                k += 1;
+            let inside = across < reach2;
+            let (a, b) = (first[0] + m0 as isize, first[0] + m1 as isize);
+            let ra = if a < 0 { a + d0 } else { a } as usize;
+            let rb = if b >= d0 { b - d0 } else { b } as usize;
+            if a >= 0 && b < d0 {
+                let s = self.start[base + ra] as usize;
+                let e = self.start[base + rb + 1] as usize;
+                f(s..if inside { e } else { s });
+            } else if inside {
+                // split by the seam of a periodic first axis
+                f(self.start[base + ra] as usize..self.start[base + d0 as usize] as usize);
+                f(self.start[base] as usize..self.start[base + rb + 1] as usize);
+            }
+            let mut carry = 1usize;
+            for k in 1..D {
+                idx[k] += carry;
+                carry = (idx[k] == count[k]) as usize;
+                idx[k] -= carry * count[k];
             }
         }
     }
@@ -486,11 +482,17 @@ fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real)
         volume *= (hi[k] - lo[k]).max(coarse);
     }
     let density = x.len() as Real / volume;
-    // costs relative to a small particle's candidate test, fitted to the size-ratio
-    // benchmark's counts and times: a row of cells, a large particle's candidate
-    // (its loop branches), a cell built
-    const ROW: Real = 8.0;
-    const LARGE: Real = 2.0;
+    // Costs relative to a small particle's candidate test, fitted by least squares to
+    // the pair search's times on the size-ratio benchmark's packs (ratios 1 to 8,
+    // divisors 1 to 6; `benchmarks/results/size_ratio/`): a small particle's row of
+    // cells (a loop that exits at a different count each time), a large particle's
+    // candidate (it also keeps its partners of lower index), its row of cells (no
+    // test per row, an empty run where the row is out of reach), its fixed cost (the
+    // ball's gap tables, a longer list to sort), a cell built.
+    const ROW: Real = 10.0;
+    const LARGE: Real = 3.0;
+    const LARGE_ROW: Real = 4.0;
+    const LARGE_FIXED: Real = 300.0;
     const CELL: Real = 1.0;
     // the reaches of at most about 1024 particles, evenly strided, stand for all:
     // the estimate then costs little beside the search at any N
@@ -510,7 +512,8 @@ fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real)
             } else {
                 let side = (2.0 * ((r + reach_max) / cell).ceil() + 1.0).min(1e9);
                 LARGE * ball * density * (side * cell).powi(D as i32)
-                    + ROW * rows * side.powi(D as i32 - 1)
+                    + LARGE_ROW * rows * side.powi(D as i32 - 1)
+                    + LARGE_FIXED
             };
         }
         total *= scale;
@@ -596,6 +599,7 @@ fn search_in<const D: usize>(
             let mut up = Vec::new();
             let mut down = Vec::new();
             let mut mine: Vec<u32> = Vec::new();
+            let mut below: Vec<u32> = Vec::new();
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let (xi, reach_i) = (x[i], reach[i]);
                 let mut w = 0usize;
@@ -604,11 +608,17 @@ fn search_in<const D: usize>(
                     // one is taken from its lower index, a pair with a small one here
                     // with an active filter: a pair with an active particle
                     let active_i = from(i);
+                    let mut wb = 0usize;
                     grid.for_each_row_within(&xi, reach_i + reach_max, |run| {
                         if mine.len() < w + run.len() {
                             mine.resize(w + run.len(), 0);
                         }
-                        // branch-free as below; i itself is not near (ju > i fails)
+                        if below.len() < wb + run.len() {
+                            below.resize(wb + run.len(), 0);
+                        }
+                        // branch-free as below, the partners of lower index too (a
+                        // branch there mispredicts for about half the small partners);
+                        // i itself is not near (ju > i and ju < i fail)
                         for ((&j, xj), &reach_j) in members[run.clone()]
                             .iter()
                             .zip(&xs[run.clone()])
@@ -616,15 +626,15 @@ fn search_in<const D: usize>(
                         {
                             let ju = j as usize;
                             let cut = reach_i + reach_j;
-                            let near = sep(xj - xi).norm_squared() < cut * cut;
+                            let near =
+                                (sep(xj - xi).norm_squared() < cut * cut) & (active_i | !lower(ju));
                             mine[w] = j;
-                            w += (near & (ju > i) && (active_i || !lower(ju))) as usize;
-                            if near & (ju < i) & (reach_j <= half_cell) && (active_i || !lower(ju))
-                            {
-                                down.push([j, i as u32]);
-                            }
+                            w += (near & (ju > i)) as usize;
+                            below[wb] = j;
+                            wb += (near & (ju < i) & (reach_j <= half_cell)) as usize;
                         }
                     });
+                    down.extend(below[..wb].iter().map(|&j| [j, i as u32]));
                 } else if from(i) {
                     // Branch-free: every candidate is written to the next slot, and the
                     // count advances only for a small partner above i within the cutoff
