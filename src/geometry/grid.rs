@@ -174,7 +174,8 @@ impl<const D: usize> CellGrid<D> {
     /// within `reach` (m) of `p`: the rows along the first axis whose cells come
     /// within `reach` of `p` across the other axes, each trimmed to the cells within
     /// the reach left along it (a ball's stencil, not its bounding cube). A row is one
-    /// run, or two where a periodic seam splits it. On periodic axes each cell is
+    /// run, or two where a periodic seam splits it; a row out of reach comes as an
+    /// empty run (so the walk needs no test per row). On periodic axes each cell is
     /// visited once, however far the reach spans.
     pub fn for_each_row_within(
         &self,
