@@ -44,11 +44,9 @@ struct Case {
     x: Vec<Vector<3>>,
     r: Vec<f64>,
     reach: Vec<f64>,
-    spec_base: [f64; 2],
+    /// top of the pack (m): the RSA layer goes above it
     height: f64,
-    h_layer: f64,
-    phi_layer: f64,
-    radii: _core::RadiusLaw,
+    cfg: _core::PackConfig<3>,
     world: _core::World<3>,
     pairs: usize,
     added: usize,
@@ -63,12 +61,12 @@ impl Case {
                 let spec = LayerSpec::<3> {
                     container: Container::Box,
                     lo: Vector::<3>::zeros(),
-                    hi: Vector::<3>::new(self.spec_base[0], self.spec_base[1], f64::INFINITY),
+                    hi: Vector::<3>::new(self.cfg.base[0], self.cfg.base[1], f64::INFINITY),
                     vertical: 2,
                     height: self.height,
-                    h_layer: self.h_layer,
-                    phi_layer: self.phi_layer,
-                    radii: self.radii.clone(),
+                    h_layer: self.cfg.h_layer,
+                    phi_layer: self.cfg.phi_layer,
+                    radii: self.cfg.radii.clone(),
                     max_attempts: 1_000_000,
                     existing: (&self.x, &self.r),
                     layer: 0,
@@ -106,7 +104,6 @@ fn main() {
                 println!("{ratio:5}  the pack did not complete: {e}");
                 continue;
             }
-            let cfg = p.config().clone();
             let w = p.world();
             let (x, r) = (w.positions().to_vec(), w.radii().to_vec());
             cases.push(Case {
@@ -116,10 +113,7 @@ fn main() {
                 height: x.iter().zip(&r).map(|(q, r)| q[2] + r).fold(0.0, f64::max),
                 x,
                 r,
-                spec_base: [cfg.base[0], cfg.base[1]],
-                h_layer: cfg.h_layer,
-                phi_layer: cfg.phi_layer,
-                radii: cfg.radii.clone(),
+                cfg: p.config().clone(),
                 world: w.clone(),
                 pairs: 0,
                 added: 0,
