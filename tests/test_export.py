@@ -115,8 +115,15 @@ def test_csv_and_parquet_round_trip(pack, tmp_path):
     for fmt in ("csv", "parquet"):
         files = export.export(pack, tmp_path / f"p.{fmt}", fmt)
         assert [f.name for f in files] == [f"p.particles.{fmt}", f"p.contacts.{fmt}"]
-        read = pl.read_csv if fmt == "csv" else pl.read_parquet
-        parts, cons = read(files[0]), read(files[1])
+        if fmt == "csv":
+            # the particle table opens with the container tag, a comment line
+            assert files[0].read_text().startswith(f"# granpack: dim={d} container=box ")
+            parts = pl.read_csv(files[0], comment_prefix="#")
+            cons = pl.read_csv(files[1])
+        else:
+            parts, cons = pl.read_parquet(files[0]), pl.read_parquet(files[1])
+            meta = pl.read_parquet_metadata(files[0])
+            assert meta["granpack"].startswith(f"dim={d} container=box ")
         assert parts.height == len(pack) and cons.height == len(pack.contacts)
         for k, a in enumerate(axes):
             np.testing.assert_array_equal(parts[a].to_numpy(), pack.positions[:, k])

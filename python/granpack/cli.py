@@ -40,6 +40,7 @@ import numpy as np
 
 from ._validate import GranpackError, InvalidParameterError
 from .contact_files import LAYOUTS as CONTACT_LAYOUTS
+from .container_tag import CONTAINER_KINDS
 from .particles import FORMATS
 
 __all__ = ["main", "build_parser"]
@@ -369,6 +370,21 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="box of a text file: XLO XHI YLO YHI (2D) or XLO XHI YLO YHI ZLO ZHI (3D); "
         "default: the particles' bounding box",
+    )
+    a.add_argument(
+        "--container",
+        choices=CONTAINER_KINDS,
+        default=None,
+        help="the container to analyse in, for files that cannot say: walled box, periodic "
+        "horizontal axes (periods from the box) or vertical cylinder (default: what the file "
+        "says, else a box, and the output says which it used and why)",
+    )
+    a.add_argument(
+        "--cylinder-radius",
+        type=float,
+        default=None,
+        metavar="R",
+        help="radius of --container cylinder (m; default: the file's)",
     )
     a.add_argument("--json", action="store_true", help="print JSON instead of a table")
     a.add_argument("--figures", type=Path, default=None, metavar="DIR", help="also draw pictures")
@@ -914,8 +930,13 @@ def _load_for_analysis(args, console: _Console):
         args.contacts_read = found
     elif args.contact_layout is not None:
         raise GranpackError("--contact-layout needs --contacts FILE")
+    where: dict = {}
+    if getattr(args, "container", None) is not None:
+        where["container"] = args.container
+    if getattr(args, "cylinder_radius", None) is not None:
+        where["cylinder_radius"] = args.cylinder_radius
     if args.box is None:
-        return particles, {}
+        return particles, where
     if particles.contacts is not None and args.contacts is not None:
         raise GranpackError("--box cannot be combined with --contacts: the dump gives the box")
     dim = particles.dim
@@ -929,7 +950,17 @@ def _load_for_analysis(args, console: _Console):
         box = (v[0::2], v[1::2])
         if np.any(box[1] <= box[0]):
             raise InvalidParameterError("invalid --box: every axis needs lo < hi")
-    return particles, {"positions": particles.positions, "radii": particles.radii, "box": box}
+    if "container" not in where and particles.container is not None:
+        # --box replaces the file's box, not its container
+        where["container"] = particles.container
+        if particles.cylinder_radius is not None and "cylinder_radius" not in where:
+            where["cylinder_radius"] = particles.cylinder_radius
+    return particles, {
+        "positions": particles.positions,
+        "radii": particles.radii,
+        "box": box,
+        **where,
+    }
 
 
 def _format_value(v) -> str:
@@ -945,13 +976,25 @@ def _format_value(v) -> str:
 def cmd_analyze(args, console: _Console) -> int:
     particles, kwargs = _load_for_analysis(args, console)
     pack = particles.pack
-    if kwargs:
+    if "positions" in kwargs:
         m = _microstructure(console, args.file.name, **kwargs)
     else:
-        m = _microstructure(console, args.file.name, particles)
+        m = _microstructure(console, args.file.name, particles, **kwargs)
+    if m.container_source == "assumed":
+        console.note(
+            f"the file does not say its container: analysed as a {m.container} "
+            f"({'walls at the file box' if particles.box is not None else 'no walls'}); "
+            "give --container box|periodic|cylinder to choose",
+            args.file.name,
+        )
     console.flush_notes()
     d = _jsonable(m.to_dict())
-    head: dict = {"file": str(args.file), "format": particles.format}
+    head: dict = {
+        "file": str(args.file),
+        "format": particles.format,
+        "container": m.container,
+        "container_source": m.container_source,
+    }
     if particles.format == "lammps-dump":
         head.update(
             snapshot=particles.snapshot,

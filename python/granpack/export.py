@@ -16,10 +16,16 @@ VTK
     * the contacts, as ``line`` cells from centre i to centre j, or to the contact
       point for wall contacts (these contact points are extra points after the
       particles, with ``id`` = -1, radius 0 and layer -1); cell data ``kind``
-      (0 particle, 1 particle-particle contact, 2 wall contact), ``i``, ``j``
+      (0 particle, 1 particle-particle contact, 2 wall contact, 3 the image of a contact
+      across a periodic seam), ``i``, ``j``
       (j < 0 names the wall), ``overlap`` (m), ``force_normal`` (N), ``normal``,
       ``force_tangential`` (N, on j) and ``force`` (N, on j: f_n n + f_t); zero on
       the vertex cells.
+
+    A contact across a periodic seam is drawn as its short minimum-image segment on both
+    sides of the cell: from centre i to x_i + l (kind 1), and from centre j to x_j - l
+    (kind 3, the same cell data), so that no line crosses the cell; count contacts with
+    kind 1 and 2 only.
 
     In ParaView: Glyph (Sphere, scale array ``diameter``, factor 1) on the points;
     Threshold ``kind`` >= 1 and Tube (radius by ``force_normal``) for force chains.
@@ -47,7 +53,9 @@ LAMMPS / LIGGGHTS
 
 YADE
     ``#format x_y_z_r`` then ``x y z r`` a line, full precision: what YADE's
-    ``export.text`` writes and ``ymport.text`` reads. 2D packs lie at z = 0.
+    ``export.text`` writes and ``ymport.text`` reads. 2D packs lie at z = 0. A comment
+    line ``# granpack: dim=.. container=..`` (`granpack.container_tag`) after the header
+    carries the container and its box, which ``ymport.text`` skips.
 
 Extended XYZ
     As OVITO and ASE read it: the count, a comment line with
@@ -57,7 +65,15 @@ Extended XYZ
 
 CSV / Parquet
     Two polars tables, ``<stem>.particles.<ext>`` and ``<stem>.contacts.<ext>``
-    (columns in `particle_table` and `contact_table`).
+    (columns in `particle_table` and `contact_table`). The particle CSV opens with a
+    comment line ``# granpack: dim=.. container=..`` (the container tag); each Parquet
+    file carries the same words as key-value metadata under ``granpack``.
+
+The container
+    Every text export carries the pack's container, so that `granpack.read_particles`
+    reads it back in it: the LAMMPS data file on its title line, extended XYZ in its
+    ``pbc`` and its ``granpack="..."`` key, YADE and CSV on a comment line, Parquet in
+    its metadata (`granpack.container_tag` gives the words).
 """
 
 from __future__ import annotations
@@ -73,6 +89,7 @@ import numpy as np
 import polars as pl
 
 from ._validate import FileFormatError, GranpackError, InvalidParameterError
+from .container_tag import container_tag
 from .dem_input import SNIPPET_NAME, container_of, lammps_input, liggghts_input
 from .pack import Pack, atomic_write
 
@@ -262,17 +279,29 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
     cj = np.asarray(c.j, dtype=np.int64)
     wall = cj < 0
     n_wall = int(wall.sum())
+    branch = _pad3(c.branch)
     # Wall contacts end at the contact point, stored as extra points after the particles.
-    wall_points = x[ci[wall]] + _pad3(c.branch)[wall]
-    points = np.vstack([x, wall_points]) if n_wall else x
-    n_points = n + n_wall
+    wall_points = x[ci[wall]] + branch[wall]
+    # A contact across a periodic seam is drawn as its short minimum-image segment on
+    # both sides: from x_i to x_i + l (the contact), and from x_j to x_j - l (its image,
+    # kind 3), never as a line across the cell.
+    seam = _seam_contacts(pack, x, ci, cj, branch)
+    n_seam = int(seam.sum())
+    seam_i_points = x[ci[seam]] + branch[seam]
+    seam_j_points = x[cj[seam]] - branch[seam]
+    points = np.vstack([x, wall_points, seam_i_points, seam_j_points])
+    n_extra = n_wall + 2 * n_seam
+    n_points = n + n_extra
     end = cj.copy()
     end[wall] = n + np.arange(n_wall)
+    end[seam] = n + n_wall + np.arange(n_seam)
+    image_start = cj[seam]
+    image_end = n + n_wall + n_seam + np.arange(n_seam)
 
     def point_field(a: np.ndarray, fill) -> np.ndarray:
-        if not n_wall:
+        if not n_extra:
             return a
-        pad = np.full((n_wall, *a.shape[1:]), fill, dtype=a.dtype)
+        pad = np.full((n_extra, *a.shape[1:]), fill, dtype=a.dtype)
         return np.concatenate([a, pad])
 
     point_data = {
@@ -290,11 +319,18 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
     ft = _pad3(c.force_tangential)
 
     def cell_field(vertex_value: np.ndarray, line_value: np.ndarray) -> np.ndarray:
-        return np.concatenate([vertex_value, line_value])
+        # the seam images repeat their contact's values
+        return np.concatenate([vertex_value, line_value, line_value[seam]])
 
     zeros3 = np.zeros((n, 3))
     cell_data = {
-        "kind": cell_field(np.zeros(n, np.uint8), np.where(wall, 2, 1).astype(np.uint8)),
+        "kind": np.concatenate(
+            [
+                np.zeros(n, np.uint8),
+                np.where(wall, 2, 1).astype(np.uint8),
+                np.full(n_seam, 3, np.uint8),
+            ]
+        ),
         "i": cell_field(np.arange(n, dtype=np.int64), ci),
         "j": cell_field(np.arange(n, dtype=np.int64), cj),
         "overlap": cell_field(np.zeros(n), np.asarray(c.overlap, dtype=np.float64)),
@@ -305,12 +341,19 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
     }
 
     connectivity = np.concatenate(
-        [np.arange(n, dtype=np.int64), np.column_stack([ci, end]).ravel()]
+        [
+            np.arange(n, dtype=np.int64),
+            np.column_stack([ci, end]).ravel(),
+            np.column_stack([image_start, image_end]).ravel(),
+        ]
     )
+    n_lines = m + n_seam
     offsets = np.concatenate(
-        [np.arange(1, n + 1, dtype=np.int64), n + 2 * np.arange(1, m + 1, dtype=np.int64)]
+        [np.arange(1, n + 1, dtype=np.int64), n + 2 * np.arange(1, n_lines + 1, dtype=np.int64)]
     )
-    types = np.concatenate([np.full(n, _VTK_VERTEX, np.uint8), np.full(m, _VTK_LINE, np.uint8)])
+    types = np.concatenate(
+        [np.full(n, _VTK_VERTEX, np.uint8), np.full(n_lines, _VTK_LINE, np.uint8)]
+    )
 
     s = pack.scene
     lines = [
@@ -320,7 +363,7 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
         '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
         'header_type="UInt64">',
         "<UnstructuredGrid>",
-        f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n + m}">',
+        f'<Piece NumberOfPoints="{n_points}" NumberOfCells="{n + n_lines}">',
         '<PointData Scalars="radius" Vectors="velocity">',
         *(_data_array(k, v) for k, v in point_data.items()),
         "</PointData>",
@@ -341,6 +384,20 @@ def write_vtk(pack: Pack, path: str | Path) -> Path:
         "",
     ]
     return atomic_write(path, "\n".join(lines).encode())
+
+
+def _seam_contacts(
+    pack: Pack, x: np.ndarray, ci: np.ndarray, cj: np.ndarray, branch: np.ndarray
+) -> np.ndarray:
+    """(M,) bool: particle pairs whose branch (the minimum image) is not x_j - x_i, the
+    contacts across a periodic seam."""
+    if container_of(pack)[0] != "periodic" or ci.shape[0] == 0:
+        return np.zeros(ci.shape[0], dtype=bool)
+    pair = cj >= 0
+    jj = np.where(pair, cj, ci)
+    # off by a period where the seam is crossed; rounding leaves far less than a radius
+    gap = np.max(np.abs(x[jj] - x[ci] - branch), axis=1)
+    return pair & (gap > float(np.min(pack.radii)))
 
 
 def container_path(path: str | Path) -> Path:
@@ -500,7 +557,8 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
             if s.inertia_2d == "disc"
             else " (sphere: m = 4/3 pi r^3 rho)"
         )
-    where = f", container {kind}" + (f" radius {radius!r}" if radius is not None else "")
+    # the container tag (granpack.container_tag): read_particles analyses the file in it
+    where = ", " + container_tag(kind, radius)
     # A particle touching the top sits exactly on H_top; nothing is outside the box.
     out = io.StringIO()
     out.write(
@@ -534,9 +592,17 @@ def write_yade(pack: Pack, path: str | Path) -> Path:
     r = np.asarray(pack.radii, dtype=np.float64)
     out = io.StringIO()
     out.write("#format x_y_z_r\n")
+    # ymport.text skips comment lines; read_particles takes the container from this one
+    out.write(f"# granpack: dim={pack.dim} {_tag(pack)}\n")
     for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
         out.write(f"{x0!r} {x1!r} {x2!r} {rk!r}\n")
     return atomic_write(Path(path), out.getvalue().encode())
+
+
+def _tag(pack: Pack) -> str:
+    """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top))."""
+    lo, hi = pack.box
+    return container_tag(*container_of(pack), lo, hi)
 
 
 def _cell(pack: Pack) -> tuple[list[float], list[bool]]:
@@ -565,7 +631,8 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
         f'Lattice="{lattice}" Origin="{" ".join(repr(float(o)) for o in origin)}" '
         "Properties=species:S:1:pos:R:3:radius:R:1 "
         f'pbc="{" ".join("T" if p else "F" for p in pbc)}" '
-        f'granpack="dim={s.dim} seed={s.seed} stream={s.stream} H_top={pack.height!r}"'
+        f'granpack="dim={s.dim} seed={s.seed} stream={s.stream} H_top={pack.height!r} '
+        f'{container_tag(*container_of(pack))}"'
     )
     out = io.StringIO()
     out.write(f"{len(pack)}\n{comment}\n")
@@ -575,74 +642,284 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
 
 
 def read_lammps_data(path: str | Path) -> dict:
-    """Reads the particles of a LAMMPS data file for ``atom_style sphere`` (Atoms
-    ``id type diameter density x y z``, optional Velocities ``id vx vy vz wx wy wz``).
+    """Reads the particles of a LAMMPS data file for ``atom_style sphere``, as granpack's
+    export and LAMMPS' ``write_data`` write it.
+
+    The header takes the lines LAMMPS writes (``N atoms``, ``N atom types`` and the other
+    counts, ``xlo xhi``, ``ylo yhi``, ``zlo zhi``; ``xy xz yz`` only with zero tilts).
+    Atoms rows are ``id type diameter density x y z``, optionally followed by the three
+    integer image flags ``ix iy iz``; the positions are kept as written (inside the box,
+    the flags are not applied). Velocities rows are ``id vx vy vz wx wy wz``. Other
+    sections (Masses, Pair Coeffs, ...) are skipped.
 
     Returns a dict of arrays sorted by atom id: ``id``, ``type``, ``diameter``,
-    ``density``, ``positions`` (N, 3), ``velocities`` and ``spins`` (N, 3; zeros when
-    the file has no Velocities section), and ``box`` ((lo, hi) corners, 3 each).
+    ``density``, ``positions`` (N, 3), ``image`` (N, 3; zeros when the rows have no image
+    flags), ``velocities`` and ``spins`` (N, 3; zeros when the file has no Velocities
+    section), ``line`` (the file line of each atom, 1-based), ``box`` ((lo, hi) corners,
+    3 each; LAMMPS' default -0.5 0.5 for an axis the header leaves out), ``style`` (the
+    atom style the Atoms line's comment names, None without one) and ``title`` (the first
+    line).
+
+    Raises
+    ------
+    FileFormatError
+        The file cannot be read as a data file for ``atom_style sphere``; the message names
+        the line and what was expected there: an Atoms section for another atom style
+        (``Atoms # hybrid sphere ...``), rows of another length, a value that is not a
+        number (or not finite, or not an integer where LAMMPS wants one), a triclinic box,
+        a count that the sections do not match, a repeated id.
     """
+    from ._validate import is_number
+
     path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise GranpackError(f"cannot read LAMMPS data file {path}: {exc.strerror}") from None
-    lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()[1:]]
-    n_atoms = None
-    lo = np.zeros(3)
-    hi = np.zeros(3)
-    sections: dict[str, list[list[float]]] = {}
-    current = None
-    try:
-        for ln in lines:
-            if not ln:
-                continue
-            words = ln.split()
-            if ln in ("Atoms", "Velocities") or words[0] in ("Atoms", "Velocities"):
-                current = words[0]
-                sections[current] = []
-                continue
-            if current is None:
-                if words[-1] == "atoms":
-                    n_atoms = int(words[0])
-                for k, ax in enumerate("xyz"):
-                    if words[-2:] == [f"{ax}lo", f"{ax}hi"]:
-                        lo[k], hi[k] = float(words[0]), float(words[1])
-                continue
-            if words[0][0].isalpha():  # a section this reader does not need
-                current = "skip"
-                sections[current] = []
-                continue
-            sections[current].append([float(wd) for wd in words])
-        atoms = np.array(sections.get("Atoms", []), dtype=np.float64).reshape(-1, 7)
-    except (ValueError, IndexError) as exc:
-        raise FileFormatError(f"cannot read LAMMPS data file {path}: {exc}", path=path) from None
-    if n_atoms is None or atoms.shape[0] != n_atoms:
+        # utf-8-sig: a byte-order mark (as Windows editors write one) is not text
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
         raise FileFormatError(
-            f"cannot read LAMMPS data file {path}: header says {n_atoms} atoms, "
-            f"Atoms section has {atoms.shape[0]} (atom_style sphere expected)",
+            f"cannot read LAMMPS data file {path}: no such file", path=path, reason="no such file"
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(
+            f"cannot read LAMMPS data file {path}: not a text file (byte {exc.start} is not UTF-8)",
+            path=path,
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(
+            f"cannot read LAMMPS data file {path}: {exc.strerror or exc}", path=path
+        ) from None
+    lines = text.splitlines()
+    sphere = "atom_style sphere (id type diameter density x y z [ix iy iz])"
+
+    def fail(k: int, what: str) -> FileFormatError:
+        # k: 0-based line index; what: the expectation, stated for users
+        found = repr(lines[k].strip()[:60]) if k < len(lines) else "the end of the file"
+        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
+
+    def number(k: int, word: str, column: str) -> float:
+        try:
+            value = float(word)
+        except ValueError:
+            raise FileFormatError(
+                f"{path}:{k + 1}: {column} {word!r} is not a number", path=path
+            ) from None
+        if not math.isfinite(value):
+            raise FileFormatError(
+                f"{path}:{k + 1}: {column} {word!r} is not a finite number", path=path
+            )
+        return value
+
+    def integer(k: int, word: str, column: str) -> int:
+        try:
+            value = int(word)
+        except ValueError:
+            raise FileFormatError(
+                f"{path}:{k + 1}: {column} {word!r} is not an integer", path=path
+            ) from None
+        if not -(2**63) <= value < 2**63:
+            raise FileFormatError(
+                f"{path}:{k + 1}: {column} {word} is out of range (64-bit integers)", path=path
+            )
+        return value
+
+    if not lines or not text.strip():
+        raise FileFormatError(
+            f"{path}:1: expected a LAMMPS data file (a title line, then a header such as "
+            "'12 atoms'), found an empty file",
             path=path,
         )
-    order = np.argsort(atoms[:, 0], kind="stable")
-    atoms = atoms[order]
-    vel = np.zeros((n_atoms, 6))
-    if "Velocities" in sections:
-        v = np.array(sections["Velocities"], dtype=np.float64).reshape(-1, 7)
-        v = v[np.argsort(v[:, 0], kind="stable")]
-        if v.shape[0] != n_atoms or np.any(v[:, 0] != atoms[:, 0]):
-            raise FileFormatError(
-                f"cannot read LAMMPS data file {path}: Velocities do not match Atoms", path=path
+    n_atoms: int | None = None
+    n_line = 0
+    lo = np.full(3, -0.5)  # LAMMPS' default box, for an axis the header leaves out
+    hi = np.full(3, 0.5)
+    sections: dict[str, list[int]] = {"Atoms": [], "Velocities": []}
+    section_line: dict[str, int] = {}
+    style: str | None = None
+    current: str | None = None  # None: the header
+    for k in range(1, len(lines)):  # line 1 is the title
+        line = lines[k]
+        body = line.split("#", 1)[0].strip()
+        if not body:
+            continue
+        words = body.split()
+        # a section name is words, the first capitalised (Atoms, Pair Coeffs, Velocities)
+        if words[0][0].isupper() and not is_number(words[0]):
+            name = " ".join(words)
+            if name in section_line and name in sections:
+                raise FileFormatError(
+                    f"{path}:{k + 1}: a second {name} section (the first is at line "
+                    f"{section_line[name] + 1})",
+                    path=path,
+                )
+            section_line[name] = k
+            current = name if name in sections else "other"
+            if name == "Atoms":
+                comment = line.split("#", 1)[1].strip() if "#" in line else ""
+                style = comment or None
+                if style is not None and style.split()[0] != "sphere":
+                    raise FileFormatError(
+                        f"{path}:{k + 1}: the Atoms section is written for atom_style "
+                        f"{style!r}; only {sphere} is read",
+                        path=path,
+                        reason=f"atom_style {style}",
+                    )
+            continue
+        if current is None:  # a header line: a count and a keyword, or box bounds
+            if words[-1] in ("avec", "bvec", "cvec") or words[-2:] == ["abc", "origin"]:
+                raise FileFormatError(
+                    f"{path}:{k + 1}: a general triclinic box ({body}); only orthogonal "
+                    "boxes are read",
+                    path=path,
+                )
+            if len(words) == 2 and words[1] == "atoms":
+                try:
+                    n_atoms = int(words[0])
+                except ValueError:
+                    n_atoms = -1
+                if n_atoms < 0:
+                    raise fail(k, "'N atoms' with N an integer >= 0")
+                n_line = k
+                continue
+            axis = next(
+                (a for a, ax in enumerate("xyz") if words[-2:] == [f"{ax}lo", f"{ax}hi"]), None
             )
-        vel = v[:, 1:]
+            if axis is not None:
+                ax = "xyz"[axis]
+                if len(words) != 4:
+                    raise fail(k, f"'{ax}lo {ax}hi' after two numbers")
+                a = number(k, words[0], f"{ax}lo")
+                b = number(k, words[1], f"{ax}hi")
+                if not a < b:
+                    raise fail(k, f"{ax}lo < {ax}hi")
+                lo[axis], hi[axis] = a, b
+                continue
+            if words[-3:] == ["xy", "xz", "yz"]:
+                if len(words) != 6:
+                    raise fail(k, "three tilt factors before 'xy xz yz'")
+                tilt = [number(k, w, t) for w, t in zip(words[:3], ("xy", "xz", "yz"), strict=True)]
+                if any(t != 0.0 for t in tilt):
+                    raise FileFormatError(
+                        f"{path}:{k + 1}: a triclinic box (tilt factors xy xz yz = "
+                        f"{' '.join(words[:3])}); only orthogonal boxes are read",
+                        path=path,
+                    )
+                continue
+            try:
+                int(words[0])
+            except ValueError:
+                raise fail(
+                    k,
+                    "a header line (a count and a keyword, such as '12 atoms', or box "
+                    "bounds such as '0 1 xlo xhi') or a section name such as 'Atoms'",
+                ) from None
+            if len(words) < 2:
+                raise fail(k, "a keyword after the count (such as '12 atoms')")
+            continue
+        if current in sections:
+            sections[current].append(k)
+
+    if n_atoms is None:
+        raise FileFormatError(
+            f"{path}: no 'N atoms' line in the header: not a LAMMPS data file", path=path
+        )
+    rows = sections["Atoms"]
+    if n_atoms > 0 and "Atoms" not in section_line:
+        raise FileFormatError(
+            f"{path}: no Atoms section (the header says {n_atoms} atoms at line {n_line + 1})",
+            path=path,
+        )
+    if len(rows) != n_atoms:
+        raise FileFormatError(
+            f"{path}:{section_line['Atoms'] + 1}: the header says {n_atoms} atoms (line "
+            f"{n_line + 1}), the Atoms section has {len(rows)} rows: a truncated or "
+            "inconsistent file",
+            path=path,
+        )
+    names = ("id", "type", "diameter", "density", "x", "y", "z", "ix", "iy", "iz")
+    ncol = len(lines[rows[0]].split("#", 1)[0].split()) if rows else 7
+    if ncol not in (7, 10):
+        raise FileFormatError(
+            f"{path}:{rows[0] + 1}: expected 7 values ({' '.join(names[:7])}) or 10 (with "
+            f"the image flags ix iy iz) in an Atoms row of {sphere}, found {ncol}",
+            path=path,
+        )
+    ids = np.zeros(n_atoms, dtype=np.int64)
+    types = np.zeros(n_atoms, dtype=np.int64)
+    atoms = np.zeros((n_atoms, 5))  # diameter density x y z
+    image = np.zeros((n_atoms, 3), dtype=np.int64)
+    for j, k in enumerate(rows):
+        words = lines[k].split("#", 1)[0].split()
+        if len(words) != ncol:
+            raise FileFormatError(
+                f"{path}:{k + 1}: expected {ncol} values ({' '.join(names[:ncol])}) as on "
+                f"line {rows[0] + 1}, found {len(words)}",
+                path=path,
+            )
+        ids[j] = integer(k, words[0], "atom id")
+        types[j] = integer(k, words[1], "atom type")
+        for c in range(2, 7):
+            atoms[j, c - 2] = number(k, words[c], names[c])
+        for c in range(7, ncol):
+            image[j, c - 7] = integer(k, words[c], f"image flag {names[c]}")
+    order = np.argsort(ids, kind="stable")
+    dup = np.flatnonzero(ids[order][1:] == ids[order][:-1])
+    if dup.size:
+        a, b = sorted((rows[order[dup[0]]], rows[order[dup[0] + 1]]))
+        raise FileFormatError(
+            f"{path}:{b + 1}: atom id {ids[order[dup[0]]]} repeats the id of line {a + 1}; "
+            "ids must be unique",
+            path=path,
+        )
+    ids, types, atoms, image = ids[order], types[order], atoms[order], image[order]
+    line_of = np.array(rows, dtype=np.int64)[order] + 1
+    vel = np.zeros((n_atoms, 6))
+    if "Velocities" in section_line:
+        vrows = sections["Velocities"]
+        if len(vrows) != n_atoms:
+            raise FileFormatError(
+                f"{path}:{section_line['Velocities'] + 1}: the header says {n_atoms} atoms "
+                f"(line {n_line + 1}), the Velocities section has {len(vrows)} rows: a "
+                "truncated or inconsistent file",
+                path=path,
+            )
+        at = {int(i): j for j, i in enumerate(ids)}
+        seen: dict[int, int] = {}
+        vnames = ("id", "vx", "vy", "vz", "wx", "wy", "wz")
+        for k in vrows:
+            words = lines[k].split("#", 1)[0].split()
+            if len(words) != 7:
+                raise FileFormatError(
+                    f"{path}:{k + 1}: expected 7 values ({' '.join(vnames)}) in a Velocities "
+                    f"row of atom_style sphere, found {len(words)}",
+                    path=path,
+                )
+            i = integer(k, words[0], "atom id")
+            if i not in at:
+                raise FileFormatError(
+                    f"{path}:{k + 1}: Velocities row for atom id {i}, which the Atoms "
+                    "section does not hold",
+                    path=path,
+                )
+            if i in seen:
+                raise FileFormatError(
+                    f"{path}:{k + 1}: atom id {i} repeats the Velocities row of line {seen[i] + 1}",
+                    path=path,
+                )
+            seen[i] = k
+            vel[at[i]] = [number(k, w, c) for w, c in zip(words[1:], vnames[1:], strict=True)]
     return {
-        "id": atoms[:, 0].astype(np.int64),
-        "type": atoms[:, 1].astype(np.int64),
-        "diameter": atoms[:, 2],
-        "density": atoms[:, 3],
-        "positions": atoms[:, 4:7],
+        "id": ids,
+        "type": types,
+        "diameter": atoms[:, 0],
+        "density": atoms[:, 1],
+        "positions": atoms[:, 2:5],
+        "image": image,
         "velocities": vel[:, :3],
         "spins": vel[:, 3:],
+        "line": line_of,
         "box": (lo, hi),
+        "style": style,
+        "title": lines[0],
     }
 
 
@@ -711,8 +988,10 @@ def write_csv(pack: Pack, path: str | Path) -> list[Path]:
     """Writes ``<stem>.particles.csv`` and ``<stem>.contacts.csv`` (full float64
     precision). Returns both paths."""
     p_path, c_path = _table_paths(Path(path), ".csv")
+    # a comment line first: read_particles takes the container from it
+    head = f"# granpack: dim={pack.dim} {_tag(pack)}\n"
     return [
-        atomic_write(p_path, particle_table(pack).write_csv().encode()),
+        atomic_write(p_path, (head + particle_table(pack).write_csv()).encode()),
         atomic_write(c_path, contact_table(pack).write_csv().encode()),
     ]
 
@@ -724,6 +1003,7 @@ def write_parquet(pack: Pack, path: str | Path) -> list[Path]:
     out = []
     for target, df in ((p_path, particle_table(pack)), (c_path, contact_table(pack))):
         buf = io.BytesIO()
-        df.write_parquet(buf)
+        # the container tag as key-value metadata: read_particles analyses the table in it
+        df.write_parquet(buf, metadata={"granpack": f"dim={pack.dim} {_tag(pack)}"})
         out.append(atomic_write(target, buf.getvalue()))
     return out

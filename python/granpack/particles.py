@@ -37,6 +37,7 @@ from ._validate import (
     short_repr,
 )
 from .contacts import Contacts
+from .container_tag import ContainerTag, parse_container_tag
 
 if TYPE_CHECKING:
     from .pack import Pack
@@ -90,6 +91,14 @@ class ParticleFile:
         The analysis takes periodic horizontal axes as a periodic cell (no walls there,
         contacts across the seam by minimum image); the vertical axis is always bounded
         by the floor and the open top.
+    container : {"box", "periodic", "cylinder"} or None
+        The container the file says the pack lies in: a granpack pack's scene, the
+        container tag of granpack's text exports (`granpack.container_tag`), or periodic
+        horizontal axes in `periodic`. None: the file does not say; the analysis then
+        assumes a box (walls at `box`, or none without one) and says so
+        (``Microstructure.container_source``).
+    cylinder_radius : float or None
+        R (m) of a cylinder container.
     timestep : int or None
         A dump snapshot's ``TIMESTEP``.
     snapshot : int
@@ -115,6 +124,8 @@ class ParticleFile:
         ids: np.ndarray | None = None,
         box: tuple[np.ndarray, np.ndarray] | None = None,
         periodic: tuple[bool, ...] | None = None,
+        container: str | None = None,
+        cylinder_radius: float | None = None,
         timestep: int | None = None,
         snapshot: int = 0,
         n_snapshots: int = 1,
@@ -130,6 +141,10 @@ class ParticleFile:
         self.ids = None if ids is None else _frozen(np.asarray(ids, dtype=np.int64))
         self.box = None if box is None else (_frozen(box[0]), _frozen(box[1]))
         self.periodic = periodic
+        if container is None and periodic is not None and any(periodic[: self.dim - 1]):
+            container = "periodic"
+        self.container = container
+        self.cylinder_radius = cylinder_radius
         self.timestep = timestep
         self.snapshot = snapshot
         self.n_snapshots = n_snapshots
@@ -160,6 +175,8 @@ class ParticleFile:
             ids=self.ids,
             box=self.box,
             periodic=self.periodic,
+            container=self.container,
+            cylinder_radius=self.cylinder_radius,
             timestep=self.timestep,
             snapshot=self.snapshot,
             n_snapshots=self.n_snapshots,
@@ -717,17 +734,22 @@ def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
 # the other formats
 # --------------------------------------------------------------------------------------
 def _read_npz(path: Path, dim: int | None) -> ParticleFile:
+    from .dem_input import container_of
     from .pack import load_pack
 
     pack = load_pack(path)
     if dim is not None and dim != pack.dim:
         raise FileFormatError(f"{path}: dim = {dim} asked for a {pack.dim}D pack", path=path)
+    kind, radius = container_of(pack)
     return ParticleFile(
         path=path,
         format="npz",
         positions=np.asarray(pack.positions),
         radii=np.asarray(pack.radii),
         box=pack.box,
+        periodic=(kind == "periodic",) * (pack.dim - 1),
+        container=kind,
+        cylinder_radius=radius,
         contacts=pack.contacts,
         pack=pack,
     )
@@ -739,12 +761,18 @@ def _read_data(path: Path, dim: int | None) -> ParticleFile:
     data = read_lammps_data(path)
     x3 = data["positions"]
     ids = data["id"]
+    if len(ids) == 0:
+        raise FileFormatError(f"{path}: no atoms (the header says 0 atoms)", path=path)
     r = data["diameter"] / 2.0
-    where = lambda k: f" atom id {int(ids[k])}"  # noqa: E731 (the data reader keeps no lines)
-    _check_values(path, x3, r, where)
+    _check_values(path, x3, r, lambda k: int(data["line"][k]))
+    notes = _data_notes(data)
     # granpack's 2D data files have z = 0; any constant z is 2D, as in a dump
     d = _choose_dim(path, x3, True, dim)
     lo, hi = data["box"]
+    # LAMMPS keeps the boundary flags in the input script, not the data file: the
+    # container is known only from granpack's tag on the title line
+    title = _head(path, 4096).decode("utf-8-sig", errors="replace").partition("\n")[0]
+    tag = parse_container_tag(title, path, 1, d)
     return ParticleFile(
         path=path,
         format="lammps-data",
@@ -752,7 +780,52 @@ def _read_data(path: Path, dim: int | None) -> ParticleFile:
         radii=r,
         ids=ids,
         box=(lo[:d], hi[:d]),
+        notes=notes,
+        **_tag_fields(tag, d),
     )
+
+
+def _data_notes(data: dict) -> tuple[str, ...]:
+    """What the data reader assumed: the atom style where the file names none, and
+    positions kept as written where the rows carry image flags."""
+    notes = []
+    if data["style"] is None:
+        notes.append(
+            "the Atoms section names no atom style: read as atom_style sphere (id type "
+            "diameter density x y z)"
+        )
+    moved = int(np.count_nonzero(np.any(data["image"] != 0, axis=1)))
+    if moved:
+        notes.append(
+            f"{moved} atom{'s' if moved > 1 else ''} with non-zero image flags: positions "
+            "read as written (inside the box), not unwrapped"
+        )
+    return tuple(notes)
+
+
+def _tag_fields(tag: ContainerTag | None, d: int) -> dict:
+    """ParticleFile keywords for a container tag (nothing for None)."""
+    if tag is None:
+        return {}
+    out: dict = {
+        "container": tag.kind,
+        "cylinder_radius": tag.cylinder_radius,
+        "periodic": (tag.kind == "periodic",) * (d - 1),
+    }
+    if tag.lo is not None and tag.hi is not None:
+        out["box"] = (tag.lo, tag.hi)
+    return out
+
+
+def _comment_tag(path: Path, lines: list[str], d: int) -> ContainerTag | None:
+    """The container tag of a ``# granpack: ...`` comment line among the leading lines."""
+    for k, ln in enumerate(lines[:_SNIFF_LINES]):
+        body = ln.lstrip("\ufeff").strip()
+        if body.startswith("#") and "granpack" in body:
+            tag = parse_container_tag(body, path, k + 1, d)
+            if tag is not None:
+                return tag
+    return None
 
 
 def _read_xyzr(path: Path, dim: int | None) -> ParticleFile:
@@ -812,7 +885,10 @@ def _read_yade(path: Path, dim: int | None) -> ParticleFile:
         ids, x3, r = ids[order], x3[order], r[order]
     _check_values(path, x3, r, lambda k: row_line[int(order[k])])
     d = _choose_dim(path, x3, True, dim)
-    return ParticleFile(path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids)
+    tag = _comment_tag(path, lines, d)
+    return ParticleFile(
+        path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids, **_tag_fields(tag, d)
+    )
 
 
 def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
@@ -898,8 +974,21 @@ def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
             box = (o[:d], (o + np.diag(m))[:d])
     pbc = info.get("pbc", "").split()
     periodic = tuple(v.upper() in ("T", "TRUE") for v in pbc[:d]) if len(pbc) == 3 else None
+    # the lattice and pbc say the box and the periodic axes; granpack's tag adds a cylinder
+    tag = parse_container_tag(info.get("granpack", ""), path, 2, d)
+    extra: dict = {}
+    if tag is not None:
+        extra = {"container": tag.kind, "cylinder_radius": tag.cylinder_radius}
+        if tag.kind == "periodic" and not (periodic and any(periodic[: d - 1])):
+            periodic = (True,) * (d - 1)
     return ParticleFile(
-        path=path, format="xyz", positions=x3[:, :d], radii=r, box=box, periodic=periodic
+        path=path,
+        format="xyz",
+        positions=x3[:, :d],
+        radii=r,
+        box=box,
+        periodic=periodic,
+        **extra,
     )
 
 
@@ -1011,4 +1100,22 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
     else:
         _check_values(path, x3, r, where)
     d = _choose_dim(path, x3, has_z, dim)
-    return ParticleFile(path=path, format=fmt, positions=x3[:, :d], radii=r, ids=ids)
+    if fmt == "csv":
+        tag = _comment_tag(path, _read_text(path).splitlines(), d)
+    else:
+        tag = _parquet_tag(path, d)
+    return ParticleFile(
+        path=path, format=fmt, positions=x3[:, :d], radii=r, ids=ids, **_tag_fields(tag, d)
+    )
+
+
+def _parquet_tag(path: Path, d: int) -> ContainerTag | None:
+    """The container tag in a Parquet file's key-value metadata (key ``granpack``)."""
+    import polars as pl
+
+    try:
+        meta = pl.read_parquet_metadata(path)
+    except (OSError, pl.exceptions.PolarsError, ValueError):
+        return None
+    text = meta.get("granpack")
+    return None if text is None else parse_container_tag(text, path, 0, d)

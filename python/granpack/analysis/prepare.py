@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError, as_real
 from ..contacts import Contacts
-from .container import Container, make_container
+from .container import CONTAINERS, Container, make_container
 from .coordination import coordination_distribution, degrees, rattlers_iterative
 from .inputs import (
     _as_box,
@@ -47,6 +47,7 @@ class Prepared:
     vol: np.ndarray
     h_top: float
     volume: float
+    container_source: str = "argument"
 
     def branches(self) -> np.ndarray:
         """(M, D) branch vectors of every contact: x_j - x_i by minimum image for a pair,
@@ -67,41 +68,87 @@ class Prepared:
         return self.x[c.i] + b * half[:, None]
 
 
-def _container_of(pack, periodic, cylinder_radius, d: int):
-    kind = "box"
+def _container_of(pack, container, periodic, cylinder_radius, d: int):
+    """(kind, periodic flags, cylinder radius, source) of the container to analyse in.
+
+    The caller's arguments come first (source "argument"), then what the pack says: a
+    generated pack's scene ("scene"), or what a file said (ParticleFile.container and
+    .periodic: "file"). Where nothing says, a box is assumed ("assumed")."""
+    told_kind, told_source, told_flags, told_radius = "box", "assumed", None, None
     if pack is not None:
         scene = getattr(pack, "scene", None)
-        kind = getattr(scene, "container", "box") if scene is not None else "box"
-        if kind == "cylinder" and cylinder_radius is None:
-            cylinder_radius = getattr(scene, "cylinder_radius", None)
-            if cylinder_radius is None and scene is not None:
-                cylinder_radius = float(scene.base[0]) / 2.0
-        if kind == "periodic" and periodic is None:
-            periodic = (True,) * (d - 1)
-        flags = getattr(pack, "periodic", None) if scene is None else None
-        if flags is not None and periodic is None and any(flags[: d - 1]):
-            # another code's periodic horizontal axes (a dump's BOX BOUNDS pp); a
-            # periodic vertical axis (LAMMPS' 2D z) is not one of the pack's
-            periodic = tuple(bool(f) for f in flags[: d - 1])
-    elif cylinder_radius is not None:
-        kind = "cylinder"
-    if periodic is not None and any(bool(p) for p in periodic):
-        if kind == "cylinder":
+        if scene is not None:
+            told_kind, told_source = getattr(scene, "container", "box"), "scene"
+            told_radius = getattr(scene, "cylinder_radius", None)
+            if told_kind == "cylinder" and told_radius is None:
+                told_radius = float(scene.base[0]) / 2.0
+        else:
+            flags = getattr(pack, "periodic", None)
+            # another code's periodic horizontal axes (a dump's BOX BOUNDS pp); a periodic
+            # vertical axis (LAMMPS' 2D z) is not one of the pack's
+            horizontal = None if flags is None else tuple(bool(f) for f in flags[: d - 1])
+            told = getattr(pack, "container", None)
+            if told is not None:
+                told_kind, told_source = told, "file"
+                told_radius = getattr(pack, "cylinder_radius", None)
+            elif horizontal is not None and any(horizontal):
+                told_kind, told_source = "periodic", "file"
+            if told_kind == "periodic" and horizontal is not None and any(horizontal):
+                told_flags = horizontal
+    given_flags = None if periodic is None else tuple(bool(p) for p in periodic)
+    if container is not None:
+        if container not in CONTAINERS:
+            raise InvalidParameterError(
+                f"invalid container = {container!r}: must be one of {', '.join(CONTAINERS)}",
+                parameter="container",
+            )
+        kind, source = container, "argument"
+    elif cylinder_radius is not None and told_kind in ("box", "cylinder"):
+        kind, source = "cylinder", ("argument" if told_kind == "box" else told_source)
+    elif given_flags is not None and any(given_flags):
+        if told_kind == "cylinder":
             raise InvalidParameterError(
                 "invalid periodic: a cylinder has no periodic axis", parameter="periodic"
             )
-        kind = "periodic"
-    if cylinder_radius is not None:
-        cylinder_radius = as_real("cylinder_radius", cylinder_radius, 0.0, unit="m")
-        if not cylinder_radius > 0.0:
+        kind, source = "periodic", ("argument" if told_kind == "box" else told_source)
+    else:
+        kind, source = told_kind, told_source
+    flags = None
+    if kind == "periodic":
+        flags = given_flags if given_flags is not None and any(given_flags) else told_flags
+        if flags is None:
+            flags = (True,) * (d - 1)
+    elif given_flags is not None and any(given_flags):
+        raise InvalidParameterError(
+            f"invalid periodic = {list(given_flags)}: container = {kind!r} has no periodic axis",
+            parameter="periodic",
+        )
+    radius = None
+    if kind == "cylinder":
+        radius = cylinder_radius if cylinder_radius is not None else told_radius
+        if radius is None:
             raise InvalidParameterError(
-                f"invalid cylinder_radius = {cylinder_radius}: must be > 0 (m)",
+                "invalid cylinder_radius = None: a cylinder container needs its radius (m)",
                 parameter="cylinder_radius",
             )
-    return kind, periodic, cylinder_radius
+        radius = as_real("cylinder_radius", radius, 0.0, unit="m")
+        if not radius > 0.0:
+            raise InvalidParameterError(
+                f"invalid cylinder_radius = {radius}: must be > 0 (m)",
+                parameter="cylinder_radius",
+            )
+    elif cylinder_radius is not None:
+        raise InvalidParameterError(
+            f"invalid cylinder_radius = {cylinder_radius!r}: only a cylinder has one "
+            f"(container is {kind!r})",
+            parameter="cylinder_radius",
+        )
+    return kind, flags, radius, source
 
 
-def _prepare(pack, positions, radii, contacts, box, periodic=None, cylinder_radius=None):
+def _prepare(
+    pack, positions, radii, contacts, box, periodic=None, cylinder_radius=None, container=None
+):
     if pack is not None:
         if any(a is not None for a in (positions, radii, contacts, box)):
             raise GranpackError("give either pack or positions/radii/contacts/box, not both")
@@ -116,7 +163,9 @@ def _prepare(pack, positions, radii, contacts, box, periodic=None, cylinder_radi
         raise GranpackError("give a pack, or positions and radii")
     x, r = _as_particles(positions, radii)
     n, d = x.shape
-    kind, periodic, cylinder_radius = _container_of(pack, periodic, cylinder_radius, d)
+    kind, periodic, cylinder_radius, source = _container_of(
+        pack, container, periodic, cylinder_radius, d
+    )
 
     with np.errstate(over="ignore", under="ignore"):
         vol = math.pi * r * r if d == 2 else 4.0 / 3.0 * math.pi * r * r * r
@@ -131,6 +180,13 @@ def _prepare(pack, positions, radii, contacts, box, periodic=None, cylinder_radi
         )
     if not math.isfinite(h_top):
         raise InvalidParameterError("invalid positions: the pack's top max(z + r) overflows")
+    if box is None and kind == "cylinder":
+        # no box given: the cylinder stands on the lowest particle, its axis through the
+        # middle of the particles' lateral extent
+        assert cylinder_radius is not None
+        mid = 0.5 * (np.min(x[:, :2] - r[:, None], axis=0) + np.max(x[:, :2] + r[:, None], axis=0))
+        floor = float(np.min(x[:, -1] - r))
+        box = (np.array([*(mid - cylinder_radius), floor]), mid + cylinder_radius)
     if box is None:
         if kind != "box":
             raise InvalidParameterError(
@@ -177,7 +233,9 @@ def _prepare(pack, positions, radii, contacts, box, periodic=None, cylinder_radi
         contacts_given = True
         geometric = _find_contacts(x, r, None)
     _check_overlaps(geometric.particle_pairs(), r)
-    return Prepared(x, r, n, d, lo, hi, cont, c, contacts_given, solid, vol, h_top, box_volume)
+    return Prepared(
+        x, r, n, d, lo, hi, cont, c, contacts_given, solid, vol, h_top, box_volume, source
+    )
 
 
 def _force_edges(ratio: np.ndarray) -> np.ndarray:
@@ -223,6 +281,7 @@ def _beyond_the_paper(prep: Prepared, values: dict, n_slices: int, has_forces: b
     nan_t = np.full((d, d), np.nan)
     out: dict = {
         "container": prep.container.kind,
+        "container_source": prep.container_source,
         "container_volume": float(prep.volume),
         "coordination_distribution": p_z,
         "z_std": z_std,

@@ -153,6 +153,12 @@ class Microstructure:
     """(D, D) a^t, binned (traceless); None unless binned=True."""
     container: str
     """The container: "box", "periodic" (lateral axes repeating) or "cylinder"."""
+    container_source: str
+    """Where `container` comes from: "scene" (a generated pack's), "file" (what the file
+    read said: a granpack pack, the container tag of granpack's exports, a dump's or XYZ
+    file's periodic flags), "argument" (``container=``, ``periodic=``, ``cylinder_radius=``,
+    or ``granpack analyze --container``) or "assumed" (nothing said: a box, walled at the
+    file's box, or with no walls where the file has none)."""
     container_volume: float
     """V, the container's volume up to H_top (m^3; m^2 in 2D): base x (H_top - floor) for the
     box and the periodic cell, pi R^2 (H_top - floor) for the cylinder. phi = solid / V."""

@@ -1,0 +1,135 @@
+"""The container tag: one line of ``key=value`` words that granpack's text exports carry, so
+that a pack read back is analysed in the container it was made in.
+
+A periodic cell analysed as a walled box gets branch vectors across the whole cell at the
+seam; a cylinder analysed as its bounding box gets phi over the square. Formats that have a
+place for the container keep it there (an extended XYZ file's ``pbc``, a dump's ``BOX
+BOUNDS``); the tag adds what they cannot say (a cylinder's radius), and carries the whole
+container in formats that have no place for it (YADE text, CSV, the LAMMPS data file,
+whose title line holds it).
+
+The tag::
+
+    container=<box|periodic|cylinder> [cylinder_radius=<R>] [lo=<x>,<y>[,<z>]] [hi=...]
+
+``lo`` and ``hi`` are the box corners (m; hi's vertical value is H_top); for the cylinder,
+the square that holds it, its axis at lo + R. The words may stand anywhere on the line,
+among others (``seed=...``) that the parser skips.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import FileFormatError
+
+__all__ = ["ContainerTag", "container_tag", "parse_container_tag", "CONTAINER_KINDS"]
+
+#: The container kinds a tag names.
+CONTAINER_KINDS = ("box", "periodic", "cylinder")
+
+_WORD = re.compile(r"(?<![\w.])(container|cylinder_radius|lo|hi)=(\S+)")
+# granpack's LAMMPS data files before the tag: "..., container cylinder radius 0.1)"
+_OLD_DATA_TITLE = re.compile(r"container (box|periodic|cylinder)(?: radius ([^\s),]+))?")
+
+
+@dataclass(frozen=True)
+class ContainerTag:
+    """What a file says of its container.
+
+    Attributes
+    ----------
+    kind : {"box", "periodic", "cylinder"}
+    cylinder_radius : float or None
+        R (m) of the cylinder; None for the other kinds.
+    lo, hi : (D,) float64 or None
+        Box corners (m) where the tag gives them.
+    """
+
+    kind: str
+    cylinder_radius: float | None = None
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
+
+
+def container_tag(kind: str, radius: float | None, lo=None, hi=None) -> str:
+    """The tag's words for a container (full float precision: ``repr``)."""
+    words = [f"container={kind}"]
+    if radius is not None:
+        words.append(f"cylinder_radius={float(radius)!r}")
+    for name, v in (("lo", lo), ("hi", hi)):
+        if v is not None:
+            words.append(f"{name}=" + ",".join(repr(float(a)) for a in np.asarray(v).ravel()))
+    return " ".join(words)
+
+
+def parse_container_tag(text: str, path: Path, line: int, dim: int) -> ContainerTag | None:
+    """The container a line `text` names (line number `line` of `path`, for messages), or
+    None where it names none. A tag that is there but wrong (an unknown kind, a cylinder
+    without a radius, a radius <= 0, corners that are not `dim` finite numbers) is a
+    FileFormatError: a file that says its container is read in it, or not at all."""
+    found = {m.group(1): m.group(2) for m in _WORD.finditer(text)}
+    if "container" not in found:
+        old = _OLD_DATA_TITLE.search(text)
+        if old is None:
+            return None
+        found = {"container": old.group(1)}
+        if old.group(2) is not None:
+            found["cylinder_radius"] = old.group(2)
+    where = f"{path}:{line}"
+    kind = found["container"].strip("\"'),")
+    if kind not in CONTAINER_KINDS:
+        raise FileFormatError(
+            f"{where}: container={kind!r} is not one of {', '.join(CONTAINER_KINDS)}",
+            path=path,
+            reason="unknown container",
+        )
+    radius = None
+    if kind == "cylinder":
+        if "cylinder_radius" not in found:
+            raise FileFormatError(
+                f"{where}: container=cylinder needs cylinder_radius=<R> (m)",
+                path=path,
+                reason="missing cylinder radius",
+            )
+        radius = _number(found["cylinder_radius"], "cylinder_radius", where, path)
+        if not (math.isfinite(radius) and radius > 0.0):
+            raise FileFormatError(
+                f"{where}: cylinder_radius={radius!r} must be finite and > 0 (m)", path=path
+            )
+        if dim != 3:
+            raise FileFormatError(
+                f"{where}: container=cylinder in a {dim}D file: a cylinder is 3D", path=path
+            )
+    corners: list[np.ndarray | None] = []
+    for name in ("lo", "hi"):
+        if name not in found:
+            corners.append(None)
+            continue
+        values = found[name].strip("\"'),").split(",")
+        v = np.array([_number(s, name, where, path) for s in values])
+        if v.shape != (dim,) or not np.all(np.isfinite(v)):
+            raise FileFormatError(
+                f"{where}: {name}={found[name]} must be {dim} finite numbers (m), comma-separated",
+                path=path,
+            )
+        corners.append(v)
+    lo, hi = corners
+    if lo is not None and hi is not None and not np.all(hi > lo):
+        raise FileFormatError(
+            f"{where}: the container's corners lo={lo.tolist()} and hi={hi.tolist()} need hi > lo",
+            path=path,
+        )
+    return ContainerTag(kind, radius, lo, hi)
+
+
+def _number(s: str, name: str, where: str, path: Path) -> float:
+    try:
+        return float(s.strip("\"'),"))
+    except ValueError:
+        raise FileFormatError(f"{where}: {name}={s!r} is not a number", path=path) from None
