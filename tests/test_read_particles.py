@@ -454,3 +454,394 @@ def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
     np.testing.assert_allclose(p.positions, pack.positions, rtol=5e-6, atol=0)
     np.testing.assert_allclose(p.radii, pack.radii, rtol=5e-6, atol=0)
     np.testing.assert_allclose(p.box[1], pack.box[1], rtol=5e-6)
+
+
+# -- LAMMPS data files as LAMMPS writes them ----------------------------------------------------
+WRITE_DATA_INPUT = """units si
+atom_style {style}
+dimension {dim}
+boundary {boundary}
+region box block {region}
+create_box 2 box
+{atoms}
+{mass}
+velocity all set 0.5 -0.25 0.0
+pair_style zero 1.0
+pair_coeff * *
+write_data out.data
+"""
+
+
+def lammps_write_data(lmp, run_dir, x, radii, *, dim=3, style="sphere", images=None) -> str:
+    """The data file LAMMPS' write_data writes of spheres at `x` with `radii` (ids 1..N,
+    types alternating 1 and 2), in the box LO..HI (2D: 1 x 2, z from -0.5 to 0.5)."""
+    run_dir.mkdir(exist_ok=True)
+    lines = []
+    for k, (p, r) in enumerate(zip(x.tolist(), radii.tolist(), strict=True)):
+        lines.append(f"create_atoms {k % 2 + 1} single {' '.join(map(repr, p))} units box")
+        if "sphere" in style:
+            lines.append(f"set atom {k + 1} diameter {2 * r!r}")
+    for k, flags in (images or {}).items():
+        lines.append(f"set atom {k} image {' '.join(map(str, flags))}")
+    region = "0 1 0 1 0 2" if dim == 3 else "0 1 0 2 -0.5 0.5"
+    script = WRITE_DATA_INPUT.format(
+        style=style,
+        dim=dim,
+        boundary="p p f" if dim == 3 else "p f p",
+        region=region,
+        atoms="\n".join(lines),
+        mass="" if "sphere" in style else "mass * 1.0",  # atomic: per-type masses
+    )
+    run_peer(lmp, run_dir, script)
+    return (run_dir / "out.data").read_text()
+
+
+def test_lammps_write_data_reads_back_with_and_without_velocities(tmp_path, lmp):
+    # ids, positions, radii and box as given to LAMMPS; image flags on two atoms
+    text = lammps_write_data(lmp, tmp_path / "3d", X0, R, images={1: (1, -1, 0), 4: (0, 2, 0)})
+    assert "Atoms # sphere" in text and "Velocities" in text and "Pair Coeffs" in text
+    rows = text.split("Atoms # sphere")[1].split("Velocities")[0].split("\n")
+    assert {len(row.split()) for row in rows if row.strip()} == {10}  # with image flags
+    without = tmp_path / "novel.data"
+    without.write_text(text.split("Velocities")[0])
+    for path in (tmp_path / "3d" / "out.data", without):
+        assert detect_format(path) == "lammps-data"
+        p = gp.read_particles(path)
+        assert p.format == "lammps-data" and p.dim == 3
+        np.testing.assert_array_equal(p.ids, IDS)
+        # positions as written, inside the box: the image flags are read, not applied
+        np.testing.assert_array_equal(p.positions, X0)
+        np.testing.assert_array_equal(p.radii, R)
+        np.testing.assert_array_equal(p.box[0], LO)
+        np.testing.assert_array_equal(p.box[1], HI)
+        assert any("2 atoms with non-zero image flags" in note for note in p.notes), p.notes
+    data = export.read_lammps_data(tmp_path / "3d" / "out.data")
+    np.testing.assert_array_equal(data["image"], [[1, -1, 0], [0, 0, 0], [0, 0, 0], [0, 2, 0]])
+    np.testing.assert_array_equal(data["velocities"], np.tile([0.5, -0.25, 0.0], (4, 1)))
+    np.testing.assert_array_equal(data["type"], [1, 2, 1, 2])
+    assert data["style"] == "sphere"
+    np.testing.assert_array_equal(export.read_lammps_data(without)["velocities"], 0.0)
+
+    x2 = np.array([[0.25, 0.5, 0.0], [0.75, 1.5, 0.0]])
+    flat = lammps_write_data(lmp, tmp_path / "2d", x2, R[:2], dim=2)
+    assert "-0.5 0.5 zlo zhi" in flat
+    q = gp.read_particles(tmp_path / "2d" / "out.data")
+    assert q.dim == 2
+    np.testing.assert_array_equal(q.positions, x2[:, :2])
+    np.testing.assert_array_equal(q.radii, R[:2])
+    np.testing.assert_array_equal(q.box[1], [1.0, 2.0])
+
+
+@pytest.mark.parametrize("style", ["hybrid sphere dipole", "atomic"])
+def test_lammps_write_data_of_another_atom_style_is_refused_by_name(tmp_path, lmp, style):
+    lammps_write_data(lmp, tmp_path, X0, R, style=style)
+    found = style.split()[0]  # LAMMPS names a hybrid style "hybrid" alone
+    with pytest.raises(gp.FileFormatError, match=f"atom_style '{found}") as info:
+        gp.read_particles(tmp_path / "out.data")
+    assert "only atom_style sphere (id type diameter density x y z [ix iy iz])" in str(info.value)
+
+
+def data_file(rows, style="sphere", header="", sections="") -> str:
+    """A data file with Atoms rows `rows` (text), the Atoms line's comment `style`."""
+    comment = f" # {style}" if style is not None else ""
+    return (
+        f"a data file\n\n{len(rows)} atoms\n2 atom types\n{header}\n"
+        "0 1 xlo xhi\n0 1 ylo yhi\n0 2 zlo zhi\n\n"
+        f"{sections}Atoms{comment}\n\n" + "\n".join(rows) + "\n"
+    )
+
+
+ROWS = [
+    f"{i} 1 {_f(2 * r)} 1000 {_f(x)} {_f(y)} {_f(z)}"
+    for i, (x, y, z), r in zip(IDS, X0, R, strict=True)
+]
+
+
+@pytest.mark.parametrize("style", ["hybrid sphere dipole", "atomic", "granular", "full", "sph"])
+def test_data_file_atoms_comment_of_another_style_is_refused(tmp_path, style):
+    path = tmp_path / "other.data"
+    path.write_text(data_file(ROWS, style=style))
+    with pytest.raises(gp.FileFormatError) as info:
+        gp.read_particles(path)
+    msg = str(info.value)
+    assert f"{path}:10:" in msg and f"atom_style {style!r}" in msg, msg
+    assert "only atom_style sphere (id type diameter density x y z [ix iy iz]) is read" in msg
+
+
+def test_data_file_without_a_style_takes_seven_or_ten_columns_only(tmp_path):
+    path = tmp_path / "plain.data"
+    for rows in (ROWS, [r + " 0 1 -1" for r in ROWS]):
+        path.write_text(data_file(rows, style=None))
+        p = gp.read_particles(path)
+        np.testing.assert_array_equal(p.positions, X0)
+        np.testing.assert_array_equal(p.radii, R)
+        assert any("names no atom style" in note for note in p.notes)
+    for cut, extra, what in [
+        (0, " 0 0", "found 9"),  # 9 columns
+        (0, " 7", "found 8"),
+        (2, "", "found 5"),  # atomic's id type x y z
+        (1, "", "found 6"),
+        (0, " 0 0 0 0", "found 11"),
+    ]:
+        rows = [" ".join(r.split()[cut:]) + extra for r in ROWS]
+        path.write_text(data_file(rows, style=None))
+        with pytest.raises(gp.FileFormatError, match=f"plain.data:12: expected 7 values.*{what}"):
+            gp.read_particles(path)
+    path.write_text(data_file([r + " 0 0.5 0" for r in ROWS], style=None))
+    with pytest.raises(gp.FileFormatError, match=r"plain.data:12: image flag iy '0.5' is not an"):
+        gp.read_particles(path)
+    # the rows of one section all have the same length
+    path.write_text(data_file([ROWS[0] + " 0 0 0", *ROWS[1:]], style=None))
+    with pytest.raises(gp.FileFormatError, match=r"plain.data:13: expected 10 values.*found 7"):
+        gp.read_particles(path)
+
+
+def test_data_file_header_keywords_and_other_sections(tmp_path):
+    path = tmp_path / "kw.data"
+    header = "0 bonds\n1 extra bond per atom\n0.0 0.0 0.0 xy xz yz\n"
+    sections = "Masses\n\n1 1.0\n2 2.0\n\nPair Coeffs # zero\n\n1\n2\n\n"
+    path.write_text(data_file(ROWS, header=header, sections=sections) + "\nBonds\n\n")
+    p = gp.read_particles(path)
+    np.testing.assert_array_equal(p.positions, X0)
+    np.testing.assert_array_equal(p.box[1], HI)
+    path.write_text(data_file(ROWS, header="0.5 0 0 xy xz yz\n"))
+    with pytest.raises(gp.FileFormatError, match=r"kw.data:5: a triclinic box \(tilt factors xy"):
+        gp.read_particles(path)
+    for header, line, words in [
+        ("3.5 atom types\n", 5, "a header line"),
+        ("1 0 ylo yhi\n", 5, "ylo < yhi"),
+        ("0 nan zlo zhi\n", 5, "zhi 'nan' is not a finite number"),
+        ("hello\n", 5, "a header line"),
+    ]:
+        path.write_text(data_file(ROWS, header=header))
+        with pytest.raises(gp.FileFormatError, match=f"kw.data:{line}: .*{words}"):
+            gp.read_particles(path)
+
+
+BAD_DATA = {
+    # name: (text, the line the message names, words it must contain)
+    "zero atoms": (data_file([]), None, "no atoms"),
+    "fewer rows than the header": (
+        data_file(ROWS).replace("4 atoms", "5 atoms"),
+        10,
+        "header says 5",
+    ),
+    "a word in a row": (data_file(ROWS).replace("0.75", "abc", 1), 13, "'abc' is not a number"),
+    "nan in a row": (data_file(ROWS).replace("0.75", "nan", 1), 13, "'nan' is not a finite"),
+    "a repeated id": (data_file(ROWS).replace("\n3 1", "\n2 1"), 14, "repeats the id of line 13"),
+    "no atoms line": (data_file(ROWS).replace("4 atoms\n", ""), None, "no 'N atoms' line"),
+    "an empty file": ("", 1, "found an empty file"),
+    "a radius of zero": (data_file(ROWS).replace(" 0.125 1000", " 0.0 1000", 1), 13, "radius 0.0"),
+    "velocities short": (data_file(ROWS) + "\nVelocities\n\n1 0 0 0 0 0 0\n", 17, "has 1 rows"),
+    "velocities of an unknown id": (
+        data_file(ROWS) + "\nVelocities\n\n" + "".join(f"{i} 0 0 0 0 0 0\n" for i in (1, 2, 3, 9)),
+        22,
+        "atom id 9",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_DATA))
+def test_bad_data_file_is_refused_naming_the_line(name, tmp_path):
+    text, line, words = BAD_DATA[name]
+    path = tmp_path / "bad.data"
+    path.write_text(text)
+    with pytest.raises(gp.FileFormatError) as info:
+        gp.read_particles(path, format="lammps-data")
+    message = str(info.value)
+    assert (f"{path}:{line}:" if line else f"{path}:") in message, message
+    assert words in message, message
+    assert info.value.path == path
+
+
+# -- extended XYZ frames -------------------------------------------------------------------------
+def xyz_frame(x, radii=R, comment='Lattice="1 0 0 0 1 0 0 0 2" Origin="0 0 0" pbc="T T F"') -> str:
+    rows = "".join(
+        f"X {' '.join(_f(v) for v in p)} {_f(r)}\n" for p, r in zip(x, radii, strict=True)
+    )
+    return f"{len(radii)}\n{comment} Properties=species:S:1:pos:R:3:radius:R:1\n{rows}"
+
+
+def test_xyz_of_several_frames_is_read_as_a_dump(tmp_path):
+    path = tmp_path / "traj.xyz"
+    frames = [X0, X1, X1 + 0.125]
+    path.write_text("".join(xyz_frame(x) for x in frames))
+    assert detect_format(path) == "xyz"
+    p = gp.read_particles(path)
+    assert (p.snapshot, p.n_snapshots) == (2, 3)
+    np.testing.assert_array_equal(p.positions, frames[2])
+    assert any("frame 2 of 3" in note for note in p.notes), p.notes
+    for k, want in [(0, 0), (1, 1), (-3, 0), (-2, 1), (-1, 2)]:
+        q = gp.read_particles(path, snapshot=k)
+        assert q.snapshot == want and q.n_snapshots == 3
+        np.testing.assert_array_equal(q.positions, frames[want])
+        np.testing.assert_array_equal(q.radii, R)
+    for k in (3, -4):
+        with pytest.raises(gp.FileFormatError, match=r"snapshot = -?\d is out of range.*0 to 2"):
+            gp.read_particles(path, snapshot=k)
+    one = tmp_path / "one.xyz"
+    one.write_text(xyz_frame(X0))
+    p = gp.read_particles(one)
+    assert (p.snapshot, p.n_snapshots, p.notes) == (0, 1, ())
+    with pytest.raises(gp.FileFormatError, match="out of range"):
+        gp.read_particles(one, snapshot=1)
+
+
+def test_xyz_frames_of_different_sizes_and_broken_structure(tmp_path):
+    path = tmp_path / "grow.xyz"
+    path.write_text(xyz_frame(X0[:2], R[:2]) + xyz_frame(X1))
+    assert len(gp.read_particles(path, snapshot=0)) == 2
+    assert len(gp.read_particles(path)) == 4
+    # a truncated last frame is refused whichever frame is asked for
+    cut = xyz_frame(X0) + "".join(_lines(xyz_frame(X1))[:4])
+    path.write_text(cut)
+    for k in (0, -1):
+        with pytest.raises(gp.FileFormatError, match=r"grow.xyz:11: expected 4 particle rows"):
+            gp.read_particles(path, snapshot=k)
+    # more rows than the count says: not taken as another frame's count
+    path.write_text(xyz_frame(X0).replace("4\n", "3\n", 1))
+    with pytest.raises(gp.FileFormatError, match=r"grow.xyz:6: expected the particle count of fr"):
+        gp.read_particles(path)
+
+
+# -- empty and degenerate input ----------------------------------------------------------------
+def _empty_files(tmp_path, pack2d) -> dict[str, list]:
+    """Files of every format with a header and no particles."""
+    d = tmp_path
+    out: dict[str, list] = {}
+    (d / "a.dump").write_text(snapshot(0, X0, order=[]))
+    (d / "b.dump").write_text("".join(_lines(ONE)[:9]))
+    out["lammps-dump"] = [d / "a.dump", d / "b.dump"]
+    (d / "a.data").write_text(data_file([]))
+    (d / "b.data").write_text(data_file([]).replace("0 atoms", "4 atoms"))
+    (d / "c.data").write_text("title\n\n0 atoms\n")
+    out["lammps-data"] = [d / "a.data", d / "b.data", d / "c.data"]
+    (d / "yade.txt").write_text("#format x_y_z_r\n")
+    out["yade"] = [d / "yade.txt"]
+    (d / "a.xyz").write_text("0\nProperties=species:S:1:pos:R:3:radius:R:1\n")
+    (d / "b.xyz").write_text("4\nProperties=species:S:1:pos:R:3:radius:R:1\n")
+    (d / "c.xyz").write_text(xyz_frame(X0) + "0\nProperties=species:S:1:pos:R:3:radius:R:1\n")
+    out["xyz"] = [d / "a.xyz", d / "b.xyz", d / "c.xyz"]
+    (d / "a.txt").write_text("")
+    (d / "b.txt").write_text("# x y z r\n\n")
+    out["xyzr"] = [d / "a.txt", d / "b.txt"]
+    (d / "a.csv").write_text("id,x,y,z,radius\n")
+    (d / "b.csv").write_text("")
+    out["csv"] = [d / "a.csv", d / "b.csv"]
+    pl.DataFrame(schema={c: pl.Float64 for c in ("x", "y", "z", "radius")}).write_parquet(
+        d / "a.parquet"
+    )
+    out["parquet"] = [d / "a.parquet"]
+    pack2d.save(d / "full.npz")
+    with np.load(d / "full.npz") as z:
+        members = {k: z[k] for k in z.files}
+    for k, v in members.items():
+        if k in ("positions", "radii", "velocities", "spins", "layer") or k.startswith("contacts."):
+            members[k] = v[:0]
+    np.savez(d / "a.npz", **members)
+    out["npz"] = [d / "a.npz"]
+    assert sorted(out) == sorted(FORMATS)
+    return out
+
+
+def test_empty_files_of_every_format_are_refused_naming_the_file(tmp_path, pack2d):
+    for fmt, paths in _empty_files(tmp_path, pack2d).items():
+        for path in paths:
+            with pytest.raises(gp.FileFormatError) as info:
+                gp.read_particles(path, format=fmt)
+            assert str(path) in str(info.value), (fmt, str(info.value))
+            if path.stat().st_size:  # an empty file may be anything; the others are found
+                assert detect_format(path) == fmt, path
+
+
+@pytest.mark.parametrize(
+    "comment, key",
+    [
+        ('Lattice="1 0 0 0 1 0 0 0 2" Origin="a b c"', "Origin"),
+        ('Lattice="1 0 0 0 1 0 0 0 2" Origin="0 0"', "Origin"),
+        ('Lattice="1 0 0 0 1 0 0 0 2" Origin="0 nan 0"', "Origin"),
+        ('Lattice="1 0 0 0 one 0 0 0 2"', "Lattice"),
+        ('Lattice="1 0 0 0 1 0 0 0"', "Lattice"),
+        ('Lattice="1 0 0 0 inf 0 0 0 2"', "Lattice"),
+        ('Lattice="1 0 0 0 -1 0 0 0 2"', "Lattice"),
+        ('Lattice="1 0.5 0 0 1 0 0 0 2"', "non-orthogonal"),
+        ('pbc="yes no no"', "pbc"),
+        ('pbc="T T"', "pbc"),
+        ('pbc="1 1 0"', "pbc"),
+    ],
+)
+def test_xyz_comment_values_are_checked_by_name(tmp_path, comment, key, capsys):
+    path = tmp_path / "bad.xyz"
+    path.write_text(xyz_frame(X0, comment=comment))
+    with pytest.raises(gp.FileFormatError, match=f"bad.xyz:2: .*{key}"):
+        gp.read_particles(path)
+    assert main(["analyze", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "bad.xyz:2" in err
+
+
+def test_xyz_comment_values_that_are_read(tmp_path):
+    path = tmp_path / "ok.xyz"
+    path.write_text(
+        xyz_frame(X0, comment='Lattice="1 0 0 0 1 0 0 0 2" Origin="-1 0 0.5" pbc="true F f"')
+    )
+    p = gp.read_particles(path)
+    np.testing.assert_array_equal(p.box[0], [-1.0, 0.0, 0.5])
+    np.testing.assert_array_equal(p.box[1], [0.0, 1.0, 2.5])
+    assert p.periodic == (True, False, False)
+
+
+def test_byte_order_mark_is_accepted_by_every_text_reader(tmp_path, pack2d, two_snapshots):
+    # Excel and Windows editors start UTF-8 text with the byte-order mark EF BB BF
+    files = {
+        "lammps-dump": two_snapshots,
+        "lammps-data": export.export(pack2d, tmp_path / "p.data")[0],
+        "yade": export.export(pack2d, tmp_path / "y.txt", "yade")[0],
+        "xyz": export.export(pack2d, tmp_path / "p.xyz")[0],
+        "csv": export.export(pack2d, tmp_path / "p.csv")[0],
+    }
+    for fmt, path in files.items():
+        plain = gp.read_particles(path)
+        marked = tmp_path / f"bom_{path.name}"
+        marked.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+        assert detect_format(marked) == fmt
+        p = gp.read_particles(marked)
+        assert p.format == fmt
+        np.testing.assert_array_equal(p.positions, plain.positions, err_msg=fmt)
+        np.testing.assert_array_equal(p.radii, plain.radii, err_msg=fmt)
+        assert p.box is None or np.array_equal(p.box[1], plain.box[1])
+
+
+def test_damaged_pack_message_says_damaged_without_pickle_advice(tmp_path):
+    cases = {
+        "pickled.npz": lambda p: np.savez(p, x=np.array([{"a": 1}], dtype=object)),
+        "pickle.npz": lambda p: p.write_bytes(b"\x80\x04K\x01."),  # a pickle, not an archive
+        "junk.npz": lambda p: p.write_bytes(b"not a zip archive at all"),
+        "cut.npz": lambda p: p.write_bytes(b"PK\x03\x04\x14\x00"),
+    }
+    for name, write in cases.items():
+        path = tmp_path / name
+        write(path)
+        with pytest.raises(gp.FileFormatError) as info:
+            gp.load_pack(path)
+        msg = str(info.value)
+        assert "allow_pickle" not in msg, msg
+        assert name in msg and "damaged" in msg and "not a granpack pack" in msg, msg
+        with pytest.raises(gp.FileFormatError, match="damaged"):
+            gp.read_particles(path)
+
+
+@pytest.mark.parametrize("height", ["NaN", "Infinity", "-Infinity", "1e999", "10" + "0" * 400])
+def test_pack_with_a_non_finite_height_is_refused(tmp_path, pack2d, height):
+    pack2d.save(tmp_path / "p.npz")
+    with np.load(tmp_path / "p.npz") as z:
+        members = {k: z[k] for k in z.files}
+    meta = members["meta.json"].tobytes().decode()
+    h = json.loads(meta)["height"]
+    meta = meta.replace(f'"height": {json.dumps(h)}', f'"height": {height}')
+    assert height in meta
+    members["meta.json"] = np.frombuffer(meta.encode(), dtype=np.uint8)
+    np.savez(tmp_path / "bad.npz", **members)
+    with pytest.raises(gp.FileFormatError, match="'height' is") as info:
+        gp.load_pack(tmp_path / "bad.npz")
+    assert "bad.npz" in str(info.value)

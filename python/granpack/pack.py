@@ -210,9 +210,13 @@ def load_pack(path: str | Path) -> Pack:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise GranpackError(f"cannot read pack {path}: no such file") from None
+        raise FileFormatError(
+            f"cannot read pack {path}: no such file", path=path, reason="no such file"
+        ) from None
     except OSError as exc:
-        raise GranpackError(f"cannot read pack {path}: {exc.strerror}") from None
+        raise FileFormatError(
+            f"cannot read pack {path}: {exc.strerror or exc}", path=path
+        ) from None
     try:
         # Parse from memory: a corrupt archive then leaves no file handle open.
         z = np.load(io.BytesIO(raw), allow_pickle=False)
@@ -235,8 +239,13 @@ def load_pack(path: str | Path) -> Pack:
     ) as exc:
         # A corrupt zip header can name an unknown compression method or zip version
         # (NotImplementedError) or set the encryption flag (RuntimeError); a corrupt
-        # array header can announce an absurd shape (MemoryError).
-        reason = f"corrupt or truncated ({type(exc).__name__}: {exc})"
+        # array header can announce an absurd shape (MemoryError). numpy's own words
+        # for pickled data advise allow_pickle, which no granpack pack needs and which
+        # would run code from the file: they are not passed on.
+        detail = f"{type(exc).__name__}: {exc}"
+        if "pickle" in str(exc):
+            detail = "it holds pickled Python objects, which a granpack pack never does"
+        reason = f"the file is damaged (corrupt or truncated) or not a granpack pack ({detail})"
         raise FileFormatError(
             f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
@@ -285,7 +294,7 @@ def load_pack(path: str | Path) -> Pack:
             spins=data["spins"],
             layer=data["layer"],
             contacts=contacts,
-            height=float(meta["height"]),
+            height=_finite_field(meta, "height"),
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
             trim=_trim_record(meta.get("trim")),
@@ -302,6 +311,20 @@ def load_pack(path: str | Path) -> Pack:
         raise FileFormatError(
             f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
+
+
+def _finite_field(meta: dict, key: str) -> float:
+    """A number of the pack record that must be finite (a ValueError naming it if not)."""
+    value = meta[key]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{key!r} is {short_repr(value)}, expected a number")
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond any float
+        v = math.inf
+    if not math.isfinite(v):
+        raise ValueError(f"{key!r} is {v}, expected a finite number")
+    return v
 
 
 def _trim_record(value) -> dict | None:

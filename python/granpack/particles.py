@@ -8,12 +8,12 @@ Formats (the names `format=` takes and ``ParticleFile.format`` gives):
 - ``"lammps-dump"``: a LAMMPS or LIGGGHTS ``dump custom`` (or ``write_dump ... custom``)
   text file, one or more snapshots; columns found by name;
 - ``"lammps-data"``: a LAMMPS data file for ``atom_style sphere`` (as granpack's export
-  writes it);
+  and LAMMPS' ``write_data`` write it; a file for another atom style is refused);
 - ``"yade"``: YADE's text export (``yade.export.text``/``textExt``, the file
   ``yade.ymport.text`` reads): a header comment ``#format x_y_z_r`` (or
   ``x_y_z_r_matId``, ``id_x_y_z_r_matId``), then one sphere a line;
 - ``"xyz"``: extended XYZ (OVITO, ASE) with ``pos`` and ``radius`` properties, as
-  granpack's export writes it;
+  granpack's export writes it, one or more frames;
 - ``"xyzr"``: plain text, ``x y z r`` or ``x y r`` a line;
 - ``"csv"``: comma-separated text with a header row naming the columns;
 - ``"parquet"``: a Parquet table with named columns;
@@ -102,9 +102,10 @@ class ParticleFile:
     timestep : int or None
         A dump snapshot's ``TIMESTEP``.
     snapshot : int
-        Which snapshot was read (0-based, counted from the start).
+        Which snapshot (a dump's snapshot, an XYZ file's frame) was read (0-based,
+        counted from the start).
     n_snapshots : int
-        How many the file holds (1 for every format but a dump).
+        How many the file holds (1 for every format but a dump and extended XYZ).
     contacts : granpack.Contacts or None
         The contacts with forces of a granpack pack (npz); None otherwise (the analysis
         then finds the contacts from the geometry and has no forces).
@@ -237,7 +238,7 @@ def detect_format(path) -> str:
         return "npz"
     if suffix in (".parquet", ".pq") or head.startswith(b"PAR1"):
         return "parquet"
-    text = head.decode("utf-8", errors="replace")
+    text = head.decode("utf-8-sig", errors="replace")
     lines = text.splitlines()
     first = next((ln.strip() for ln in lines if ln.strip()), "")
     if first.startswith("ITEM:"):
@@ -271,8 +272,8 @@ def read_particles(
         One of `FORMATS` (``"lammps-dump"``, ``"lammps-data"``, ``"xyzr"``, ``"csv"``,
         ``"parquet"``, ``"npz"``). Default None: found by :func:`detect_format`.
     snapshot : int
-        Which snapshot of a dump: 0 the first, -1 (default) the last, as Python indexes.
-        Files with one snapshot take 0 or -1.
+        Which snapshot of a dump, or frame of an extended XYZ file: 0 the first, -1
+        (default) the last, as Python indexes. Files with one snapshot take 0 or -1.
     dim : {None, 2, 3}
         None (default): as the file says. A dump, data file or table is 2D when it has
         no z column, or when every z is 0 (or, in a dump, the same for every particle
@@ -332,20 +333,7 @@ def read_particles(
         )
     fmt = format if format is not None else detect_format(path)
     try:
-        if fmt == "lammps-dump":
-            return _read_dump(path, snapshot, dim)
-        _single_snapshot(path, snapshot)
-        if fmt == "npz":
-            return _read_npz(path, dim)
-        if fmt == "lammps-data":
-            return _read_data(path, dim)
-        if fmt == "xyzr":
-            return _read_xyzr(path, dim)
-        if fmt == "yade":
-            return _read_yade(path, dim)
-        if fmt == "xyz":
-            return _read_extxyz(path, dim)
-        return _read_table(path, fmt, dim)
+        p = _read(path, fmt, snapshot, dim)
     except FileFormatError:
         raise
     except InvalidParameterError:
@@ -358,6 +346,27 @@ def read_particles(
     except GranpackError as exc:
         # the older readers raise the base class for an unreadable file
         raise FileFormatError(str(exc), path=path) from None
+    if len(p) == 0:  # every reader refuses an empty body; this holds for any new one too
+        raise FileFormatError(f"{path}: no particles", path=path)
+    return p
+
+
+def _read(path: Path, fmt: str, snapshot: int, dim: int | None) -> ParticleFile:
+    """The reader of `fmt`; the formats with frames (dumps, extended XYZ) take `snapshot`."""
+    if fmt == "lammps-dump":
+        return _read_dump(path, snapshot, dim)
+    if fmt == "xyz":
+        return _read_extxyz(path, snapshot, dim)
+    _single_snapshot(path, snapshot)
+    if fmt == "npz":
+        return _read_npz(path, dim)
+    if fmt == "lammps-data":
+        return _read_data(path, dim)
+    if fmt == "xyzr":
+        return _read_xyzr(path, dim)
+    if fmt == "yade":
+        return _read_yade(path, dim)
+    return _read_table(path, fmt, dim)
 
 
 def _single_snapshot(path: Path, snapshot: int) -> None:
@@ -371,7 +380,8 @@ def _single_snapshot(path: Path, snapshot: int) -> None:
 
 def _read_text(path: Path) -> str:
     try:
-        return path.read_text()
+        # utf-8-sig: a byte-order mark (Excel and Windows editors write one) is not text
+        return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
     except UnicodeDecodeError as exc:
@@ -891,25 +901,103 @@ def _read_yade(path: Path, dim: int | None) -> ParticleFile:
     )
 
 
-def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
-    """Extended XYZ, one frame: the count, the comment line with ``Properties=`` (and
-    optionally an orthogonal ``Lattice``, ``Origin``, ``pbc``), then the rows."""
+def _xyz_frames(path: Path, lines: list[str]) -> list[int]:
+    """The count line (0-based) of every frame of an extended XYZ file: a count, a comment
+    line, then that many rows, repeated. Every frame's structure is checked, so that a
+    truncated file is refused whichever frame is asked for."""
+    starts: list[int] = []
+    i = 0
+    while i < len(lines):
+        count = lines[i].strip()
+        if not count:  # blank lines between frames and at the end
+            i += 1
+            continue
+        if not (count.isascii() and count.isdigit()):
+            what = (
+                "the particle count (an integer)"
+                if not starts
+                else f"the particle count of frame {len(starts)} (an integer) or the end of "
+                f"the file after the {int(lines[starts[-1]])} rows of the frame at line "
+                f"{starts[-1] + 1}"
+            )
+            raise FileFormatError(
+                f"{path}:{i + 1}: expected {what}, found {count[:60]!r}", path=path
+            )
+        n = int(count)
+        if i + 1 >= len(lines):
+            raise FileFormatError(
+                f"{path}:{i + 2}: expected the comment line with Properties=, found the end of "
+                "the file",
+                path=path,
+            )
+        if i + 2 + n > len(lines):
+            raise FileFormatError(
+                f"{path}:{len(lines) + 1}: expected {n} particle rows after line {i + 2} (line "
+                f"{i + 1} says {n}), found {len(lines) - i - 2}: a truncated file",
+                path=path,
+            )
+        starts.append(i)
+        i += 2 + n
+    if not starts:
+        raise FileFormatError(
+            f"{path}:1: expected the particle count (an integer), found an empty file", path=path
+        )
+    return starts
+
+
+def _xyz_numbers(path: Path, line: int, key: str, value: str, count: int) -> np.ndarray:
+    """The `count` finite numbers of the comment line's ``key="..."``, or a
+    FileFormatError naming the key (the comment is line `line`)."""
+    words = value.split()
+    if len(words) != count or not all(is_number(w) for w in words):
+        raise FileFormatError(
+            f'{path}:{line}: expected {key}="..." with {count} numbers, found {value!r}',
+            path=path,
+        )
+    a = np.array(words, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        raise FileFormatError(
+            f'{path}:{line}: expected {key}="..." with {count} finite numbers, found {value!r}',
+            path=path,
+        )
+    return a
+
+
+#: The extended XYZ booleans (pbc)
+_XYZ_TRUE = ("T", "TRUE")
+_XYZ_FALSE = ("F", "FALSE")
+
+
+def _read_extxyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
+    """Extended XYZ, one or more frames, each: the count, the comment line with
+    ``Properties=`` (and optionally an orthogonal ``Lattice``, ``Origin``, ``pbc``), then
+    the rows. Frame `snapshot` is read (-1: the last), as a dump's snapshot."""
     import shlex
 
     lines = _read_text(path).splitlines()
-    if not lines or not lines[0].strip().isdigit():
+    starts = _xyz_frames(path, lines)
+    n_frames = len(starts)
+    if not -n_frames <= snapshot < n_frames:
         raise FileFormatError(
-            f"{path}:1: expected the particle count (an integer), found "
-            f"{repr(lines[0].strip()[:60]) if lines else 'an empty file'}",
+            f"{path}: snapshot = {snapshot} is out of range: the file holds {n_frames} "
+            f"frame{'s' if n_frames > 1 else ''} (0 to {n_frames - 1}, or -{n_frames} to -1)",
             path=path,
+            reason="snapshot out of range",
         )
-    n = int(lines[0])
-    if len(lines) < 2:
-        raise FileFormatError(f"{path}:2: expected the comment line with Properties=", path=path)
+    k_frame = snapshot % n_frames
+    b = starts[k_frame]  # the frame's count line (0-based); its comment is line b + 2
+    n = int(lines[b])
+    if n == 0:
+        raise FileFormatError(
+            f"{path}:{b + 1}: frame {k_frame} holds no particles (count 0)", path=path
+        )
+    c = b + 2
     try:
-        words = shlex.split(lines[1])
+        words = shlex.split(lines[b + 1])
     except ValueError as exc:
-        raise FileFormatError(f"{path}:2: cannot read the comment line: {exc}", path=path) from None
+        raise FileFormatError(
+            f"{path}:{c}: cannot read the comment line: {exc}", path=path
+        ) from None
     info = {}
     for w in words:
         if "=" in w:
@@ -918,64 +1006,94 @@ def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
     spec = info.get("properties", "").split(":")
     if len(spec) % 3 or not spec[0]:
         raise FileFormatError(
-            f"{path}:2: expected Properties=name:type:count:..., found "
+            f"{path}:{c}: expected Properties=name:type:count:..., found "
             f"{info.get('properties', 'none')!r}",
             path=path,
         )
     cols: dict[str, tuple[int, int]] = {}
     at = 0
     for k in range(0, len(spec), 3):
-        name, count = spec[k].lower(), spec[k + 2]
-        if not count.isdigit():
-            raise FileFormatError(f"{path}:2: property {spec[k]!r} has count {count!r}", path=path)
+        name, kind, count = spec[k].lower(), spec[k + 1], spec[k + 2]
+        if not (count.isascii() and count.isdigit() and int(count) >= 1):
+            raise FileFormatError(
+                f"{path}:{c}: property {spec[k]!r} has count {count!r} (expected an integer >= 1)",
+                path=path,
+            )
+        if kind.upper() not in ("S", "R", "I", "L"):
+            raise FileFormatError(
+                f"{path}:{c}: property {spec[k]!r} has type {kind!r} (expected S, R, I or L)",
+                path=path,
+            )
+        if name in cols:
+            raise FileFormatError(
+                f"{path}:{c}: property {spec[k]!r} named twice in Properties", path=path
+            )
         cols[name] = (at, int(count))
         at += int(count)
-    missing = [c for c in ("pos", "radius") if c not in cols]
-    if missing or cols.get("pos", (0, 3))[1] not in (2, 3):
+    missing = [name for name in ("pos", "radius") if name not in cols]
+    if missing or cols["pos"][1] not in (2, 3) or cols["radius"][1] != 1:
         raise FileFormatError(
-            f"{path}:2: missing propert{'ies' if len(missing) > 1 else 'y'} "
-            f"{' and '.join(missing) or 'pos with 3 components'} in Properties (expected "
-            "pos:R:3 and radius:R:1)",
+            f"{path}:{c}: missing propert{'ies' if len(missing) > 1 else 'y'} "
+            f"{' and '.join(missing) or 'pos with 2 or 3 components and radius with 1'} in "
+            "Properties (expected pos:R:3 and radius:R:1)",
             path=path,
             reason="missing columns",
         )
-    if len(lines) < 2 + n:
-        raise FileFormatError(
-            f"{path}:{len(lines) + 1}: expected {n} particle rows after line 2 (line 1 says "
-            f"{n}), found {len(lines) - 2}: a truncated file",
-            path=path,
-        )
-    rows = [ln.split() for ln in lines[2 : 2 + n]]
+    rows = [ln.split() for ln in lines[b + 2 : b + 2 + n]]
     for k, t in enumerate(rows):
         if len(t) != at:
             raise FileFormatError(
-                f"{path}:{k + 3}: expected {at} values (Properties), found {len(t)}", path=path
+                f"{path}:{c + k + 1}: expected {at} values (Properties), found {len(t)}",
+                path=path,
             )
     p0, pn = cols["pos"]
     r0 = cols["radius"][0]
-    num = [[t[c] for c in (*range(p0, p0 + pn), r0)] for t in rows]
+    num = [[t[j] for j in (*range(p0, p0 + pn), r0)] for t in rows]
     for k, t in enumerate(num):
         bad = next((v for v in t if not is_number(v)), None)
         if bad is not None:
-            raise FileFormatError(f"{path}:{k + 3}: {bad!r} is not a number", path=path)
+            raise FileFormatError(f"{path}:{c + k + 1}: {bad!r} is not a number", path=path)
     a = np.array(num, dtype=np.float64).reshape(n, pn + 1)
     x3 = np.zeros((n, 3))
     x3[:, :pn] = a[:, :pn]
     r = a[:, pn]
-    _check_values(path, x3, r, lambda k: k + 3)
+    _check_values(path, x3, r, lambda k: c + k + 1)
     d = _choose_dim(path, x3, pn == 3, dim)
     box = None
-    lattice = info.get("lattice", "").split()
-    if len(lattice) == 9 and all(is_number(v) for v in lattice):
-        m = np.array(lattice, dtype=np.float64).reshape(3, 3)
-        if np.all(m == np.diag(np.diag(m))):  # orthogonal cells only
-            origin = info.get("origin", "0 0 0").split()
-            o = np.array(origin, dtype=np.float64) if len(origin) == 3 else np.zeros(3)
-            box = (o[:d], (o + np.diag(m))[:d])
-    pbc = info.get("pbc", "").split()
-    periodic = tuple(v.upper() in ("T", "TRUE") for v in pbc[:d]) if len(pbc) == 3 else None
+    if "origin" in info:
+        o = _xyz_numbers(path, c, "Origin", info["origin"], 3)
+    else:
+        o = np.zeros(3)
+    if "lattice" in info:
+        m = _xyz_numbers(path, c, "Lattice", info["lattice"], 9).reshape(3, 3)
+        if np.any(m != np.diag(np.diag(m))):
+            raise FileFormatError(
+                f'{path}:{c}: a non-orthogonal cell (Lattice="{info["lattice"]}"); only '
+                "orthogonal cells are read",
+                path=path,
+            )
+        if np.any(np.diag(m)[:d] <= 0.0):
+            raise FileFormatError(
+                f'{path}:{c}: expected Lattice="..." with cell lengths > 0 along the '
+                f"{d} axes of the particles, found {info['lattice']!r}",
+                path=path,
+            )
+        box = (o[:d], (o + np.diag(m))[:d])
+    periodic = None
+    if "pbc" in info:
+        pbc = info["pbc"].upper().split()
+        if len(pbc) != 3 or not all(v in _XYZ_TRUE + _XYZ_FALSE for v in pbc):
+            raise FileFormatError(
+                f'{path}:{c}: expected pbc="..." with three of T, F (or True, False), '
+                f"found {info['pbc']!r}",
+                path=path,
+            )
+        periodic = tuple(v in _XYZ_TRUE for v in pbc[:d])
+    notes: tuple[str, ...] = ()
+    if n_frames > 1:
+        notes = (f"frame {k_frame} of {n_frames} read (0 the first; snapshot= picks another)",)
     # the lattice and pbc say the box and the periodic axes; granpack's tag adds a cylinder
-    tag = parse_container_tag(info.get("granpack", ""), path, 2, d)
+    tag = parse_container_tag(info.get("granpack", ""), path, c, d)
     extra: dict = {}
     if tag is not None:
         extra = {"container": tag.kind, "cylinder_radius": tag.cylinder_radius}
@@ -988,6 +1106,9 @@ def _read_extxyz(path: Path, dim: int | None) -> ParticleFile:
         radii=r,
         box=box,
         periodic=periodic,
+        snapshot=k_frame,
+        n_snapshots=n_frames,
+        notes=notes,
         **extra,
     )
 
