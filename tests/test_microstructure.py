@@ -300,9 +300,13 @@ def test_too_anisotropic_fabric_warns_and_keeps_the_binned_estimator():
         "force_normal": np.ones(n),
         "force_tangential": np.zeros((n, 2)),
     }
-    x = np.random.default_rng(0).uniform(0, 1, (n + 1, 2))
+    # particle 0 a unit disc, the others around it, touching it
+    ang = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    ring = (1.0 + 0.99 * R) * np.column_stack([np.cos(ang), np.sin(ang)])
+    x = np.vstack([[0.0, 0.0], ring])
+    radii = np.array([1.0, *np.full(n, R)])
     with pytest.warns(MicrostructureWarning, match="too anisotropic"):
-        m = analyse(positions=x, radii=np.full(n + 1, R), contacts=c, binned=True)
+        m = analyse(positions=x, radii=radii, contacts=c, binned=True)
     assert math.isnan(m.f0) and np.all(np.isnan(m.a_n))
     assert m.f0_binned == pytest.approx(1.0)
     with pytest.raises(gp.GranpackError, match="too anisotropic"):

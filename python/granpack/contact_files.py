@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import FileFormatError, InvalidParameterError, is_number, short_repr
+from .analysis.inputs import check_contacts_touch
 from .contacts import Contacts
 from .particles import ParticleFile
 
@@ -266,7 +267,10 @@ def read_contacts(
         Naming the line: a truncated dump, a row of the wrong length, a value that is not
         a number, an id that none of the particles has, a pair of a particle with itself,
         a snapshot of another timestep than the particles', a column count that names no
-        layout.
+        layout; a pair whose particles do not touch (ids of another run, step or
+        numbering): their centres farther apart than r_i + r_j by more than 1e-6 of the
+        smaller radius plus what the printed precision of the positions allows, named
+        with its ids and the gap.
     InvalidParameterError
         A bad `layout`, `columns` or `snapshot`.
     """
@@ -399,18 +403,21 @@ def read_contacts(
     # each pair once: a pair across a periodic side is listed for both of its particles
     lo_, hi_ = np.minimum(i, j), np.maximum(i, j)
     _, first = np.unique(np.stack([lo_, hi_], axis=1), axis=0, return_index=True)
+    rows_kept = np.arange(i.size)
     if first.size < i.size:
         keep = np.sort(first)
         notes.append(f"{i.size - keep.size} pairs listed twice were read once")
-        a, i, j = a[keep], i[keep], j[keep]
+        a, i, j, rows_kept = a[keep], i[keep], j[keep], rows_kept[keep]
 
     x = np.asarray(particles.positions, dtype=np.float64)
     r = np.asarray(particles.radii, dtype=np.float64)
     branch = x[j] - x[i]
+    periods = np.full(d, np.inf)
     if particles.periodic is not None and particles.box is not None:
         size = np.asarray(particles.box[1]) - np.asarray(particles.box[0])
         for ax, p in enumerate(particles.periodic):
             if p:
+                periods[ax] = size[ax]
                 branch[:, ax] -= size[ax] * np.round(branch[:, ax] / size[ax])
     dist = np.linalg.norm(branch, axis=1)
     if np.any(dist == 0.0):
@@ -439,14 +446,27 @@ def read_contacts(
         # LAMMPS lists every pair within the force cutoff unless told "cutoff radius"
         notes.append(f"{int(idle.sum())} pairs without overlap or force were left out")
         keep = ~idle
-        i, j, force, branch, dist, normal = (
+        i, j, force, branch, dist, normal, rows_kept = (
             i[keep],
             j[keep],
             force[keep],
             branch[keep],
             dist[keep],
             normal[keep],
+            rows_kept[keep],
         )
+    # every pair left must touch: ids of another run or numbering name particles apart
+    check_contacts_touch(
+        i,
+        j,
+        x,
+        r,
+        periods=periods,
+        box=particles.box,
+        path=path,
+        lines=b.first + rows_kept + 1,
+        ids=ids,
+    )
     fn_on_i = np.einsum("md,md->m", force, normal)
     f_n = -fn_on_i
     attractive = f_n < 0.0

@@ -167,6 +167,25 @@ class ParticleFile:
                 "the result of granpack.read_contacts",
                 parameter="contacts",
             )
+        from .analysis.inputs import _as_contacts, check_contacts_touch
+        from .analysis.prepare import analysis_container
+
+        # the contacts must touch in the container the analysis will see
+        _as_contacts(c, len(self), self.dim)
+        container, walls = analysis_container(self)
+        source = getattr(contacts, "path", None)
+        ids = self.ids if self.ids is not None else np.arange(1, len(self) + 1)
+        check_contacts_touch(
+            c.i,
+            c.j,
+            self.positions,
+            self.radii,
+            container=container,
+            walls=walls,
+            box=self.box,
+            path=source,
+            ids=ids if source is not None else None,
+        )
         notes = self.notes + tuple(getattr(contacts, "notes", ()))
         return ParticleFile(
             path=self.path,

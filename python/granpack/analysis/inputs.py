@@ -7,8 +7,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import _core
-from .._validate import GranpackError, InvalidParameterError
-from ..contacts import Contacts
+from .._validate import FileFormatError, GranpackError, InvalidParameterError
+from ..contacts import WALL_IDS, Contacts
 
 #: Wall ids of the contact table (j < 0).
 _MIN_WALL_ID = -5
@@ -192,3 +192,236 @@ def find_container_contacts(x, r, container) -> Contacts:
         cls = InvalidParameterError if isinstance(exc, InvalidParameterError) else GranpackError
         raise cls(f"cannot find the contacts of the given positions/radii: {exc}") from None
     return Contacts.from_dict(found)
+
+
+# -- contacts against the particles --------------------------------------------------------
+
+#: A listed contact may leave a gap of this fraction of the smaller radius between the
+#: two surfaces (or the surface and the wall), beyond what the positions' printed
+#: precision allows.
+CONTACT_GAP_TOLERANCE = 1e-6
+# the values _digits looks at: an even stride through larger arrays
+_DIGITS_SAMPLE = 200_000
+
+
+def _digits(values) -> int:
+    """The fewest significant decimal digits (1 to 12) that give every value to a relative
+    1e-12: the precision a text file printed them with (6 for LAMMPS' default %g). 17
+    where no such count does (binary data, or values computed from printed ones)."""
+    a = np.abs(np.asarray(values, dtype=float).ravel())
+    a = a[np.isfinite(a) & (a > 1e-280) & (a < 1e280)]
+    if a.size > _DIGITS_SAMPLE:
+        a = a[:: a.size // _DIGITS_SAMPLE + 1]
+    if a.size == 0:
+        return 17
+    e = np.floor(np.log10(a))
+    for p in range(1, 13):
+        scale = 10.0 ** (p - 1 - e)
+        y = np.round(a * scale) / scale
+        if np.all(np.abs(y - a) <= 1e-12 * a):
+            return p
+    return 17
+
+
+def _resolution(values, p: int) -> np.ndarray:
+    """Half a unit in the last of `p` significant digits of each value (0 for p = 17)."""
+    a = np.abs(np.asarray(values, dtype=float))
+    if p > 12:
+        return np.zeros_like(a)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.where(a > 0.0, a, 1.0)))
+        out = np.where(a > 0.0, 0.5 * 10.0 ** (e - p + 1), 0.0)
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _position_resolution(x: np.ndarray, box, p: int) -> np.ndarray:
+    """(N, D) how far each coordinate may lie from the value the file meant: half a unit
+    in the last of `p` printed digits, or in the last digit of the fractions of the box
+    (LAMMPS' scaled coordinates xs, ys, zs), whichever the file printed."""
+    res = _resolution(x, p)
+    if box is not None:
+        try:
+            lo = np.asarray(box[0], dtype=float).ravel()
+            hi = np.asarray(box[1], dtype=float).ravel()
+        except (TypeError, ValueError, IndexError):
+            return res
+        d = x.shape[1]
+        if lo.shape == (d,) and hi.shape == (d,):
+            size = hi - lo
+            ok = np.isfinite(size) & (size > 0.0)
+            if np.any(ok):
+                s = (x[:, ok] - lo[ok]) / size[ok]
+                p = _digits(s)
+                if p <= 12:
+                    res[:, ok] = np.maximum(res[:, ok], _resolution(s, p) * size[ok])
+    return res
+
+
+def check_contacts_touch(
+    i,
+    j,
+    x,
+    r,
+    *,
+    container=None,
+    periods=None,
+    walls: bool = False,
+    box=None,
+    path=None,
+    lines=None,
+    ids=None,
+    what: str = "contacts",
+) -> None:
+    """Refuses contacts whose two particles (or particle and wall) do not touch: the one
+    check of every contact table the analysis is given, read from a file or passed as
+    arrays, so that contacts of another run, step or numbering never count.
+
+    A pair is a contact where |x_j - x_i| (the minimum image across periodic axes) is at
+    most r_i + r_j plus a tolerance: `CONTACT_GAP_TOLERANCE` of the smaller radius, plus
+    what the printed precision of the positions and radii allows (half a unit in their
+    last digit, counted from the values themselves), plus rounding. A wall contact
+    (j < 0) is checked against the wall's distance where the walls are known (`walls`,
+    with `container`): the floor, a box side, the cylinder; a wall id that this
+    container does not have is refused.
+
+    Parameters
+    ----------
+    i, j : (M,) int
+        Rows of `x`; j < 0 a wall (-1 floor, -2..-5 box sides, -2 the cylinder).
+    x, r : (N, D), (N,)
+        Centres and radii (m).
+    container : Container, optional
+        Its periodic axes give the minimum image; its walls are checked if `walls`.
+    periods : (D,) float, optional
+        Without a container: the period of each axis (inf where none).
+    box : (lo, hi), optional
+        The box the positions were written in (to recognise scaled coordinates).
+    path : Path, optional
+        The file the contacts came from: the error is then a FileFormatError naming it
+        (with `lines`, the line of each contact; `ids`, the particles' ids there).
+        Otherwise an InvalidParameterError naming `what`.
+
+    Raises
+    ------
+    FileFormatError or InvalidParameterError
+        Naming the first contact that is none, its particles and the gap, and how many
+        contacts are apart.
+    """
+    i = np.asarray(i, dtype=np.int64)
+    j = np.asarray(j, dtype=np.int64)
+    m = i.shape[0]
+    if m == 0:
+        return
+    x = np.asarray(x, dtype=float)
+    r = np.asarray(r, dtype=float)
+    n, d = x.shape
+    if container is not None:
+        periods = container.periods
+    per = np.full(d, np.inf) if periods is None else np.asarray(periods, dtype=float)
+    finite = np.isfinite(per)
+    # one count of digits for positions and radii (a file prints them alike; round
+    # values, such as one radius for all, have fewer than the file printed)
+    digits = max(_digits(x), _digits(r))
+    res_x = _position_resolution(x, box, digits)
+    res_r = _resolution(r, digits)
+    big = float(np.max(np.abs(x))) + float(np.max(r)) + float(np.max(per[finite], initial=0.0))
+    rounding = 64.0 * np.finfo(float).eps * big
+
+    gap = np.full(m, -np.inf)
+    tol = np.zeros(m)
+    dist = np.zeros(m)
+    wall_missing = np.zeros(m, dtype=bool)
+    pair = j >= 0
+    if np.any(pair):
+        a, b = i[pair], j[pair]
+        dx = x[b] - x[a]
+        if np.any(finite):
+            dx[:, finite] -= per[finite] * np.round(dx[:, finite] / per[finite])
+        dd = np.linalg.norm(dx, axis=1)
+        dist[pair] = dd
+        gap[pair] = dd - (r[a] + r[b])
+        tol[pair] = (
+            CONTACT_GAP_TOLERANCE * np.minimum(r[a], r[b])
+            + 2.0 * (res_x[a].sum(axis=1) + res_x[b].sum(axis=1) + res_r[a] + res_r[b])
+            + rounding
+        )
+    if walls and container is not None and np.any(~pair):
+        wall = ~pair
+        q, w = i[wall], j[wall]
+        xq = x[q]
+        to_wall = np.full(q.shape[0], np.nan)
+        res_w = np.zeros(q.shape[0])
+        lo, hi = container.lo, container.hi
+        bounds = np.concatenate([lo, hi[:-1]])
+        res_b = _resolution(bounds, max(digits, _digits(bounds)))
+        floor = w == -1
+        to_wall[floor] = xq[floor, -1] - lo[-1]
+        res_w[floor] = res_x[q[floor], -1] + res_b[d - 1]
+        if container.radius is not None:
+            cyl = w == -2
+            off = xq[cyl, :2] - container.axis
+            to_wall[cyl] = container.radius - np.linalg.norm(off, axis=1)
+            res_w[cyl] = res_x[q[cyl], 0] + res_x[q[cyl], 1] + 2.0 * res_b[0]
+        else:
+            for k in range(d - 1):
+                if container.periodic[k]:
+                    continue
+                for wid, dist_k, rb in (
+                    (-2 - 2 * k, xq[:, k] - lo[k], res_b[k]),
+                    (-3 - 2 * k, hi[k] - xq[:, k], res_b[d + k]),
+                ):
+                    sel = w == wid
+                    to_wall[sel] = dist_k[sel]
+                    res_w[sel] = res_x[q[sel], k] + rb
+        wall_missing[wall] = np.isnan(to_wall)
+        dist[wall] = np.where(np.isnan(to_wall), 0.0, to_wall)
+        gap[wall] = np.where(np.isnan(to_wall), np.inf, to_wall - r[q])
+        tol[wall] = CONTACT_GAP_TOLERANCE * r[q] + 2.0 * (res_w + res_r[q]) + rounding
+    bad = gap > tol
+    if not np.any(bad):
+        return
+    k = int(np.argmax(bad))
+    n_bad = int(np.sum(bad))
+    count = f"{n_bad} of {m} contacts" if n_bad > 1 else f"1 of {m} contacts"
+
+    def name(q: int) -> str:
+        return str(int(ids[q])) if ids is not None else str(q)
+
+    who = "particle id" if ids is not None else "particle"
+    a, b = int(i[k]), int(j[k])
+    if b >= 0:
+        what_k = (
+            f"{who}s {name(a)} and {name(b)} do not touch: their surfaces are "
+            f"{gap[k]:.6g} m apart (centres {dist[k]:.6g} m apart"
+            f"{' by minimum image' if np.any(finite) else ''}, r_i + r_j = "
+            f"{r[a] + r[b]:.6g} m; at most {tol[k]:.2g} m allowed)"
+        )
+    elif wall_missing[k]:
+        kind = container.kind if container is not None else "box"
+        what_k = (
+            f"{who} {name(a)} touches wall id {b}, which the {kind} container does not have "
+            f"(its walls: {', '.join(str(v) for v in container.wall_ids())})"
+        )
+    else:
+        wall_name = (
+            "the cylinder wall"
+            if container.radius is not None and b == -2
+            else f"the {WALL_IDS.get(b, str(b))} wall"
+        )
+        what_k = (
+            f"{who} {name(a)} does not touch {wall_name} (wall id {b}): its surface is "
+            f"{gap[k]:.6g} m from it (centre {dist[k]:.6g} m, radius {r[a]:.6g} m; at most "
+            f"{tol[k]:.2g} m allowed)"
+        )
+    if path is not None:
+        where = f"{path}:{int(lines[k])}" if lines is not None else f"{path}"
+        reason = (
+            f"contact {k} is no contact: {what_k}; {count} are apart: the contacts and the "
+            "particles come from different runs, steps or numberings"
+        )
+        raise FileFormatError(f"{where}: {reason}", path=path, reason=reason)
+    raise InvalidParameterError(
+        f"invalid {what}: contact {k} is no contact: {what_k}; {count} are apart: the "
+        "contacts do not belong to these positions and radii",
+        parameter=what,
+    )

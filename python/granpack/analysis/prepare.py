@@ -18,6 +18,7 @@ from .inputs import (
     _as_particles,
     _check_overlaps,
     _find_contacts,
+    check_contacts_touch,
     find_container_contacts,
 )
 from .stress import contact_forces, k0, love_weber
@@ -147,8 +148,19 @@ def _container_of(pack, container, periodic, cylinder_radius, d: int):
 
 
 def _prepare(
-    pack, positions, radii, contacts, box, periodic=None, cylinder_radius=None, container=None
+    pack,
+    positions,
+    radii,
+    contacts,
+    box,
+    periodic=None,
+    cylinder_radius=None,
+    container=None,
+    *,
+    until_container: bool = False,
 ):
+    """The pack made ready for analysis; with `until_container`, only (its container,
+    whether its walls are known), as the analysis would find them."""
     if pack is not None:
         if any(a is not None for a in (positions, radii, contacts, box)):
             raise GranpackError("give either pack or positions/radii/contacts/box, not both")
@@ -180,6 +192,7 @@ def _prepare(
         )
     if not math.isfinite(h_top):
         raise InvalidParameterError("invalid positions: the pack's top max(z + r) overflows")
+    walls_known = box is not None
     if box is None and kind == "cylinder":
         # no box given: the cylinder stands on the lowest particle, its axis through the
         # middle of the particles' lateral extent
@@ -206,6 +219,9 @@ def _prepare(
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     hi = np.array([*hi_h, h_top])
     cont = make_container(kind, lo, hi, periodic, cylinder_radius)
+    if until_container:
+        return cont, walls_known
+    x_given = x  # as given: the contact check counts their printed digits
     if cont.any_periodic:
         x = cont.wrap(x)
     if cont.radius is not None:
@@ -230,12 +246,31 @@ def _prepare(
         geometric = c
     else:
         c = _as_contacts(contacts, n, d)
+        # contacts stored in a pack file name the file; others are arrays
+        from_file = pack is not None and getattr(pack, "format", None) == "npz"
+        check_contacts_touch(
+            c.i,
+            c.j,
+            x_given,
+            r,
+            container=cont,
+            walls=walls_known,
+            box=box,
+            path=getattr(pack, "path", None) if from_file else None,
+            what="pack.contacts" if pack is not None else "contacts",
+        )
         contacts_given = True
         geometric = _find_contacts(x, r, None)
     _check_overlaps(geometric.particle_pairs(), r)
     return Prepared(
         x, r, n, d, lo, hi, cont, c, contacts_given, solid, vol, h_top, box_volume, source
     )
+
+
+def analysis_container(pack) -> tuple[Container, bool]:
+    """The container ``gp.microstructure(pack)`` analyses `pack` (a Pack or a
+    ParticleFile) in, and whether its walls are known (a box given or read)."""
+    return _prepare(pack, None, None, None, None, until_container=True)
 
 
 def _force_edges(ratio: np.ndarray) -> np.ndarray:
