@@ -447,6 +447,25 @@ def _choose_dim(
     return dim
 
 
+def _integer_ids(path: Path, raw: np.ndarray, where) -> np.ndarray:
+    """An id column read as numbers, as int64; refuses a value that is not a finite
+    integer, or one too large for a float to hold exactly, naming its line `where(k)`."""
+    finite = np.isfinite(raw)
+    whole = finite & (raw == np.round(np.where(finite, raw, 0.0)))
+    if not np.all(whole):
+        k = int(np.argmax(~whole))
+        raise FileFormatError(f"{path}:{where(k)}: id {raw[k]} is not an integer", path=path)
+    big = np.abs(raw) >= 2.0**53
+    if np.any(big):
+        k = int(np.argmax(big))
+        raise FileFormatError(
+            f"{path}:{where(k)}: id {raw[k]:.17g} is too large to read exactly (ids must lie "
+            "below 2**53)",
+            path=path,
+        )
+    return raw.astype(np.int64)
+
+
 def _sorted_by_id(path: Path, ids: np.ndarray, where) -> np.ndarray:
     """The order that sorts by id; refuses a repeated id, naming both lines."""
     order = np.argsort(ids, kind="stable")
@@ -713,13 +732,7 @@ def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         return first + int(order[k]) + 1
 
     if i_id is not None:
-        raw = a[:, -1]
-        if not np.all(raw == np.round(raw)):
-            k = int(np.argmax(raw != np.round(raw)))
-            raise FileFormatError(
-                f"{path}:{first + k + 1}: id {raw[k]} is not an integer", path=path
-            )
-        ids = raw.astype(np.int64)
+        ids = _integer_ids(path, a[:, -1], lambda k: first + k + 1)
         order = _sorted_by_id(path, ids, lambda k: first + k + 1)
         ids = ids[order]
         x3, r = x3[order], r[order]
@@ -905,11 +918,7 @@ def _read_yade(path: Path, dim: int | None) -> ParticleFile:
     ids = None
     order = np.arange(len(rows))
     if "id" in names:
-        raw = a[:, names.index("id")]
-        if not np.all(raw == np.round(raw)):
-            k = int(np.argmax(raw != np.round(raw)))
-            raise FileFormatError(f"{path}:{row_line[k]}: id {raw[k]} is not an integer", path=path)
-        ids = raw.astype(np.int64)
+        ids = _integer_ids(path, a[:, names.index("id")], lambda k: row_line[k])
         order = _sorted_by_id(path, ids, lambda k: row_line[k])
         ids, x3, r = ids[order], x3[order], r[order]
     _check_values(path, x3, r, lambda k: row_line[int(order[k])])
@@ -1229,11 +1238,7 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
         r = column(i_d) / 2.0
     ids = None
     if i_id is not None:
-        raw = column(i_id)
-        if not np.all(raw == np.round(raw)):
-            k = int(np.argmax(raw != np.round(raw)))
-            raise FileFormatError(f"{path}:{where(k)}: id {raw[k]} is not an integer", path=path)
-        ids = raw.astype(np.int64)
+        ids = _integer_ids(path, column(i_id), where)
         order = _sorted_by_id(path, ids, where)
         ids, x3, r = ids[order], x3[order], r[order]
         _check_values(path, x3, r, lambda k: where(int(order[k])))
