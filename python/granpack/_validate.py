@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import reprlib
 from collections.abc import Iterable
 from numbers import Integral, Real
+from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +25,7 @@ __all__ = [
     "unknown_keys",
     "short_repr",
     "is_number",
+    "check_outputs",
 ]
 
 # Error messages quote the value they refuse; a huge or deeply nested value (a list of
@@ -60,7 +63,10 @@ def as_real(
         raise InvalidParameterError(
             f"invalid {name} = {short_repr(value)}: must be a real number{unit_txt(unit)}"
         )
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond any float
+        v = math.inf if value > 0 else -math.inf  # type: ignore[operator]
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
         raise InvalidParameterError(f"invalid {name} = {v}: must be finite{unit_txt(unit)}")
     bad_lo = v <= lo if lo_open else v < lo
@@ -135,6 +141,53 @@ def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndar
         where = tuple(int(b) for b in bad)
         raise InvalidParameterError(f"invalid {name}: non-finite value at index {where}")
     return a
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    """Whether two paths name one file: the same path once symbolic links, ``..`` and
+    case (where the system ignores it) are resolved, or one file under two names (hard
+    links, bind mounts)."""
+    try:
+        if os.path.normcase(a.resolve()) == os.path.normcase(b.resolve()):
+            return True
+    except (OSError, RuntimeError):  # a symlink loop: compare as written
+        if os.path.normcase(os.path.abspath(a)) == os.path.normcase(os.path.abspath(b)):
+            return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_outputs(
+    outputs: Iterable[str | os.PathLike], inputs: Iterable[str | os.PathLike], parameter: str
+) -> None:
+    """Refuses, before anything is written, a set of output files of which two are one
+    file, or one is an input file: an InvalidParameterError naming `parameter` (the
+    option or argument that chose the outputs' names)."""
+    outs = [Path(p) for p in outputs]
+    ins = [Path(p) for p in inputs if p is not None]
+    flag = parameter  # as the user spells it: "--out", or a function's "path"
+    for k, out in enumerate(outs):
+        for src in ins:
+            if _same_path(out, src):
+                raise InvalidParameterError(
+                    f"invalid {flag} = {short_repr(str(out))}: the input file {src} would "
+                    f"be overwritten (the output {out} is that file); choose another name",
+                    parameter=parameter.lstrip("-").replace("-", "_"),
+                    value=str(out),
+                    expected="a name that is none of the inputs",
+                )
+        for other in outs[:k]:
+            if _same_path(out, other):
+                raise InvalidParameterError(
+                    f"invalid {flag} = {short_repr(str(out))}: two outputs of this command "
+                    f"would be one file ({other} and {out}), the first overwritten by the "
+                    "second; choose another name",
+                    parameter=parameter.lstrip("-").replace("-", "_"),
+                    value=str(out),
+                    expected="a name whose outputs are distinct files",
+                )
 
 
 def unknown_keys(where: str, given: Iterable[str], known: Iterable[str]) -> None:

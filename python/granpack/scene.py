@@ -27,6 +27,7 @@ from ._validate import (
     unknown_keys,
 )
 from .engine import Material
+from .errors import UnstableTimeStepError
 
 __all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS", "RADIUS_LAWS"]
 
@@ -69,6 +70,30 @@ def _material_table(table: Mapping) -> Material:
             value=exc.value,
             expected=exc.expected,
         ) from None
+
+
+def _preset_name(value: object) -> str:
+    """The preset named by `value`, one of PRESETS' names (strings). A number is refused
+    with the quoted name to write: ``preset = 4.1`` unquoted in TOML is a float, and
+    4.10 would read the same."""
+    names = ", ".join(repr(n) for n in sorted(PRESETS))
+    if not isinstance(value, str):
+        near = repr(value) if isinstance(value, float) and repr(value) in PRESETS else "4.1"
+        raise InvalidParameterError(
+            f"invalid preset = {short_repr(value)}: a preset name is a string, written in "
+            f'quotes (preset = "{near}" in TOML); choose one of {names}',
+            parameter="preset",
+            value=value,
+            expected=" | ".join(sorted(PRESETS)),
+        )
+    if value not in PRESETS:
+        raise InvalidParameterError(
+            f"unknown preset {short_repr(value)}: choose one of {names}",
+            parameter="preset",
+            value=value,
+            expected=" | ".join(sorted(PRESETS)),
+        )
+    return value
 
 
 _TOO_DEEP = (
@@ -253,6 +278,10 @@ class PackScene:
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
             raise InvalidParameterError(f"invalid dim = {short_repr(self.dim)}: must be 2 or 3")
         s(self, "dim", int(self.dim))
+        # Every key gets its type first, so that the checks which combine keys below
+        # (and the engine's, which reads them by attribute) only ever see numbers,
+        # strings and lists of the kind they expect.
+        self._check_types()
         try:
             base = tuple(self.base)
         except TypeError:
@@ -304,9 +333,14 @@ class PackScene:
         s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
         crit = self.material.critical_time_step(self.r_min)
         if self.dt > crit:
-            raise InvalidParameterError(
+            # the class and attributes the engine gives the same fault (Simulation.step,
+            # the layer loop)
+            raise UnstableTimeStepError(
                 f"invalid dt = {self.dt:g} s: must not exceed the critical (Rayleigh) time step "
-                f"{crit:.4g} s estimated for r_min = {self.r_min:g} m"
+                f"{crit:.4g} s estimated for r_min = {self.r_min:g} m",
+                dt=self.dt,
+                critical=crit,
+                r_min=self.r_min,
             )
         s(self, "settle_time", as_real("settle_time", self.settle_time, 0, unit="s"))
         # gravity is a magnitude along -vertical: zero or a negative value would leave the
@@ -356,6 +390,18 @@ class PackScene:
         s(self, "freeze_speed", as_real("freeze_speed", self.freeze_speed, 0, unit="m/s"))
         s(self, "freeze_force", as_real("freeze_force", self.freeze_force, 0))
         s(self, "trim", as_bool("trim", self.trim))
+        if self.trim and self.height < 2.0 * self.r_min:
+            # a particle resting on the floor reaches 2 r at least: the flat top would
+            # remove every one and leave an empty pack
+            raise InvalidParameterError(
+                f"invalid height = {self.height:g} m with trim = true: the flat top removes "
+                "every particle whose top lies above height, and the smallest particle "
+                f"resting on the floor reaches 2 r_min = {2.0 * self.r_min:g} m; give "
+                f"height >= {2.0 * self.r_min:g} m, or trim = false",
+                parameter="height",
+                value=self.height,
+                expected=f">= {2.0 * self.r_min:g} m with trim = true",
+            )
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
         if not n_est <= 5e8:  # NaN (inf / inf) is refused too
@@ -374,6 +420,63 @@ class PackScene:
         # The engine's own checks, the same that the layer loop runs: a scene that is
         # built is one that generates.
         _core.validate_scene(self)
+
+    def _check_types(self) -> None:
+        """Types every key (`_KEY_TYPES`) without checking its range: a value of the
+        wrong type is an InvalidParameterError naming the key, whatever else is set."""
+        s = object.__setattr__
+        for key, kind in _KEY_TYPES.items():
+            value = getattr(self, key)
+            if value is None and kind in _OPTIONAL_KINDS:
+                continue
+            if kind in ("real", "real?"):
+                s(self, key, as_real(key, value, unit=_UNITS.get(key, "")))
+            elif kind == "int":
+                if isinstance(value, bool) or not isinstance(value, Integral):
+                    as_int(key, value, 0)  # raises, naming the key
+                s(self, key, int(value))
+            elif kind == "bool":
+                s(self, key, as_bool(key, value))
+            elif kind in ("reals", "reals?"):
+                if isinstance(value, str | bytes | Mapping) or not hasattr(value, "__iter__"):
+                    raise InvalidParameterError(
+                        f"invalid {key} = {short_repr(value)}: expected a list of numbers",
+                        parameter=key,
+                        value=value,
+                        expected="a list of numbers",
+                    )
+                items = []
+                for k, v in enumerate(value):
+                    try:
+                        items.append(as_real(f"{key}[{k}]", v, unit=_UNITS.get(key, "")))
+                    except InvalidParameterError as exc:
+                        raise InvalidParameterError(
+                            str(exc), parameter=key, value=value, expected="a list of numbers"
+                        ) from None
+                s(self, key, tuple(items))
+            elif kind == "text":
+                if not isinstance(value, str):
+                    choices = _TEXT_CHOICES[key]
+                    raise InvalidParameterError(
+                        f"invalid {key} = {short_repr(value)}: must be one of "
+                        + ", ".join(repr(c) for c in choices),
+                        parameter=key,
+                        value=value,
+                        expected=" | ".join(choices),
+                    )
+            elif kind == "material":
+                if isinstance(value, Mapping) and not isinstance(value, Material):
+                    s(self, key, _material_table(dict(value)))
+                elif not isinstance(value, Material):
+                    raise InvalidParameterError(
+                        f"invalid material = {short_repr(value)}: must be a Material or a "
+                        "table of material constants",
+                        parameter="material",
+                        value=value,
+                        expected="a Material or a table of material constants",
+                    )
+            else:  # pragma: no cover - a key added to the scene without its type
+                raise AssertionError(f"scene key {key} has no type")
 
     def _check_radius_law(self) -> None:
         """Types the radius law's keys, then has the engine check the law and derive
@@ -501,12 +604,9 @@ class PackScene:
     # -- construction ---------------------------------------------------------------
     @classmethod
     def preset(cls, name: str) -> PackScene:
-        """The paper's examples "4.1", "4.2" (2D) and "4.3", "4.4" (3D)."""
-        if not isinstance(name, str) or name not in PRESETS:
-            raise InvalidParameterError(
-                f"unknown preset {short_repr(name)}: choose one of {', '.join(sorted(PRESETS))}"
-            )
-        return cls(**PRESETS[name])
+        """The paper's examples "4.1", "4.2" (2D) and "4.3", "4.4" (3D); the name is a
+        string (a number such as 4.1 is refused, saying so)."""
+        return cls(**PRESETS[_preset_name(name)])
 
     def fast(self) -> PackScene:
         """The same scene with the fast settings: adaptive settling (settle_tol =
@@ -544,12 +644,7 @@ class PackScene:
         unknown_keys("scene", d, known)
         base = {}
         if "preset" in d:
-            name = d.pop("preset")
-            if not isinstance(name, str) or name not in PRESETS:
-                raise InvalidParameterError(
-                    f"unknown preset {short_repr(name)}: choose one of {', '.join(sorted(PRESETS))}"
-                )
-            base = dict(PRESETS[name])
+            base = dict(PRESETS[_preset_name(d.pop("preset"))])
         if "material" in d:
             if not isinstance(d["material"], dict):
                 raise InvalidParameterError(
@@ -651,6 +746,74 @@ class PackScene:
         per_layer = self.phi_layer * self.base_area * self.h_layer / vol
         return n_layers * per_layer
 
+
+#: The type of every scene key, checked before anything else (`PackScene._check_types`):
+#: "real", "int" (>= 0), "bool", "text" (one of `_TEXT_CHOICES`), "reals" (a list of
+#: numbers), "material"; a "?" allows None.
+_KEY_TYPES: dict[str, str] = {
+    "dim": "int",
+    "base": "reals",
+    "container": "text",
+    "cylinder_radius": "real?",
+    "height": "real",
+    "radius_law": "text",
+    "r_mean": "real",
+    "r_std": "real",
+    "r_min": "real?",
+    "r_max": "real?",
+    "radii": "reals?",
+    "fractions": "reals?",
+    "fractions_by": "text",
+    "sieve_sizes": "reals?",
+    "sieve_passing": "reals?",
+    "h_layer": "real",
+    "phi_layer": "real",
+    "material": "material",
+    "dt": "real",
+    "settle_time": "real",
+    "gravity": "real",
+    "drag": "real",
+    "rotations": "bool",
+    "seed": "int",
+    "stream": "int",
+    "inertia_2d": "text",
+    "skin_ratio": "real",
+    "max_overlap_ratio": "real",
+    "max_attempts": "int",
+    "max_layers": "int",
+    "settle_tol": "real?",
+    "settle_dt": "real?",
+    "freeze_depth": "real?",
+    "freeze_speed": "real",
+    "freeze_force": "real",
+    "trim": "bool",
+}
+_OPTIONAL_KINDS = ("real?", "reals?")
+_UNITS = {
+    "base": "m",
+    "cylinder_radius": "m",
+    "height": "m",
+    "r_mean": "m",
+    "r_std": "m",
+    "r_min": "m",
+    "r_max": "m",
+    "radii": "m",
+    "sieve_sizes": "m",
+    "h_layer": "m",
+    "dt": "s",
+    "settle_time": "s",
+    "gravity": "m/s^2",
+    "drag": "N s/m",
+    "settle_dt": "s",
+    "freeze_depth": "m",
+    "freeze_speed": "m/s",
+}
+_TEXT_CHOICES = {
+    "container": CONTAINERS,
+    "radius_law": RADIUS_LAWS,
+    "fractions_by": ("number", "mass"),
+    "inertia_2d": ("sphere", "disc"),
+}
 
 _COMMON = {
     "material": Material(),

@@ -110,6 +110,37 @@ fn signal_poll(raised: &mut Option<PyErr>) -> impl FnMut() -> bool + '_ {
     }
 }
 
+/// A scene key (or material constant) of the wrong type, as `extract` reports it for
+/// the `#[derive(FromPyObject)]` structs below ("failed to extract field
+/// SceneArgs.skin_ratio", its cause the conversion's error): an InvalidParameterError
+/// naming the key as the user spells it ("skin_ratio", "material.young"), as the
+/// scene's own checks name it. Other errors pass unchanged.
+fn key_type_error(py: Python<'_>, e: PyErr) -> PyErr {
+    let mut keys: Vec<String> = Vec::new();
+    let mut why = String::new();
+    let mut cur = Some(e.clone_ref(py));
+    while let Some(err) = cur {
+        let text = err.value(py).to_string();
+        match text
+            .strip_prefix("failed to extract field ")
+            .and_then(|rest| rest.split_once('.'))
+        {
+            Some((_, field)) => keys.push(field.to_string()),
+            None => why = text,
+        }
+        cur = err.cause(py);
+    }
+    if keys.is_empty() {
+        return e;
+    }
+    let key = keys.join(".");
+    PyErr::from(Error::InvalidParameter {
+        name: key,
+        value: String::new(),
+        expected: format!("wrong type ({why})"),
+    })
+}
+
 fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
     let msg = msg.to_string();
     PyErr::from(Error::InvalidParameter {
@@ -762,6 +793,25 @@ where
         freeze_force: s.freeze_force,
         settle_dt: s.settle_dt,
     };
+    // The scene's own checks that the engine's config does not hold (PackScene makes
+    // them too): the same fault is the same error whichever way the scene came.
+    let saturation = if D == 2 { 0.547 } else { 0.384 };
+    if !(s.phi_layer > 0.0 && s.phi_layer < saturation) {
+        return Err(Error::invalid(
+            "phi_layer",
+            s.phi_layer,
+            &format!("must lie in (0, {saturation}) (RSA saturates near {saturation} in {D}D)"),
+        )
+        .into());
+    }
+    if !(s.gravity > 0.0 && s.gravity.is_finite()) {
+        return Err(Error::invalid(
+            "gravity",
+            s.gravity,
+            "must lie in (0, inf) (m/s^2; a magnitude, the pull is along -vertical)",
+        )
+        .into());
+    }
     cfg.validate()?;
     Ok(cfg)
 }
@@ -771,7 +821,10 @@ where
 /// lognormal).
 #[pyfunction]
 fn radius_law_summary(scene: &Bound<'_, PyAny>) -> PyResult<(f64, f64, f64, f64)> {
-    let law = scene.extract::<LawArgs>()?.law()?;
+    let law = scene
+        .extract::<LawArgs>()
+        .map_err(|e| key_type_error(scene.py(), e))?
+        .law()?;
     let (mean, std) = law.number_moments();
     Ok((law.r_min(), law.r_max(), mean, std))
 }
@@ -780,8 +833,11 @@ fn radius_law_summary(scene: &Bound<'_, PyAny>) -> PyResult<(f64, f64, f64, f64)
 /// `LayerPacker(scene)`); the error names the scene key.
 #[pyfunction]
 fn validate_scene(scene: &Bound<'_, PyAny>) -> PyResult<()> {
-    let args: SceneArgs = scene.extract()?;
-    let law = scene.extract::<LawArgs>()?.law()?;
+    let args: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
+    let law = scene
+        .extract::<LawArgs>()
+        .map_err(|e| key_type_error(scene.py(), e))?
+        .law()?;
     match args.dim {
         2 => pack_config::<2>(&args, law).map(|_| ()),
         3 => pack_config::<3>(&args, law).map(|_| ()),
@@ -794,7 +850,11 @@ fn validate_scene(scene: &Bound<'_, PyAny>) -> PyResult<()> {
 /// for the other laws.
 #[pyfunction]
 fn number_fractions(scene: &Bound<'_, PyAny>) -> PyResult<Option<Vec<f64>>> {
-    Ok(match scene.extract::<LawArgs>()?.law()? {
+    let law = scene
+        .extract::<LawArgs>()
+        .map_err(|e| key_type_error(scene.py(), e))?
+        .law()?;
+    Ok(match law {
         RadiusLaw::Discrete(d) => Some(d.number_fractions().to_vec()),
         RadiusLaw::Sieve(s) => Some(s.number_fractions().to_vec()),
         _ => None,
@@ -817,7 +877,10 @@ fn sample_radii<'py>(
     stream: u64,
 ) -> PyResult<Bound<'py, PyAny>> {
     use rand::SeedableRng;
-    let law = scene.extract::<LawArgs>()?.law()?;
+    let law = scene
+        .extract::<LawArgs>()
+        .map_err(|e| key_type_error(scene.py(), e))?
+        .law()?;
     if n > MAX_SAMPLES {
         return Err(Error::invalid("n", n, &format!("must be <= {MAX_SAMPLES}")).into());
     }
@@ -841,8 +904,11 @@ impl LayerPacker {
     /// validated here).
     #[new]
     fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let args: SceneArgs = scene.extract()?;
-        let law = scene.extract::<LawArgs>()?.law()?;
+        let args: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
+        let law = scene
+            .extract::<LawArgs>()
+            .map_err(|e| key_type_error(scene.py(), e))?
+            .law()?;
         let inner = match args.dim {
             2 => PackInner::D2(Packer::new(pack_config::<2>(&args, law)?)?),
             3 => PackInner::D3(Packer::new(pack_config::<3>(&args, law)?)?),
@@ -884,6 +950,31 @@ impl LayerPacker {
     /// `height` (m) and relaxes the rest as the final relax does (GIL released; Ctrl-C
     /// as in next_layer). Returns {"removed", "steps", "height"}.
     fn trim<'py>(&mut self, py: Python<'py>, height: f64) -> PyResult<Bound<'py, PyDict>> {
+        // A height below every particle's top would leave an empty pack: refused, with
+        // the range that keeps particles (the engine's own checks come first).
+        let (done, lowest) = with_packer!(&self.inner, p, D, {
+            let v = <Dim<D> as Spatial<D>>::VERTICAL;
+            let w = p.world();
+            let lowest = w
+                .positions()
+                .iter()
+                .zip(w.radii())
+                .map(|(x, r)| x[v] + r)
+                .fold(f64::INFINITY, f64::min);
+            (p.done(), lowest)
+        });
+        if done && height.is_finite() && height > 0.0 && !(lowest <= height) {
+            return Err(Error::invalid(
+                "height",
+                height,
+                &format!(
+                    "a flat top (trim) at this height keeps no particle: every particle's \
+                     top lies above it, the lowest at {lowest} m; give height >= {lowest} m \
+                     (or no trim)"
+                ),
+            )
+            .into());
+        }
         let inner = &mut self.inner;
         let mut raised = None;
         let out = py.detach(|| {
