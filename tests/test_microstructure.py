@@ -321,7 +321,7 @@ def test_no_contacts_gives_zero_z_and_nan_fabric_with_a_warning():
     x = np.array([[0.2, 0.2], [0.5, 0.5]])
     with pytest.warns(MicrostructureWarning, match="no particle-particle contacts"):
         m = analyse(positions=x, radii=[R, R], box=([0, 0], [1, 1]), core_margin=0.1)
-    assert m.z == 0.0 and m.z_walls == 0.0 and m.z_mech == 0.0
+    assert m.z == 0.0 and m.z_walls == 0.0 and math.isnan(m.z_mech)
     assert m.n_rattlers == 2
     assert np.all(np.isnan(m.fabric)) and math.isnan(m.phi_d)
     assert math.isnan(m.anisotropy["curry"])

@@ -87,8 +87,10 @@ class Grading:
             out.update(
                 {f"d{int(round(100 * f))}_{by}": v for f, v in zip(FRACTIONS, d, strict=True)}
             )
+            # ratios of diameters only: the same at any scale (a product such as
+            # D30^2 would underflow for radii near 1e-200 and overflow near 1e200)
             out[f"cu_{by}"] = d60 / d10
-            out[f"cc_{by}"] = d30 * d30 / (d10 * d60)
+            out[f"cc_{by}"] = (d30 / d10) * (d30 / d60)
         return cls(**out)
 
 
@@ -117,9 +119,13 @@ def _radii_and_exponent(
         inertia_2d = scene.inertia_2d if inertia_2d is None else inertia_2d
     else:
         r = as_array("radii", pack_or_radii, (None,))
-    if r.size == 0 or not np.all(np.isfinite(r) & (r > 0)):
+    with np.errstate(over="ignore"):
+        finite_d = np.isfinite(2.0 * r)
+    if r.size == 0 or not np.all(np.isfinite(r) & (r > 0) & finite_d):
         raise InvalidParameterError(
-            "invalid radii: expected one or more finite radii > 0 (m)", parameter="radii"
+            "invalid radii: expected one or more finite radii > 0 whose diameters are "
+            f"finite too (0 < r <= {np.finfo(np.float64).max / 2:.4g} m)",
+            parameter="radii",
         )
     return r, mass_exponent(3 if dim is None else dim, inertia_2d or "sphere")
 

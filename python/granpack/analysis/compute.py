@@ -104,7 +104,7 @@ def microstructure(
     Warns
     -----
     MicrostructureWarning
-        "no particle-particle contacts" (Z = 0; fabric, its eigen-analysis and every force
+        "no particle-particle contacts" (Z = 0; Z_m, fabric, its eigen-analysis and every force
         quantity NaN: a single particle, or only wall contacts); "core window is empty"
         (phi_core NaN: the pack is lower than 2 core_margin or the base narrower);
         "fabric too anisotropic for the bin-free force estimator" (bin-free force
@@ -172,7 +172,8 @@ def microstructure(
     n0 = int(np.sum(degree == 0))
     n1 = int(np.sum(degree == 1))
     active = n - n0 - n1
-    z_mech = (2.0 * n_c - n1) / active if active > 0 else 0.0
+    # an undefined mean (no particle with two contacts) is NaN, as in the profiles
+    z_mech = (2.0 * n_c - n1) / active if active > 0 else math.nan
 
     nan_t = np.full((d, d), np.nan)
     nan_v = np.full(d, np.nan)
@@ -199,8 +200,8 @@ def microstructure(
     # -- fabric ---------------------------------------------------------------------------
     if n_c == 0:
         warnings.warn(
-            "no particle-particle contacts: Z = 0; the fabric tensor, its eigen-analysis and "
-            "the force tensors are undefined (NaN)",
+            "no particle-particle contacts: Z = 0; Z_m, the fabric tensor, its eigen-analysis "
+            "and the force tensors are undefined (NaN)",
             MicrostructureWarning,
             stacklevel=2,
         )

@@ -34,12 +34,19 @@ def coordination_distribution(degree) -> np.ndarray:
 
 
 def rattlers_iterative(i, j, n: int, d: int, min_contacts: int | None = None):
-    """Rattlers removed iteratively, as LAMMPS ``compute rattlers/atom``.
+    """Rattlers removed iteratively, the removal of LAMMPS ``compute rattlers/atom`` with
+    the walls counted.
 
     A particle with fewer than ``min_contacts`` (default D + 1) contacts with particles not
     yet removed and with the walls cannot be held in place by them; it is removed with its
     contacts, which can leave a neighbour short, and so on until no such particle is left.
     Walls are never removed, so a particle on the floor keeps its floor contact.
+
+    LAMMPS' compute counts only the pair contacts of its pair style (contacts with fix
+    wall/gran walls are not in its neighbour list), so a particle held by a wall is a
+    rattler there: in packs where many particles touch a wall the two counts differ by up
+    to a factor of 2. Rows with j < 0 left out (``contacts.particle_pairs()``) give LAMMPS'
+    count.
 
     Returns
     -------

@@ -309,10 +309,11 @@ def _beyond_the_paper(prep: Prepared, values: dict, n_slices: int, has_forces: b
     z_std = float(math.sqrt(max(0.0, float(np.sum(p_z * k * k)) - (2.0 * n_c / n) ** 2)))
     ratt, n_live = rattlers_iterative(c.i, c.j, n, d)
     n_ratt = int(np.sum(ratt))
-    z_iter = 2.0 * n_live / (n - n_ratt) if n > n_ratt else 0.0
+    # every particle a rattler: Z_m is the mean over no particle, NaN (as z_mech)
+    z_iter = 2.0 * n_live / (n - n_ratt) if n > n_ratt else math.nan
     ratt_f, n_live_f = rattlers_iterative(c.i, c.j, n, d, d)
     n_ratt_f = int(np.sum(ratt_f))
-    z_iter_f = 2.0 * n_live_f / (n - n_ratt_f) if n > n_ratt_f else 0.0
+    z_iter_f = 2.0 * n_live_f / (n - n_ratt_f) if n > n_ratt_f else math.nan
     nan_t = np.full((d, d), np.nan)
     out: dict = {
         "container": prep.container.kind,

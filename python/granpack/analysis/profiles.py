@@ -71,7 +71,9 @@ def profiles(
           pack's phi;
         - ``n_particles``, ``Z``, ``Z_m``: the particles whose centres lie in the slice, their
           mean particle-particle contacts and the one-pass mechanical coordination
-          (2 N_c - N_1)/(N_p - N_0 - N_1) over them (NaN for an empty slice);
+          (2 N_c - N_1)/(N_p - N_0 - N_1) over them (NaN for an empty slice; Z_m also
+          NaN where no particle of the slice has two or more contacts, as
+          ``Microstructure.z_mech`` for the whole pack);
         - ``n_contacts``, ``fabric_zz``, ``f0``: the particle-particle contacts whose contact
           point (branch midpoint) lies in the slice, their fabric R_zz = <n_z^2> and bin-free
           mean normal force f0 (N; NaN without forces);

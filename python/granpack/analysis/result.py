@@ -92,8 +92,8 @@ class Microstructure:
     """Z with wall contacts: (2 N_c + N_w)/N_p."""
     z_mech: float
     """Mechanical coordination number without rattlers, Z_m = (2 N_c - N_1)/(N_p - N_0 - N_1)
-    (Thornton 2000), N_k = particles with k particle-particle contacts; 0 when no particle has
-    two or more contacts.
+    (Thornton 2000), N_k = particles with k particle-particle contacts; NaN when no particle
+    has two or more contacts (a mean over no particle, as ``profiles`` gives it per slice).
     """
     z_empirical: dict[str, float]
     """Empirical Z(e) of eqs. 16-19 from the void ratio: dict 'field', 'athanasiou', 'yanagisawa',
@@ -169,12 +169,18 @@ class Microstructure:
     """Width of P[k]: the standard deviation sqrt(sum_k k^2 P[k] - Z^2) of the contacts per
     particle (-)."""
     n_rattlers_iterative: int
-    """Rattlers removed iteratively (LAMMPS ``compute rattlers/atom``): particles with fewer
-    than D + 1 contacts with the particles left and the walls, removed until none is left."""
+    """Rattlers removed iteratively: particles with fewer than D + 1 contacts with the
+    particles left and the walls, removed until none is left. The removal of LAMMPS
+    ``compute rattlers/atom``, except that granpack counts wall contacts (floor, side
+    walls, cylinder; walls are never removed) and LAMMPS cannot (its compute sees only
+    the pair contacts of the pair style, not fix wall/gran): a particle held by a wall is
+    a rattler there and not here, and the counts differ by up to a factor of 2 in packs
+    where many particles touch a wall. LAMMPS' count: ``rattlers_iterative`` on the
+    particle pairs only (``contacts.particle_pairs()``)."""
     z_mech_iterative: float
     """Mechanical coordination number of the network left after the iterative removal:
-    2 N_c' / (N_p - N_r), N_c' the contacts among the N_p - N_r particles left (-); 0 when
-    none is left. ``z_mech`` is the one-pass reading (Thornton 2000)."""
+    2 N_c' / (N_p - N_r), N_c' the contacts among the N_p - N_r particles left (-); NaN
+    when none is left. ``z_mech`` is the one-pass reading (Thornton 2000)."""
     n_rattlers_frictional: int
     """As n_rattlers_iterative with D contacts needed instead of D + 1 (a frictional particle
     under gravity can rest on D: a disc on two, a sphere on three)."""

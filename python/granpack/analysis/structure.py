@@ -211,6 +211,11 @@ def _overlap_volume(dx, container) -> np.ndarray:
     return np.maximum(base, 0.0) * np.maximum(height, 0.0)
 
 
+#: The smallest r_max of rdf, in units of the smallest radius (g is 0 below that radius
+#: in any pack: two centres lie at least the larger radius apart).
+R_MAX_FLOOR = 0.01
+
+
 def pair_correlation(x, container, r_max: float, bins: int) -> tuple[np.ndarray, np.ndarray]:
     """g(r) of centres in a container, translation edge-corrected (Ohser & Stoyan 1981).
 
@@ -231,12 +236,16 @@ def pair_correlation(x, container, r_max: float, bins: int) -> tuple[np.ndarray,
         w = 1.0 / _overlap_volume(dx, container)
         k = np.minimum((dist / r_max * bins).astype(np.int64), bins - 1)
         acc += np.bincount(k, weights=w, minlength=bins)
+    # the shells and the container in units of r_max^D: no bin underflows however small
+    # r_max, and V^2 never overflows however large the container
+    rel = np.linspace(0.0, 1.0, bins + 1)
     if d == 3:
-        shell = 4.0 / 3.0 * math.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
+        shell = 4.0 / 3.0 * math.pi * (rel[1:] ** 3 - rel[:-1] ** 3)
     else:
-        shell = math.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
+        shell = math.pi * (rel[1:] ** 2 - rel[:-1] ** 2)
     vol = container.volume
-    g = 2.0 * acc * vol * vol / (n * (n - 1)) / shell if n > 1 else np.zeros(bins)
+    vol_rel = math.exp(math.log(vol) - d * math.log(r_max))
+    g = 2.0 * (acc * vol) * vol_rel / (n * (n - 1)) / shell if n > 1 else np.zeros(bins)
     return 0.5 * (edges[1:] + edges[:-1]), g
 
 
@@ -271,8 +280,10 @@ def rdf(
         The container, as in :func:`granpack.microstructure` (default: a Pack's own; for
         arrays, the bounding box). Periodic axes use the minimum image.
     r_max : float, optional
-        Largest distance (m). Default: 5 mean diameters, at most half the container's
-        smallest extent (its height, its side, or its diameter).
+        Largest distance (m), from a hundredth of the smallest radius (below the smallest
+        radius g is 0 in any pack) to half the container's smallest extent (its height,
+        its side, or its diameter). Default: 3 mean diameters (6 mean radii), at most
+        that half extent.
     bins : int
         Number of bins of equal width from 0 to r_max (default 100; 1 to 100 000).
     margin : float
@@ -302,14 +313,20 @@ def rdf(
     else:
         extents += [float(cont.hi[k] - cont.lo[k]) for k in range(prep.d - 1)]
     limit = 0.5 * min(extents)
+    floor = R_MAX_FLOOR * float(np.min(prep.r))
     if r_max is None:
         r_max = min(6.0 * float(np.mean(prep.r)), limit)
-    r_max = as_real("r_max", r_max, 0.0, limit, unit="m")
-    if not r_max > 0.0:
+    r_max = as_real("r_max", r_max, unit="m")
+    allowed = (
+        f"[{floor:.4g}, {limit:.4g}] m (from a hundredth of the smallest radius to half "
+        "the container's smallest extent)"
+    )
+    if not floor <= r_max <= limit:
         raise InvalidParameterError(
-            f"invalid r_max = {r_max}: must be > 0 and at most {limit:.4g} m (half the "
-            "container's smallest extent)",
+            f"invalid r_max = {r_max}: must lie in {allowed}",
             parameter="r_max",
+            value=r_max,
+            expected=allowed,
         )
     if int(np.sum(keep)) < 2:
         raise InvalidParameterError(
