@@ -541,6 +541,38 @@ def test_lammps_write_data_of_another_atom_style_is_refused_by_name(tmp_path, lm
     assert "only atom_style sphere (id type diameter density x y z [ix iy iz])" in str(info.value)
 
 
+LIGGGHTS_WRITE_DATA = """units si
+atom_style granular
+atom_modify map array
+boundary p p f
+newton off
+communicate single vel yes
+region box block 0 1 0 1 0 2 units box
+create_box 1 box
+{atoms}
+write_data out.data
+"""
+
+
+def test_liggghts_write_data_reads_back(tmp_path, liggghts):
+    # LIGGGHTS writes "Atoms" with no style comment, the image flags and %.16e numbers
+    atoms = "\n".join(
+        f"create_atoms 1 single {' '.join(map(repr, p))} units box\n"
+        f"set atom {k + 1} diameter {2 * r!r} density 2500"
+        for k, (p, r) in enumerate(zip(X0.tolist(), R.tolist(), strict=True))
+    )
+    run_peer(liggghts, tmp_path, LIGGGHTS_WRITE_DATA.format(atoms=atoms))
+    text = (tmp_path / "out.data").read_text()
+    assert "\nAtoms\n" in text
+    p = gp.read_particles(tmp_path / "out.data")
+    assert p.format == "lammps-data"
+    np.testing.assert_array_equal(p.ids, IDS)
+    np.testing.assert_array_equal(p.positions, X0)
+    np.testing.assert_array_equal(p.radii, R)
+    np.testing.assert_array_equal(p.box[1], HI)
+    assert any("names no atom style" in note for note in p.notes)
+
+
 def data_file(rows, style="sphere", header="", sections="") -> str:
     """A data file with Atoms rows `rows` (text), the Atoms line's comment `style`."""
     comment = f" # {style}" if style is not None else ""

@@ -1119,7 +1119,7 @@ def _read_extxyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         periodic = tuple(v in _XYZ_TRUE for v in pbc[:d])
     notes: tuple[str, ...] = ()
     if n_frames > 1:
-        notes = (f"frame {k_frame} of {n_frames} read (0 the first; snapshot= picks another)",)
+        notes = (f"frame {k_frame} of {n_frames} read (counted from 0)",)
     # the lattice and pbc say the box and the periodic axes; granpack's tag adds a cylinder
     tag = parse_container_tag(info.get("granpack", ""), path, c, d)
     extra: dict = {}
