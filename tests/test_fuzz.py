@@ -829,8 +829,9 @@ def _t(v) -> str:
     return repr(float(v))
 
 
-def text_file(fmt: str) -> TextFile:
-    """The undamaged file of `fmt` (a text format) holding P_IDS, P_X, P_R."""
+def text_file(fmt: str, images: bool = True, style: bool = True) -> TextFile:
+    """The undamaged file of `fmt` (a text format) holding P_IDS, P_X, P_R; a data file
+    with or without the image flags and the Atoms line's style comment."""
     rows = list(zip(P_IDS.tolist(), P_X.tolist(), P_R.tolist(), strict=True))
     if fmt == "lammps-dump":
         return TextFile(
@@ -847,9 +848,11 @@ def text_file(fmt: str) -> TextFile:
     if fmt == "lammps-data":
         return TextFile(
             header=["granpack fuzz data file", "", "4 atoms", "1 atom types", ""]
-            + ["0.0 1.0 xlo xhi", "0.0 1.0 ylo yhi", "0.0 2.0 zlo zhi", "", "Atoms # sphere", ""],
+            + ["0.0 1.0 xlo xhi", "0.0 1.0 ylo yhi", "0.0 2.0 zlo zhi", ""]
+            + ["Atoms # sphere" if style else "Atoms", ""],
             rows=[
-                [str(i), "1", _t(2 * r), "1000.0", *map(_t, x), "0", "0", "0"] for i, x, r in rows
+                [str(i), "1", _t(2 * r), "1000.0", *map(_t, x)] + ["0", "0", "0"] * images
+                for i, x, r in rows
             ],
             footer=["", "Velocities", ""] + [f"{i} 0.0 0.0 0.0 0.0 0.0 0.0" for i in P_IDS],
             pos=(4, 5, 6),
@@ -978,7 +981,8 @@ def reader_dir(tmp_path_factory):
 @FUZZ
 @given(data=st.data())
 def test_damaged_text_particle_files(reader_dir, fmt, data):
-    f = text_file(fmt)
+    images, style = data.draw(st.tuples(st.booleans(), st.booleans()), label="data file flags")
+    f = text_file(fmt, images, style)
     kind = data.draw(DAMAGE_KINDS, label="damage")
     width = len(f.rows[0])
     if kind == "swap":
