@@ -1013,13 +1013,11 @@ def test_damaged_text_particle_files(reader_dir, fmt, data):
     if detect_format(path) == fmt:
         check_read(path, fmt, expected, must_read=whole)
     # a byte-order mark (Excel writes one) changes nothing: the same particles or the
-    # same refusal. The x y z r text reader (granpack.analysis.read_xyzr) does not take
-    # one yet.
-    if fmt != "xyzr":
-        path.write_text("\ufeff" + text)
-        assert detect_format(path) == detect_format_of(text, reader_dir / ("plain_" + path.name))
-        marked = check_read(path, fmt, expected, must_read=plain is not None, format=fmt)
-        assert (marked is None) == (plain is None)
+    # same refusal
+    path.write_text("\ufeff" + text)
+    assert detect_format(path) == detect_format_of(text, reader_dir / ("plain_" + path.name))
+    marked = check_read(path, fmt, expected, must_read=plain is not None, format=fmt)
+    assert (marked is None) == (plain is None)
 
 
 def detect_format_of(text: str, path):

@@ -831,7 +831,9 @@ def test_byte_order_mark_is_accepted_by_every_text_reader(tmp_path, pack2d, two_
         "yade": export.export(pack2d, tmp_path / "y.txt", "yade")[0],
         "xyz": export.export(pack2d, tmp_path / "p.xyz")[0],
         "csv": export.export(pack2d, tmp_path / "p.csv")[0],
+        "xyzr": tmp_path / "p.xyzr",
     }
+    np.savetxt(files["xyzr"], np.column_stack([pack2d.positions, pack2d.radii]))
     for fmt, path in files.items():
         plain = gp.read_particles(path)
         marked = tmp_path / f"bom_{path.name}"
