@@ -7,6 +7,14 @@ import pytest
 import granpack as gp
 
 
+def pytest_configure(config) -> None:
+    # The tests' packs are short runs (0.3-0.5 s a layer, a few layers) in which a good
+    # part of the particles still creeps at the end: UnsettledPackWarning rightly says
+    # so. It is not an error for them; the tests of the warning catch it themselves
+    # (pytest.warns, settling_issue).
+    config.addinivalue_line("filterwarnings", "ignore::granpack.UnsettledPackWarning")
+
+
 @pytest.fixture
 def tiny_scene_2d() -> gp.PackScene:
     """A reduced 2D scene (about 100 discs, 6 layers) that packs in about 0.1 s."""

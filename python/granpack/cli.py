@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import GranpackError, InvalidParameterError
+from ._validate import GranpackError, InvalidParameterError, check_outputs
 from .contact_files import LAYOUTS as CONTACT_LAYOUTS
 from .container_tag import CONTAINER_KINDS
 from .particles import FORMATS
@@ -345,7 +345,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=-1,
         metavar="K",
-        help="which snapshot of a dump: 0 the first, -1 the last (default)",
+        help="which snapshot of a dump, or frame of an XYZ file: 0 the first, -1 the last "
+        "(default)",
     )
     a.add_argument(
         "--contacts",
@@ -492,13 +493,22 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
-def _refuse_overwrite(target: Path, source: Path, what: str) -> None:
-    """Refuses to write `target` when it is the input file `source` itself."""
-    if _same_file(target, source):
-        raise GranpackError(
-            f"{what} {target} is the input file {source}: it would be overwritten; "
-            "choose another output"
+def _sweep_temporaries(out: Path, console: _Console) -> None:
+    """Removes, and names, the temporaries that writes cut off by a kill left in the
+    output folder (only files named as granpack's atomic writes name them). Called
+    under the folder's lock: no other run is writing there."""
+    from .pack import remove_stale_temporaries
+
+    removed = remove_stale_temporaries(out)
+    if removed:
+        names = ", ".join(str(p.relative_to(out)) for p in removed[:5])
+        more = f" and {len(removed) - 5} more" if len(removed) > 5 else ""
+        console.note(
+            f"removed {len(removed)} stale temporary file(s) that an interrupted run left: "
+            f"{names}{more}",
+            str(out),
         )
+        console.flush_notes()
 
 
 @contextlib.contextmanager
@@ -651,6 +661,14 @@ def cmd_generate(args, console: _Console) -> int:
     if args.fast:
         scene = scene.fast()
     seed = scene.seed if args.seed is None else args.seed
+    if scene.stream != 0:
+        # An ensemble numbers its packs' streams itself: the scene's is replaced, said.
+        console.note(
+            f"the scene's stream = {scene.stream} is not used: pack k of the ensemble takes "
+            "stream k (0, 1, ...) of the master seed; to vary the packs, give --seed",
+            name,
+        )
+        console.flush_notes()
     scene = scene.replace(seed=seed, stream=0)
     out = args.out if args.out is not None else Path(f"granpack-{name}")
     scene_text = scene.to_toml().encode()
@@ -663,8 +681,34 @@ def cmd_generate(args, console: _Console) -> int:
             f"--out {out} would overwrite the scene file {source} with the resolved scene "
             "(out/scene.toml); choose another --out"
         )
+    _refuse_scene_among_outputs(source, out)
     with _locked(out):
+        _sweep_temporaries(out, console)
         return _generate_into(args, console, scene, name, seed, out, scene_file, scene_text)
+
+
+#: What generate and paper write under --out, besides scene.toml: files, then folders.
+_RUN_FILES = ("report.md", LOCK_NAME)
+_RUN_FOLDERS = ("packs", "micro", "tables", "figures")
+
+
+def _refuse_scene_among_outputs(source: Path, out: Path) -> None:
+    """Refuses a scene file that the run would write over: one of the files or inside
+    one of the folders a run writes under `out` (out/scene.toml itself is the rerun
+    from the folder's record, checked by the caller)."""
+    if not source.exists():
+        return
+    check_outputs([out / f for f in _RUN_FILES], [source], "--out")
+    where = source.resolve()
+    for folder in _RUN_FOLDERS:
+        if where.is_relative_to((out / folder).resolve()):
+            raise InvalidParameterError(
+                f"invalid --out = {str(out)!r}: the scene file {source} lies in {out / folder}, "
+                "where the run writes its results; move it or choose another --out",
+                parameter="out",
+                value=str(out),
+                expected="a folder whose results do not hold the scene file",
+            )
 
 
 def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
@@ -740,6 +784,7 @@ def _case_dir(example: str, rotations: bool) -> str:
 
 def cmd_paper(args, console: _Console) -> int:
     with _locked(args.out):
+        _sweep_temporaries(args.out, console)
         return _paper_into(args, console)
 
 
@@ -995,7 +1040,7 @@ def cmd_analyze(args, console: _Console) -> int:
         "container": m.container,
         "container_source": m.container_source,
     }
-    if particles.format == "lammps-dump":
+    if particles.n_snapshots > 1 or particles.format in ("lammps-dump", "xyz"):
         head.update(
             snapshot=particles.snapshot,
             n_snapshots=particles.n_snapshots,
@@ -1023,8 +1068,14 @@ def cmd_analyze(args, console: _Console) -> int:
         subject = pack
         if subject is None:
             subject = SimpleNamespace(positions=particles.positions, radii=particles.radii)
-        for suffix in ("", "_normals", "_forces"):
-            _refuse_overwrite(args.figures / f"{args.file.stem}{suffix}.png", args.file, "figure")
+        check_outputs(
+            [
+                args.figures / f"{args.file.stem}{suffix}.png"
+                for suffix in ("", "_normals", "_forces")
+            ],
+            [args.file, args.contacts],
+            "--figures",
+        )
         made = [
             plot.save(
                 plot.pack_figure(subject, title=args.file.name),
@@ -1077,9 +1128,8 @@ def cmd_export(args, console: _Console) -> int:
     out = args.out
     if out is None:
         out = args.pack.with_suffix(FORMATS[fmt])
-    _refuse_overwrite(out, args.pack, "--out")
     pack = load_pack(args.pack)
-    files = export(pack, out, fmt, refuse=[args.pack])
+    files = export(pack, out, fmt, refuse=[args.pack], parameter="--out")
     for f in files:
         console.say(str(f))
     return 0

@@ -42,8 +42,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ._validate import GranpackError, InvalidParameterError, as_int
-from .pack import NEWER_FORMAT, Pack, UnsettledPackWarning, generate, load_pack, settling_issue
+from ._validate import FileFormatError, GranpackError, InvalidParameterError, as_int
+from .pack import (
+    NEWER_FORMAT,
+    Pack,
+    UnsettledPackWarning,
+    generate,
+    load_pack,
+    scene_record_error,
+    settling_issue,
+)
 from .scene import PackScene
 
 __all__ = [
@@ -334,13 +342,29 @@ def _existing(task: PackTask) -> bool:
         # The whole pack is read and checked, not only its scene record: a file whose
         # arrays were damaged on disk is made again instead of being trusted (and
         # failing every later step that reads it).
-        scene = load_pack(task.path).scene
+        pack = load_pack(task.path)
     except GranpackError as exc:
         if NEWER_FORMAT in str(exc):
             raise GranpackError(f"{exc}; or use another output folder") from None
+        # A granpack pack whose scene this version cannot read (a newer granpack's key
+        # or value) is someone's result, not damage: never made again over it.
+        why = scene_record_error(task.path)
+        if why is not None:
+            raise FileFormatError(
+                f"cannot read pack {task.path}: its scene record is one this version of "
+                f"granpack cannot read ({why}); a newer granpack wrote it? {NEWER_FORMAT}; "
+                "or use another output folder",
+                path=task.path,
+                reason=f"scene record this version cannot read ({why})",
+            ) from None
         # Not a readable pack (written by something else, or damaged on disk): it is
         # replaced, since granpack itself never leaves partial files.
         return False
+    if len(pack) == 0:
+        # an empty pack is no result (older versions saved one when a flat top removed
+        # every particle): made again, which names what is wrong with the scene
+        return False
+    scene = pack.scene
     if scene != task.scene:
         raise GranpackError(
             f"{task.path} holds a pack of a different scene (seed={scene.seed}, "
@@ -390,6 +414,8 @@ def run_tasks(
 
 
 def _finish(task: PackTask, pack: Pack, prog: Progress) -> None:
+    if len(pack) == 0:  # never saved: every later step would fail on it
+        raise GranpackError(f"{task.label}: the pack holds no particle; nothing was saved")
     pack.save(task.path)
     issue = settling_issue(pack)
     if issue is not None:

@@ -81,14 +81,13 @@ from __future__ import annotations
 import base64
 import io
 import math
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
-from ._validate import FileFormatError, GranpackError, InvalidParameterError
+from ._validate import FileFormatError, GranpackError, InvalidParameterError, check_outputs
 from .container_tag import container_tag
 from .dem_input import SNIPPET_NAME, container_of, lammps_input, liggghts_input
 from .pack import Pack, atomic_write
@@ -127,7 +126,12 @@ _VTK_QUAD = 9
 
 
 def export(
-    pack: Pack, path: str | Path, format: str | None = None, *, refuse: Sequence = ()
+    pack: Pack,
+    path: str | Path,
+    format: str | None = None,
+    *,
+    refuse: Sequence = (),
+    parameter: str = "path",
 ) -> list[Path]:
     """Writes `pack` in one of `FORMATS` and returns the files written.
 
@@ -143,8 +147,16 @@ def export(
         write ``in.granpack`` beside the data file; vtk also writes
         ``<stem>.container.vtu``.
     refuse : sequence of paths
-        Files that must not be overwritten (the pack file read, say): an output that is
-        one of them is a GranpackError before anything is written.
+        Files that must not be overwritten (the pack file read, say).
+    parameter : str
+        The name errors give `path` (the command line passes ``"--out"``).
+
+    Raises
+    ------
+    InvalidParameterError
+        Before anything is written, naming `parameter`: two of the files the format
+        writes would be one file (``--out DIR/in.granpack`` for lammps, whose input
+        script is ``in.granpack``), or one would be a file of `refuse`.
     """
     path = Path(path)
     if format is None:
@@ -153,21 +165,7 @@ def export(
         raise InvalidParameterError(
             f"invalid format = {format!r}: choose one of {', '.join(FORMATS)}"
         )
-    if format in ("csv", "parquet"):
-        targets: tuple[Path, ...] = _table_paths(path, FORMATS[format])
-    elif format in ("lammps", "liggghts"):
-        targets = (path, path.with_name(SNIPPET_NAME))
-    elif format == "vtk":
-        targets = (path, container_path(path))
-    else:
-        targets = (path,)
-    for target in targets:
-        for source in map(Path, refuse):
-            if _same_file(target, source):
-                raise GranpackError(
-                    f"the export would overwrite its input {source} ({target} is that "
-                    "file); choose another --out"
-                )
+    check_outputs(output_paths(path, format), refuse, parameter)
     if format == "vtk":
         return [write_vtk(pack, path), write_vtk_container(pack, container_path(path))]
     if format in ("lammps", "liggghts"):
@@ -183,11 +181,16 @@ def export(
     return write_parquet(pack, path)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
+def output_paths(path: str | Path, format: str) -> list[Path]:
+    """Every file `export` writes for `path` in `format`, in the order it writes them."""
+    path = Path(path)
+    if format in ("csv", "parquet"):
+        return list(_table_paths(path, FORMATS[format]))
+    if format in ("lammps", "liggghts"):
+        return [path, path.with_name(SNIPPET_NAME)]
+    if format == "vtk":
+        return [path, container_path(path)]
+    return [path]
 
 
 def _format_from_suffix(path: Path) -> str:

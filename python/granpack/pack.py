@@ -7,10 +7,12 @@ import json
 import lzma
 import math
 import os
+import re
 import stat
 import struct
 import tempfile
 import time
+import tomllib
 import warnings
 import zipfile
 import zlib
@@ -34,6 +36,7 @@ __all__ = [
     "UnsettledPackWarning",
     "settling_issue",
     "fall_time",
+    "remove_stale_temporaries",
 ]
 
 FORMAT_VERSION = 1
@@ -44,16 +47,35 @@ NEWER_FORMAT = "upgrade granpack to read it"
 
 #: A pack counts as unsettled when its particles' mean translational kinetic energy
 #: exceeds this fraction of m g r (each particle's own): settled packs of the presets
-#: end near 1e-8, the tests' short runs below 0.01, and a last layer still landing
-#: above 0.05.
+#: end near 1e-8, and a last layer still landing above 0.05.
 UNSETTLED_KE_RATIO = 0.05
+
+#: The speed scale of a pack at rest, as a fraction of sqrt(g r_mean), the speed a
+#: particle gains falling through a quarter of its radius; 1 cm/s for the 3D presets
+#: (r = 0.02 m, g = 2 m/s^2), 0.7 cm/s for the 2D ones. A particle faster than this
+#: counts as still moving. Settled preset packs end below 1e-3 sqrt(g r_mean), those of
+#: the fast settings with 99 % of their particles below 0.04.
+UNSETTLED_SPEED_RATIO = 0.05
+
+#: A pack counts as unsettled when more than this fraction of its particles still move
+#: (speed above `UNSETTLED_SPEED_RATIO` sqrt(g r_mean)): a moving minority, which the
+#: mean kinetic energy of the whole pack hides. The fast settings' packs of the presets
+#: end with about 1 % above the speed.
+UNSETTLED_MOVING_FRACTION = 0.05
 
 
 class UnsettledPackWarning(UserWarning):
-    """`generate` returned a pack that has not come to rest: its last layer had less
-    settle_time than it needs to fall through its slab, or its particles still move
-    (mean kinetic energy above `UNSETTLED_KE_RATIO` m g r). Its microstructure is then
-    that of a pack in motion; give a longer settle_time."""
+    """`generate` returned a pack that has not come to rest. Any of:
+
+    * its last layer had less settle_time than it needs to fall through its slab
+      (`fall_time`);
+    * more than `UNSETTLED_MOVING_FRACTION` (5 %) of its particles still move faster
+      than `UNSETTLED_SPEED_RATIO` sqrt(g r_mean) (0.05 sqrt(g r_mean): 1 cm/s for the
+      3D presets), a moving minority that the mean hides;
+    * its particles' mean kinetic energy is above `UNSETTLED_KE_RATIO` m g r (a few
+      fast ones).
+
+    Its microstructure is then that of a pack in motion; give a longer settle_time."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,6 +181,68 @@ class Pack:
         return atomic_write(path, buf.getvalue())
 
 
+#: The temporary files of `atomic_write`: ``.<name>.<8 random characters>.tmp`` beside
+#: the file written (the characters are those of `tempfile.mkstemp`).
+TEMP_SUFFIX = ".tmp"
+_TEMP_NAME = re.compile(r"^\.(.+)\.[a-z0-9_]{8}\.tmp$")
+
+
+def is_temporary(name: str) -> bool:
+    """Whether a file name is that of an `atomic_write` temporary."""
+    return _TEMP_NAME.match(name) is not None
+
+
+def remove_stale_temporaries(folder: str | Path) -> list[Path]:
+    """Removes the temporaries that writes cut off by a kill left under `folder` (only
+    files named as `atomic_write` names them; nothing else is touched) and returns them.
+    Call it only where no other write is under way (the command line holds the output
+    folder's lock)."""
+    removed = []
+    for dirpath, _dirs, files in os.walk(folder):
+        for name in files:
+            p = Path(dirpath) / name
+            if is_temporary(name) and p.is_file() and not p.is_symlink():
+                try:
+                    p.unlink()
+                except FileNotFoundError:
+                    continue
+                removed.append(p)
+    return sorted(removed)
+
+
+def scene_record_error(path: str | Path) -> str | None:
+    """Why this version cannot read the scene of a granpack pack file, or None: a file
+    that is a granpack pack (its record says so) and whose scene record is whole TOML,
+    but names a key or value this version does not know (a newer granpack wrote it).
+    None too for a file that is not a pack or is damaged."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            meta = json.loads(_member_text(z, "meta.json"))
+            text = _member_text(z, "scene.toml")
+    except Exception:  # not a pack archive, or damaged: not this case
+        return None
+    if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
+        return None
+    try:
+        doc = tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, RecursionError):
+        return None  # a damaged record
+    try:
+        PackScene.from_dict(doc)
+    except GranpackError as exc:
+        return str(exc)
+    return None
+
+
+def _member_text(z: zipfile.ZipFile, key: str) -> str:
+    """A text member of a pack archive (UTF-8 bytes stored as a 1-D uint8 array)."""
+    with z.open(f"{key}.npy") as f:
+        a = np.lib.format.read_array(f, allow_pickle=False)
+    if a.dtype != np.uint8 or a.ndim != 1:
+        raise ValueError(f"{key!r} is not a byte string")
+    return a.tobytes().decode()
+
+
 def atomic_write(path: str | Path, data: bytes) -> Path:
     """Writes bytes to `path` through a temporary file in the same folder and a rename,
     so a reader never sees a half-written file."""
@@ -171,7 +255,7 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     if mode is not None and not stat.S_ISREG(mode):
         # a rename would replace a device (/dev/null), a pipe or a folder, not write to it
         raise GranpackError(f"cannot write {path}: not a regular file")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -450,14 +534,49 @@ def settling_issue(pack: Pack) -> str | None:
     with np.errstate(over="ignore", invalid="ignore"):
         v2 = np.sum(np.asarray(pack.velocities, dtype=float) ** 2, axis=1)
         ratio = float(np.mean(0.5 * v2 / (scene.gravity * pack.radii)))
+        speed = np.sqrt(v2)
+    vmax = float(np.max(speed))
+    # the speed of a pack at rest, from the scene (r_mean: the mean radius by number)
+    r_mean = float(scene.r_mean) if scene.r_mean else float(np.mean(pack.radii))
+    v_rest = UNSETTLED_SPEED_RATIO * math.sqrt(scene.gravity * r_mean)
+    moving = int(np.count_nonzero(~(speed <= v_rest)))  # NaN counts as moving
+    if moving > UNSETTLED_MOVING_FRACTION * len(pack):
+        # (the numbers in one pair of parentheses: the command line groups its notes
+        # by the words outside them)
+        return (
+            f"more than {UNSETTLED_MOVING_FRACTION:.0%} of the particles still move at the "
+            f"end, faster than {UNSETTLED_SPEED_RATIO} sqrt(g r_mean) ({moving} of "
+            f"{len(pack)} faster than {v_rest:.3g} m/s; fastest {vmax:.3g} m/s): the pack "
+            f"has not settled in settle_time = {scene.settle_time:g} s; give a longer "
+            "settle_time"
+        )
     if not ratio <= UNSETTLED_KE_RATIO:
-        vmax = float(np.sqrt(np.max(v2)))
         return (
             f"the particles still move at the end (mean kinetic energy {ratio:.3g} m g r, "
             f"above {UNSETTLED_KE_RATIO} m g r; fastest {vmax:.3g} m/s): the pack has not "
             f"settled in settle_time = {scene.settle_time:g} s; give a longer settle_time"
         )
     return None
+
+
+def _check_trim_keeps_particles(packer: _core.LayerPacker, scene: PackScene) -> None:
+    """Refuses a flat top that would remove every particle (an empty pack), naming the
+    trim height `height` and the heights that keep particles."""
+    state = packer.state()
+    x = np.asarray(state["positions"], dtype=np.float64)
+    r = np.asarray(state["radii"], dtype=np.float64)
+    tops = x[:, scene.vertical] + r if len(r) else np.array([math.inf])
+    lowest = float(np.min(tops))
+    if not lowest <= scene.height:
+        raise InvalidParameterError(
+            f"invalid height = {scene.height:g} m with trim = true: the flat top would "
+            "remove every particle (each one's top z + r lies above height; the lowest "
+            f"reaches {lowest!r} m) and leave an empty pack; give height >= "
+            f"{lowest!r} m, or trim = false",
+            parameter="height",
+            value=scene.height,
+            expected=f">= {lowest!r} m with trim = true",
+        )
 
 
 def generate(
@@ -507,6 +626,7 @@ def generate(
             bar.close()
     trim = None
     if scene.trim:
+        _check_trim_keeps_particles(packer, scene)
         done = packer.trim(scene.height)
         trim = {
             "removed": int(done["removed"]),
