@@ -101,3 +101,24 @@ def test_a_bad_key_is_the_same_error_from_the_scene_and_from_the_engine(key, val
             entry(_fields(scene, **{key: value}))
         assert type(from_engine.value) is type(from_scene.value)
         assert from_engine.value.parameter == from_scene.value.parameter == key
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [("container", 3), ("container", "cone"), ("cylinder_radius", "0.1"), ("skin_ratio", "0.2")],
+)
+def test_simulation_names_a_setting_of_the_wrong_type(key, value):
+    kwargs = {"container": "cylinder", "box": ((0, 0, 0), (0.2, 0.2, 1.0)), key: value}
+    with pytest.raises(gp.InvalidParameterError) as e:
+        gp.Simulation(dim=3, **kwargs)
+    assert e.value.parameter == key
+
+
+def test_the_command_line_names_out_when_it_would_overwrite_the_scene(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    scene_file = out / "scene.toml"  # the folder's record, but not the resolved scene
+    scene_file.write_text('preset = "4.1"\nbase = [0.2]\nheight = 0.06\n')
+    assert main(["generate", str(scene_file), "--out", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "invalid --out" in err and "would overwrite the scene file" in err

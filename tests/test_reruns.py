@@ -125,3 +125,26 @@ def test_the_next_run_removes_the_temporaries_of_a_killed_write(tmp_path, capsys
     # nothing left: no note
     assert main(["generate", str(scene_file), "--out", str(out), "--no-figures"]) == 0
     assert "temporary" not in capsys.readouterr().err
+
+
+def test_an_export_removes_the_temporaries_of_its_own_killed_export(tmp_path, capsys):
+    src = gp.generate(TINY).save(tmp_path / "pack.npz")
+    out = tmp_path / "dir"
+    out.mkdir()
+    left = []
+    for name in ("pack.data", "in.granpack"):
+        fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{name}.", suffix=".tmp")
+        with open(fd, "wb") as f:
+            f.write(b"half")
+        left.append(tmp)
+    # another file's temporary is not this export's to remove
+    fd, other = tempfile.mkstemp(dir=out, prefix=".other.csv.", suffix=".tmp")
+    with open(fd, "wb") as f:
+        f.write(b"half")
+    argv = ["export", str(src), "--format", "lammps", "--out", str(out / "pack.data")]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "removed 2 stale temporary file(s)" in err
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["pack.data", "in.granpack", other.rsplit("/", 1)[1]]
+    )

@@ -499,7 +499,11 @@ def _sweep_temporaries(out: Path, console: _Console) -> None:
     under the folder's lock: no other run is writing there."""
     from .pack import remove_stale_temporaries
 
-    removed = remove_stale_temporaries(out)
+    _say_removed(remove_stale_temporaries(out), out, console)
+
+
+def _say_removed(removed: list[Path], out: Path, console: _Console) -> None:
+    """A note naming the stale temporaries removed under `out`, if any."""
     if removed:
         names = ", ".join(str(p.relative_to(out)) for p in removed[:5])
         more = f" and {len(removed) - 5} more" if len(removed) > 5 else ""
@@ -677,9 +681,12 @@ def cmd_generate(args, console: _Console) -> int:
     # rerun from the folder's own record), it is rewritten only if unchanged.
     source = Path(args.scene)
     if _same_file(scene_file, source) and source.read_bytes() != scene_text:
-        raise GranpackError(
-            f"--out {out} would overwrite the scene file {source} with the resolved scene "
-            "(out/scene.toml); choose another --out"
+        raise InvalidParameterError(
+            f"invalid --out = {str(out)!r}: it would overwrite the scene file {source} with "
+            "the resolved scene (out/scene.toml); choose another --out",
+            parameter="out",
+            value=str(out),
+            expected="a folder whose scene.toml is not the scene file given",
         )
     _refuse_scene_among_outputs(source, out)
     with _locked(out):
@@ -1132,6 +1139,12 @@ def cmd_export(args, console: _Console) -> int:
     files = export(pack, out, fmt, refuse=[args.pack], parameter="--out")
     for f in files:
         console.say(str(f))
+    # the temporaries an export of the same files left when it was killed
+    from .pack import remove_stale_temporaries
+
+    for folder in sorted({f.parent for f in files}):
+        names = [f.name for f in files if f.parent == folder]
+        _say_removed(remove_stale_temporaries(folder, of=names), folder, console)
     return 0
 
 

@@ -134,6 +134,16 @@ class Simulation:
             raise InvalidParameterError(
                 f"invalid material = {material!r}: must be a granpack.Material"
             )
+        if not isinstance(container, str) or container not in ("box", "periodic", "cylinder"):
+            raise InvalidParameterError(
+                f"invalid container = {short_repr(container)}: must be one of 'box', "
+                "'periodic', 'cylinder'",
+                parameter="container",
+                value=container,
+                expected="box | periodic | cylinder",
+            )
+        if cylinder_radius is not None:
+            cylinder_radius = as_real("cylinder_radius", cylinder_radius, unit="m")
         dt = as_real("dt", dt, 0, lo_open=True, unit="s")
         if gravity is None:
             gravity = [0.0] * dim

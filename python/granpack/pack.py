@@ -16,7 +16,7 @@ import tomllib
 import warnings
 import zipfile
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -110,6 +110,11 @@ class Pack:
         above H_d), ``top`` (the final H_top after the relax, m, <= H_d), ``phi_hd``
         (solid fraction of the container up to H_d), ``steps`` (relax steps). None for
         a pack made without it.
+    tiled : dict or None
+        What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
+        horizontal axis), ``particles`` (N of the original), ``base`` (the original's
+        periods, m), ``seed`` and ``scene_sha256`` (the SHA-256 of the original's scene
+        TOML). None for a pack that was not tiled.
     """
 
     scene: PackScene
@@ -123,6 +128,7 @@ class Pack:
     layers: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
     trim: dict | None = None
+    tiled: dict | None = None
 
     @property
     def dim(self) -> int:
@@ -173,6 +179,8 @@ class Pack:
         }
         if self.trim is not None:
             meta["trim"] = self.trim
+        if self.tiled is not None:
+            meta["tiled"] = self.tiled
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
@@ -192,16 +200,25 @@ def is_temporary(name: str) -> bool:
     return _TEMP_NAME.match(name) is not None
 
 
-def remove_stale_temporaries(folder: str | Path) -> list[Path]:
+def remove_stale_temporaries(folder: str | Path, of: Iterable[str] | None = None) -> list[Path]:
     """Removes the temporaries that writes cut off by a kill left under `folder` (only
     files named as `atomic_write` names them; nothing else is touched) and returns them.
-    Call it only where no other write is under way (the command line holds the output
-    folder's lock)."""
+    With `of` (file names), only the temporaries of those files directly in `folder`.
+    Call it only where no other write of those files is under way (the command line
+    holds the output folder's lock)."""
     removed = []
-    for dirpath, _dirs, files in os.walk(folder):
+    targets = None if of is None else set(of)
+    if targets is None:
+        walk = os.walk(folder)
+    else:  # that folder alone, not what lies below it
+        walk = iter([(str(folder), [], os.listdir(folder))])
+    for dirpath, _dirs, files in walk:
         for name in files:
             p = Path(dirpath) / name
-            if is_temporary(name) and p.is_file() and not p.is_symlink():
+            m = _TEMP_NAME.match(name)
+            if m is None or (targets is not None and m.group(1) not in targets):
+                continue
+            if p.is_file() and not p.is_symlink():
                 try:
                     p.unlink()
                 except FileNotFoundError:
@@ -382,6 +399,7 @@ def load_pack(path: str | Path) -> Pack:
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
             trim=_trim_record(meta.get("trim")),
+            tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
         )
     except (
         KeyError,
@@ -423,6 +441,33 @@ def _trim_record(value) -> dict | None:
         "phi_hd": float(value["phi_hd"]),
         "steps": int(value["steps"]),
     }
+
+
+def _tiled_record(value, dim: int, n: int) -> dict | None:
+    """The tiling record of a pack file (None when it has none, as in files written
+    before tiling existed); its counts times its particles must give the pack's N."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise ValueError(f"'tiled' is {type(value).__name__}, expected a table")
+    counts = [int(c) for c in value["counts"]]
+    base = [float(b) for b in value["base"]]
+    seed = value.get("seed")
+    record = {
+        "counts": counts,
+        "particles": int(value["particles"]),
+        "base": base,
+        "seed": None if seed is None else int(seed),
+        "scene_sha256": str(value["scene_sha256"]),
+    }
+    if len(counts) != dim - 1 or len(base) != dim - 1 or min(counts) < 1:
+        raise ValueError(f"'tiled' has counts {counts} and base {base} for dim = {dim}")
+    if record["particles"] * math.prod(counts) != n:
+        raise ValueError(
+            f"'tiled' says {record['particles']} particles times {counts}, but the pack "
+            f"holds {n}"
+        )
+    return record
 
 
 def _text(data: dict, key: str) -> str:

@@ -963,7 +963,7 @@ impl LayerPacker {
                 .fold(f64::INFINITY, f64::min);
             (p.done(), lowest)
         });
-        if done && height.is_finite() && height > 0.0 && !(lowest <= height) {
+        if done && height.is_finite() && height > 0.0 && lowest > height {
             return Err(Error::invalid(
                 "height",
                 height,
