@@ -396,11 +396,11 @@ class PackScene:
             raise InvalidParameterError(
                 f"invalid height = {self.height:g} m with trim = true: the flat top removes "
                 "every particle whose top lies above height, and the smallest particle "
-                f"resting on the floor reaches 2 r_min = {2.0 * self.r_min:g} m; give "
-                f"height >= {2.0 * self.r_min:g} m, or trim = false",
+                f"resting on the floor reaches 2 r_min = {2.0 * self.r_min!r} m; give "
+                f"height >= {2.0 * self.r_min!r} m, or trim = false",
                 parameter="height",
                 value=self.height,
-                expected=f">= {2.0 * self.r_min:g} m with trim = true",
+                expected=f">= {2.0 * self.r_min!r} m with trim = true",
             )
         # A scene whose layers alone would exceed memory is refused up front.
         n_est = self.estimated_particles()
