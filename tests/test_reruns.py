@@ -148,3 +148,16 @@ def test_an_export_removes_the_temporaries_of_its_own_killed_export(tmp_path, ca
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["pack.data", "in.granpack", other.rsplit("/", 1)[1]]
     )
+
+
+def test_a_paper_run_removes_the_temporaries_of_a_killed_one(tmp_path, capsys):
+    out = tmp_path / "paper"
+    (out / "packs" / "4.1-on").mkdir(parents=True)
+    fd, tmp = tempfile.mkstemp(dir=out / "packs" / "4.1-on", prefix=".pack_000.npz.", suffix=".tmp")
+    with open(fd, "wb") as f:
+        f.write(b"half")
+    argv = ["paper", "--examples", "4.1", "--packs", "1", "--out", str(out), "--workers", "1"]
+    assert main([*argv, "--scale", "0.2", "--settle-time", "0.3"]) == 0
+    err = capsys.readouterr().err
+    assert "removed 1 stale temporary file(s)" in err
+    assert not any(is_temporary(p.name) for p in out.rglob("*"))
