@@ -23,6 +23,7 @@ from .grading import Grading, realised_grading, target_grading
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
 from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
+from .tile import tile
 
 __all__ = [
     "GranpackError",
@@ -39,6 +40,7 @@ __all__ = [
     "PRESETS",
     "generate",
     "load_pack",
+    "tile",
     "read_particles",
     "ParticleFile",
     "read_contacts",

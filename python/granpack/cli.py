@@ -8,6 +8,7 @@
     granpack generate my_scene.toml --out DIR
     granpack analyze DIR/packs/pack_000.npz          # or a dump, data, text, CSV file
     granpack export DIR/packs/pack_000.npz --format vtk   # vtk | lammps | csv | parquet
+    granpack tile DIR/packs/pack_000.npz 4 4 --out big.npz  # a periodic pack, 4 x 4 copies
 
 Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``, on a
 Dask cluster; the results are the same for the same master seed. Every finished pack is
@@ -411,6 +412,31 @@ def build_parser() -> argparse.ArgumentParser:
     )
     e.add_argument("--out", type=Path, default=None, help="output file (default: beside PACK)")
     e.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+    t = sub.add_parser(
+        "tile",
+        help="copy a periodic pack nx x ny times into one larger periodic pack",
+        description="Copies a pack made in a periodic cell (container = 'periodic') NX "
+        "times along x and NY times along y (3D; NX alone in 2D) into one pack file: the "
+        "contacts across the junctions are those of the original's seam, with their "
+        "forces, so Z, phi, the fabric and the force tensors are the original's. The "
+        "tiled pack repeats exactly, with the original cell as its period.",
+    )
+    t.add_argument("pack", type=Path, metavar="PACK", help="a periodic pack file (.npz)")
+    t.add_argument(
+        "counts",
+        type=_positive_int,
+        nargs="+",
+        metavar="COUNT",
+        help="copies along x (and y in 3D), each >= 1",
+    )
+    t.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output pack file (default: <PACK stem>_tiled_NXxNY.npz beside PACK)",
+    )
+    t.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     return parser
 
 
@@ -1148,6 +1174,33 @@ def cmd_export(args, console: _Console) -> int:
     return 0
 
 
+# -- tile ----------------------------------------------------------------------------------------
+
+
+def cmd_tile(args, console: _Console) -> int:
+    from .pack import load_pack, remove_stale_temporaries
+    from .tile import tile
+
+    counts = tuple(args.counts)
+    out = args.out
+    if out is None:
+        label = "x".join(str(c) for c in counts)
+        out = args.pack.with_name(f"{args.pack.stem}_tiled_{label}.npz")
+    check_outputs([out], [args.pack], parameter="--out")
+    t0 = time.perf_counter()
+    pack = load_pack(args.pack)
+    tiled = tile(pack, counts)
+    path = tiled.save(out)  # atomic: a temporary file, then a rename
+    console.say(
+        f"{path}: {len(pack)} particles x {math.prod(counts)} copies = {len(tiled)} "
+        f"particles, {len(tiled.contacts)} contacts, base "
+        f"{' x '.join(f'{b:g}' for b in tiled.scene.base)} m "
+        f"({time.perf_counter() - t0:.2f} s)"
+    )
+    _say_removed(remove_stale_temporaries(path.parent, of=[path.name]), path.parent, console)
+    return 0
+
+
 # -- entry point ---------------------------------------------------------------------------------
 
 _COMMANDS = {
@@ -1155,6 +1208,7 @@ _COMMANDS = {
     "paper": cmd_paper,
     "analyze": cmd_analyze,
     "export": cmd_export,
+    "tile": cmd_tile,
 }
 
 

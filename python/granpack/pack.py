@@ -113,8 +113,8 @@ class Pack:
     tiled : dict or None
         What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
         horizontal axis), ``particles`` (N of the original), ``base`` (the original's
-        periods, m), ``seed`` and ``scene_sha256`` (the SHA-256 of the original's scene
-        TOML). None for a pack that was not tiled.
+        periods, m), ``seed``, ``stream`` and ``scene_sha256`` (the SHA-256 of the
+        original's scene TOML). None for a pack that was not tiled.
     """
 
     scene: PackScene
@@ -452,12 +452,12 @@ def _tiled_record(value, dim: int, n: int) -> dict | None:
         raise ValueError(f"'tiled' is {type(value).__name__}, expected a table")
     counts = [int(c) for c in value["counts"]]
     base = [float(b) for b in value["base"]]
-    seed = value.get("seed")
     record = {
         "counts": counts,
         "particles": int(value["particles"]),
         "base": base,
-        "seed": None if seed is None else int(seed),
+        "seed": int(value["seed"]),
+        "stream": int(value["stream"]),
         "scene_sha256": str(value["scene_sha256"]),
     }
     if len(counts) != dim - 1 or len(base) != dim - 1 or min(counts) < 1:
