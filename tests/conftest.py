@@ -49,3 +49,9 @@ def lmp() -> str:
 def liggghts() -> str:
     """LIGGGHTS' executable (the Debian package liggghts), or a skip."""
     return _peer(("liggghts",), "liggghts")
+
+
+@pytest.fixture(scope="session")
+def yade() -> str:
+    """YADE's executable (the Debian package yade, 2023.02a), or a skip."""
+    return _peer(("yade",), "yade")
