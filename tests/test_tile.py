@@ -277,7 +277,10 @@ def test_the_command_line_tiles_a_pack(tmp_path, capsys):
     assert main(["tile", str(src), "2", "2", "--out", str(src)]) == 2
     assert "invalid --out" in capsys.readouterr().err
     assert src.read_bytes() == before
-    # bad counts and walled packs: one line, status 2
+    # bad counts, walled packs and missing files: one line, status 2
+    assert main(["tile", str(tmp_path / "missing.npz"), "2", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no such file" in err and "Traceback" not in err
     assert main(["tile", str(src), "2", "--out", str(out)]) == 2
     assert "a 3D pack takes (nx, ny)" in capsys.readouterr().err
     with pytest.raises(SystemExit) as stop:

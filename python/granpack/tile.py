@@ -58,7 +58,8 @@ def tile(pack: Pack, counts) -> Pack:
         spins and layer indices are copied. A particle-particle contact ``(i, j)`` of
         branch ``l`` (the minimum image in the original cell) joins copy ``(a, b)`` of
         ``i`` to the copy of ``j`` that lies at ``x_i + l`` in the new cell, with the
-        same overlap and forces; wall (floor) contacts are copied with their particle.
+        same overlap and forces (the tangential force is the pack's record of the
+        tangential history); wall (floor) contacts are copied with their particle.
         Contacts are listed as the engine lists them: particle pairs with ``i < j`` in
         order of ``(i, j)``, then wall contacts in order of particle. The coordination
         number, solid fraction, fabric and force tensors are therefore the original's.
