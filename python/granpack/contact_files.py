@@ -290,7 +290,7 @@ def read_contacts(
             parameter="snapshot",
             value=snapshot,
         )
-    from .particles import _read_text
+    from .io._text import _read_text
 
     lines = _read_text(path).splitlines()
     blocks = _scan(path, lines)

@@ -1,0 +1,201 @@
+"""What the readers and writers of every format share: reading text, checking values,
+choosing the dimension, ids, and the container tag."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validate import (
+    FileFormatError,
+)
+from ..container_tag import ContainerTag, container_tag, parse_container_tag
+from ..dem_input import container_of
+
+if TYPE_CHECKING:
+    from ..pack import Pack
+from .particle_file import ParticleFile  # noqa: F401
+
+_RADIUS_NAMES = ("radius", "r")
+
+
+_DIAMETER_NAMES = ("diameter", "d")
+
+
+_ID_NAMES = ("id",)
+
+
+# How many leading lines the content sniffing looks at for a data file's "N atoms".
+_SNIFF_LINES = 40
+
+
+def _head(path: Path, n: int = 65536) -> bytes:
+    try:
+        with open(path, "rb") as f:
+            return f.read(n)
+    except FileNotFoundError:
+        raise FileFormatError(
+            f"cannot read {path}: no such file", path=path, reason="no such file"
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def _single_snapshot(path: Path, snapshot: int) -> None:
+    if snapshot not in (0, -1):
+        raise FileFormatError(
+            f"{path}: snapshot = {snapshot} is out of range: the file holds one snapshot (0 or -1)",
+            path=path,
+            reason="snapshot out of range",
+        )
+
+
+def _read_text(path: Path) -> str:
+    try:
+        # utf-8-sig: a byte-order mark (Excel and Windows editors write one) is not text
+        return path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(
+            f"cannot read {path}: not a text file (byte {exc.start} is not UTF-8)", path=path
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def _check_values(path: Path, x: np.ndarray, r: np.ndarray, where) -> None:
+    """Refuses non-finite coordinates and radii <= 0; `where(k)` names row k's line."""
+    bad = ~np.all(np.isfinite(x), axis=1)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise FileFormatError(f"{path}:{where(k)}: non-finite coordinate", path=path)
+    bad = ~(np.isfinite(r) & (r > 0.0))
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise FileFormatError(
+            f"{path}:{where(k)}: radius {r[k]} must be finite and > 0 (m)", path=path
+        )
+
+
+def _choose_dim(
+    path: Path, x3: np.ndarray, has_z: bool, dim: int | None, z_periodic: bool = False
+) -> int:
+    """2 or 3 for coordinates x3 (N, 3; z column meaningful only if has_z)."""
+    if not has_z:
+        if dim == 3:
+            raise FileFormatError(f"{path}: dim = 3 needs a z column; the file has none", path=path)
+        return 2
+    z_const = bool(np.all(x3[:, 2] == x3[0, 2]))
+    if dim is None:
+        # LAMMPS' 2D has z = 0 and a periodic z. A constant z alone is not enough: one
+        # layer of equal spheres resting on a floor is 3D with the same z for all
+        return 2 if z_const and (x3[0, 2] == 0.0 or z_periodic) else 3
+    if dim == 2 and not z_const:
+        raise FileFormatError(
+            f"{path}: dim = 2 needs the same z for every particle; z runs from "
+            f"{float(np.min(x3[:, 2]))} to {float(np.max(x3[:, 2]))}",
+            path=path,
+        )
+    return dim
+
+
+def _integer_ids(path: Path, raw: np.ndarray, where) -> np.ndarray:
+    """An id column read as numbers, as int64; refuses a value that is not a finite
+    integer, or one too large for a float to hold exactly, naming its line `where(k)`."""
+    finite = np.isfinite(raw)
+    whole = finite & (raw == np.round(np.where(finite, raw, 0.0)))
+    if not np.all(whole):
+        k = int(np.argmax(~whole))
+        raise FileFormatError(f"{path}:{where(k)}: id {raw[k]} is not an integer", path=path)
+    big = np.abs(raw) >= 2.0**53
+    if np.any(big):
+        k = int(np.argmax(big))
+        raise FileFormatError(
+            f"{path}:{where(k)}: id {raw[k]:.17g} is too large to read exactly (ids must lie "
+            "below 2**53)",
+            path=path,
+        )
+    return raw.astype(np.int64)
+
+
+def _sorted_by_id(path: Path, ids: np.ndarray, where) -> np.ndarray:
+    """The order that sorts by id; refuses a repeated id, naming both lines."""
+    order = np.argsort(ids, kind="stable")
+    s = ids[order]
+    dup = np.flatnonzero(s[1:] == s[:-1])
+    if dup.size:
+        a, b = sorted((int(order[dup[0]]), int(order[dup[0] + 1])))
+        raise FileFormatError(
+            f"{path}:{where(b)}: id {int(ids[b])} repeats the id of line {where(a)}; ids "
+            "must be unique",
+            path=path,
+        )
+    return order
+
+
+def _pick(names: list[str], wanted: tuple[str, ...]) -> int | None:
+    low = [n.strip().lower() for n in names]
+    for w in wanted:
+        if w in low:
+            return low.index(w)
+    return None
+
+
+def _tag_fields(tag: ContainerTag | None, d: int) -> dict:
+    """ParticleFile keywords for a container tag (nothing for None)."""
+    if tag is None:
+        return {}
+    out: dict = {
+        "container": tag.kind,
+        "cylinder_radius": tag.cylinder_radius,
+        "periodic": (tag.kind == "periodic",) * (d - 1),
+    }
+    if tag.lo is not None and tag.hi is not None:
+        out["box"] = (tag.lo, tag.hi)
+    return out
+
+
+def _comment_tag(path: Path, lines: list[str], d: int) -> ContainerTag | None:
+    """The container tag of a ``# granpack: ...`` comment line among the leading lines."""
+    for k, ln in enumerate(lines[:_SNIFF_LINES]):
+        body = ln.lstrip("\ufeff").strip()
+        if body.startswith("#") and "granpack" in body:
+            tag = parse_container_tag(body, path, k + 1, d)
+            if tag is not None:
+                return tag
+    return None
+
+
+def contact_counts(pack: Pack) -> np.ndarray:
+    """(N,) int64: contacts each particle takes part in (particle-particle and wall)."""
+    c = pack.contacts
+    n = len(pack)
+    counts = np.bincount(np.asarray(c.i, dtype=np.int64), minlength=n)
+    pp = np.asarray(c.j) >= 0
+    counts += np.bincount(np.asarray(c.j, dtype=np.int64)[pp], minlength=n)
+    return counts.astype(np.int64)
+
+
+def _pad3(a: np.ndarray) -> np.ndarray:
+    """(N, D) -> (N, 3) with zeros in the missing components (2D lies at z = 0)."""
+    a = np.asarray(a, dtype=np.float64)
+    if a.ndim == 1:  # 2D spin: rotation about z
+        out = np.zeros((a.shape[0], 3))
+        out[:, 2] = a
+        return out
+    out = np.zeros((a.shape[0], 3))
+    out[:, : a.shape[1]] = a
+    return out
+
+
+def _axes(dim: int) -> list[str]:
+    return ["x", "y", "z"][:dim]
+
+
+def _tag(pack: Pack) -> str:
+    """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top))."""
+    lo, hi = pack.box
+    return container_tag(*container_of(pack), lo, hi)

@@ -1,0 +1,39 @@
+"""granpack's own pack files (``Pack.save``), read as particles."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validate import (
+    FileFormatError,
+)
+
+if TYPE_CHECKING:
+    pass
+
+from .particle_file import ParticleFile
+
+
+def _read_npz(path: Path, dim: int | None) -> ParticleFile:
+    from ..dem_input import container_of
+    from ..pack import load_pack
+
+    pack = load_pack(path)
+    if dim is not None and dim != pack.dim:
+        raise FileFormatError(f"{path}: dim = {dim} asked for a {pack.dim}D pack", path=path)
+    kind, radius = container_of(pack)
+    return ParticleFile(
+        path=path,
+        format="npz",
+        positions=np.asarray(pack.positions),
+        radii=np.asarray(pack.radii),
+        box=pack.box,
+        periodic=(kind == "periodic",) * (pack.dim - 1),
+        container=kind,
+        cylinder_radius=radius,
+        contacts=pack.contacts,
+        pack=pack,
+    )

@@ -1,0 +1,172 @@
+"""ParticleFile: the particles of one file, as `granpack.read_particles` returns them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validate import (
+    InvalidParameterError,
+)
+from ..contacts import Contacts
+
+if TYPE_CHECKING:
+    from ..pack import Pack
+
+
+class ParticleFile:
+    """The particles of one file (one snapshot of a dump), as :func:`read_particles`
+    returns them. ``gp.microstructure(p)`` analyses it as it does a pack.
+
+    Attributes
+    ----------
+    path : Path
+        The file read.
+    format : str
+        The format found (or given), one of `FORMATS`.
+    dim : int
+        2 or 3.
+    positions : (N, D) float64, read-only
+        Centres (m), sorted by id where the file has ids; vertical axis last (y in 2D).
+    radii : (N,) float64, read-only
+        Radii (m).
+    ids : (N,) int64 or None
+        The file's particle ids, in the order of `positions` (None: the file has none).
+    box : (lo, hi) or None
+        The box corners (D each, m) where the file gives one (a dump's ``BOX BOUNDS``, a
+        data file's header, a pack's scene); the analysis puts its walls there. None: the
+        analysis uses the particles' bounding box, with no walls.
+    periodic : tuple of D bool, or None
+        Periodic axes from a dump's ``BOX BOUNDS`` flags (``pp``) or an XYZ file's pbc.
+        The analysis takes periodic horizontal axes as a periodic cell (no walls there,
+        contacts across the seam by minimum image); the vertical axis is always bounded
+        by the floor and the open top.
+    container : {"box", "periodic", "cylinder"} or None
+        The container the file says the pack lies in: a granpack pack's scene, the
+        container tag of granpack's text exports (`granpack.container_tag`), or periodic
+        horizontal axes in `periodic`. None: the file does not say; the analysis then
+        assumes a box (walls at `box`, or none without one) and says so
+        (``Microstructure.container_source``).
+    cylinder_radius : float or None
+        R (m) of a cylinder container.
+    timestep : int or None
+        A dump snapshot's ``TIMESTEP``.
+    snapshot : int
+        Which snapshot (a dump's snapshot, an XYZ file's frame) was read (0-based,
+        counted from the start).
+    n_snapshots : int
+        How many the file holds (1 for every format but a dump and extended XYZ).
+    contacts : granpack.Contacts or None
+        The contacts with forces of a granpack pack (npz); None otherwise (the analysis
+        then finds the contacts from the geometry and has no forces).
+    pack : granpack.Pack or None
+        The pack itself for a ``.npz`` file.
+    notes : tuple of str
+        What the reader left out or assumed (periodic flags, a dimension it inferred).
+    """
+
+    def __init__(
+        self,
+        *,
+        path: Path,
+        format: str,
+        positions: np.ndarray,
+        radii: np.ndarray,
+        ids: np.ndarray | None = None,
+        box: tuple[np.ndarray, np.ndarray] | None = None,
+        periodic: tuple[bool, ...] | None = None,
+        container: str | None = None,
+        cylinder_radius: float | None = None,
+        timestep: int | None = None,
+        snapshot: int = 0,
+        n_snapshots: int = 1,
+        contacts: Contacts | None = None,
+        pack: Pack | None = None,
+        notes: tuple[str, ...] = (),
+    ) -> None:
+        self.path = path
+        self.format = format
+        self.positions = _frozen(np.asarray(positions, dtype=np.float64))
+        self.radii = _frozen(np.asarray(radii, dtype=np.float64))
+        self.dim = int(self.positions.shape[1])
+        self.ids = None if ids is None else _frozen(np.asarray(ids, dtype=np.int64))
+        self.box = None if box is None else (_frozen(box[0]), _frozen(box[1]))
+        self.periodic = periodic
+        if container is None and periodic is not None and any(periodic[: self.dim - 1]):
+            container = "periodic"
+        self.container = container
+        self.cylinder_radius = cylinder_radius
+        self.timestep = timestep
+        self.snapshot = snapshot
+        self.n_snapshots = n_snapshots
+        self.contacts = contacts
+        self.pack = pack
+        self.notes = notes
+
+    def __len__(self) -> int:
+        return int(self.radii.shape[0])
+
+    def with_contacts(self, contacts) -> ParticleFile:
+        """The same particles with `contacts` (a granpack.Contacts, or what
+        :func:`granpack.read_contacts` returns), so that ``gp.microstructure`` takes its
+        forces: ``gp.microstructure(p.with_contacts(gp.read_contacts(f, p)))``."""
+        c = getattr(contacts, "contacts", contacts)
+        if not isinstance(c, Contacts):
+            raise InvalidParameterError(
+                f"invalid contacts = {type(contacts).__name__}: expected granpack.Contacts or "
+                "the result of granpack.read_contacts",
+                parameter="contacts",
+            )
+        from ..analysis.inputs import _as_contacts, check_contacts_touch
+        from ..analysis.prepare import analysis_container
+
+        # the contacts must touch in the container the analysis will see
+        _as_contacts(c, len(self), self.dim)
+        container, walls = analysis_container(self)
+        source = getattr(contacts, "path", None)
+        ids = self.ids if self.ids is not None else np.arange(1, len(self) + 1)
+        check_contacts_touch(
+            c.i,
+            c.j,
+            self.positions,
+            self.radii,
+            container=container,
+            walls=walls,
+            box=self.box,
+            path=source,
+            ids=ids if source is not None else None,
+        )
+        notes = self.notes + tuple(getattr(contacts, "notes", ()))
+        return ParticleFile(
+            path=self.path,
+            format=self.format,
+            positions=self.positions,
+            radii=self.radii,
+            ids=self.ids,
+            box=self.box,
+            periodic=self.periodic,
+            container=self.container,
+            cylinder_radius=self.cylinder_radius,
+            timestep=self.timestep,
+            snapshot=self.snapshot,
+            n_snapshots=self.n_snapshots,
+            contacts=c,
+            pack=self.pack,
+            notes=notes,
+        )
+
+    def __repr__(self) -> str:
+        where = f", snapshot {self.snapshot} of {self.n_snapshots}" if self.n_snapshots > 1 else ""
+        return (
+            f"ParticleFile({str(self.path)!r}, format={self.format!r}, dim={self.dim}, "
+            f"n={len(self)}{where})"
+        )
+
+
+def _frozen(a) -> np.ndarray:
+    # a copy, so that freezing it never freezes the caller's array (a pack's own)
+    a = np.array(a, copy=True, order="C")
+    a.setflags(write=False)
+    return a

@@ -1,0 +1,106 @@
+"""YADE's text format (``#format x_y_z_r``): ``export.text`` / ``ymport.text``."""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validate import (
+    FileFormatError,
+    is_number,
+)
+from ..pack import atomic_write
+
+if TYPE_CHECKING:
+    from ..pack import Pack
+
+from ._text import (
+    _check_values,
+    _choose_dim,
+    _comment_tag,
+    _integer_ids,
+    _pad3,
+    _read_text,
+    _sorted_by_id,
+    _tag,
+    _tag_fields,
+)
+from .particle_file import ParticleFile
+
+# YADE's text export: "#format x_y_z_r" (export.text), or another textExt layout
+_YADE_HEADER = re.compile(r"^#\s*format\s+(\S+)\s*$")
+
+
+#: The YADE layouts read, as their header names them; columns other than x y z r id are
+#: skipped (matId, the material).
+YADE_LAYOUTS = ("x_y_z_r", "x_y_z_r_matId", "id_x_y_z_r_matId")
+
+
+def _read_yade(path: Path, dim: int | None) -> ParticleFile:
+    """YADE's text export: the ``#format`` header names the columns."""
+    lines = _read_text(path).splitlines()
+    k0 = next((k for k, ln in enumerate(lines) if ln.strip()), None)
+    head = _YADE_HEADER.match(lines[k0].strip()) if k0 is not None else None
+    if head is None or head.group(1) not in YADE_LAYOUTS:
+        found = repr(lines[k0].strip()[:60]) if k0 is not None else "an empty file"
+        raise FileFormatError(
+            f"{path}:{(k0 or 0) + 1}: expected a YADE header '#format <layout>' with a layout "
+            f"of {', '.join(YADE_LAYOUTS)}, found {found}",
+            path=path,
+        )
+    assert k0 is not None  # a header was matched
+    layout = head.group(1)
+    names = layout.split("_")
+    ncol = len(names)
+    rows: list[list[float]] = []
+    row_line: list[int] = []
+    for k in range(k0 + 1, len(lines)):
+        body = lines[k].split("#", 1)[0].split()
+        if not body:
+            continue
+        if len(body) != ncol:
+            raise FileFormatError(
+                f"{path}:{k + 1}: expected {ncol} numbers ({' '.join(names)}, as the header "
+                f"'#format {layout}' says), found {len(body)} fields",
+                path=path,
+            )
+        bad = next((v for v in body if not is_number(v)), None)
+        if bad is not None:
+            raise FileFormatError(f"{path}:{k + 1}: {bad!r} is not a number", path=path)
+        rows.append([float(v) for v in body])
+        row_line.append(k + 1)
+    if not rows:
+        raise FileFormatError(f"{path}: no spheres after the header '#format {layout}'", path=path)
+    a = np.array(rows, dtype=np.float64)
+    x3 = a[:, [names.index(c) for c in ("x", "y", "z")]]
+    r = a[:, names.index("r")]
+    ids = None
+    order = np.arange(len(rows))
+    if "id" in names:
+        ids = _integer_ids(path, a[:, names.index("id")], lambda k: row_line[k])
+        order = _sorted_by_id(path, ids, lambda k: row_line[k])
+        ids, x3, r = ids[order], x3[order], r[order]
+    _check_values(path, x3, r, lambda k: row_line[int(order[k])])
+    d = _choose_dim(path, x3, True, dim)
+    tag = _comment_tag(path, lines, d)
+    return ParticleFile(
+        path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids, **_tag_fields(tag, d)
+    )
+
+
+def write_yade(pack: Pack, path: str | Path) -> Path:
+    """Writes YADE's text format (``#format x_y_z_r``, then ``x y z r`` a line at full
+    precision), which ``yade.ymport.text`` reads. Returns the path."""
+    x = _pad3(pack.positions)
+    r = np.asarray(pack.radii, dtype=np.float64)
+    out = io.StringIO()
+    out.write("#format x_y_z_r\n")
+    # ymport.text skips comment lines; read_particles takes the container from this one
+    out.write(f"# granpack: dim={pack.dim} {_tag(pack)}\n")
+    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
+        out.write(f"{x0!r} {x1!r} {x2!r} {rk!r}\n")
+    return atomic_write(Path(path), out.getvalue().encode())
