@@ -101,6 +101,15 @@ def tile(pack: Pack, counts) -> Pack:
 
     periods = np.array(scene.base, dtype=np.float64)
     new_periods = periods * np.array(reps, dtype=np.float64)
+    try:
+        new_scene = scene.replace(base=tuple(float(p) for p in new_periods))
+    except InvalidParameterError as exc:  # the scene's own bounds, before any work
+        raise InvalidParameterError(
+            f"invalid counts = {reps}: the tiled scene is refused: {exc}",
+            parameter="counts",
+            value=reps,
+            expected="counts whose tiled scene is valid",
+        ) from None
     # copy c = a + nx b sits at (a, b) in the grid of copies
     cell = np.stack(np.unravel_index(np.arange(copies), reps[::-1])[::-1], axis=1)
     offsets = np.zeros((copies, dim))
@@ -136,7 +145,6 @@ def tile(pack: Pack, counts) -> Pack:
         for rep in pack.layers
     ]
     trim = None if pack.trim is None else {**pack.trim, "removed": pack.trim["removed"] * copies}
-    new_scene = scene.replace(base=tuple(float(p) for p in new_periods))
     return Pack(
         scene=new_scene,
         positions=positions,
