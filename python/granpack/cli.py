@@ -395,18 +395,23 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser(
         "export",
         help="write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "
-        "csv or parquet",
+        "csv, parquet, or the DEM codes Kratos, MercuryDPM, PFC and DEM-Engine",
         description="Writes a saved pack as a VTK XML unstructured grid (.vtu: particles "
         "with radius, layer, velocity, spin, contact count; contacts as lines with their "
         "forces; the container in <stem>.container.vtu), a LAMMPS data file for atom_style "
         "sphere with in.granpack, the input that continues the run in LAMMPS (lammps) or "
-        "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), or CSV/Parquet "
-        "tables of particles and contacts.",
+        "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), CSV/Parquet "
+        "tables of particles and contacts, or the particles for another DEM code: a Kratos "
+        "DEM model part (kratos, .mdpa), a MercuryDPM .data file (mercurydpm), a PFC 7 "
+        "command file (pfc) or DEM-Engine's clump CSV with its sphere templates (demengine).",
     )
     e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
     e.add_argument(
         "--format",
-        choices=("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet"),
+        choices=(
+            *("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet"),
+            *("kratos", "mercurydpm", "pfc", "demengine"),
+        ),
         default=None,
         help="output format (default: from the suffix of --out)",
     )
@@ -1156,7 +1161,8 @@ def cmd_export(args, console: _Console) -> int:
     fmt = args.format
     if fmt is None and args.out is None:
         raise GranpackError(
-            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet) or an --out file name"
+            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet, kratos, mercurydpm, "
+            "pfc, demengine) or an --out file name"
         )
     out = args.out
     if out is None:

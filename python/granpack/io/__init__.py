@@ -1,0 +1,2 @@
+"""Particle file formats, one module per format family: its writer and its reader side by
+side."""

@@ -1,0 +1,126 @@
+"""Itasca PFC 7: a data file of commands (``program call 'pack.p3dat'``) that creates the
+pack's balls.
+
+The commands and their syntax are taken from Itasca's PFC 7.0 documentation: ``model
+domain`` (``extent``, ``condition``), ``ball create`` (keywords ``id``, ``radius``,
+``position``), ``ball attribute`` (``density``, ``velocity``, ``spin``, with a ``range``
+phrase, element ``id``), and "Command Shaping" (``;`` starts a comment; a vector is
+``(x,y,z)``, 2D ``(x,y)``). ``ball create`` takes no velocity, so each ball's density,
+velocity and spin follow in a ``ball attribute ... range id i`` line::
+
+    ; granpack: dim=3 container=periodic lo=0.0,0.0,0.0 hi=0.2,0.2,0.13
+    model new
+    model domain extent xmin xmax ymin ymax zmin zmax condition periodic periodic stop
+    ball create id 1 radius r position (x,y,z)
+    ...
+    ball attribute density rho velocity (vx,vy,vz) spin (wx,wy,wz) range id 1
+    ...
+
+In 2D (PFC2D) the extent has four numbers and the conditions two, positions and
+velocities are ``(x,y)`` and the spin is a number (about z). PFC2D's balls are discs of
+unit thickness (m = rho pi r^2); for granpack's default 2D mass (``inertia_2d="sphere"``,
+m = 4/3 pi r^3 rho) each ball gets the density 4/3 r rho, which gives the same mass (the
+moment of inertia is then PFC2D's disc's, m r^2 / 2, not the sphere's 2/5 m r^2).
+
+The domain: a periodic axis is the cell [0, L] exactly (``condition periodic``; centres
+are wrapped into [0, L)); every other axis is the pack's box widened by 10 % of its
+length on each side (``condition stop``), since PFC needs every ball and wall inside the
+domain. The box itself (the walls granpack had: floor and sides, or the cylinder) is on
+the container tag comment line; create the walls there (``wall generate ...``) and choose
+the contact model (``contact cmat default ...``) before cycling: the file sets neither,
+and names granpack's material on a comment line. Every number is written at full
+precision (``repr``).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..container_tag import container_tag
+from ..dem_input import container_of
+from ..pack import atomic_write
+
+if TYPE_CHECKING:
+    from ..pack import Pack
+
+__all__ = ["write_pfc", "DOMAIN_MARGIN", "pfc_density"]
+
+#: How far the domain reaches past the box on an axis that is not periodic, as a fraction
+#: of the box's length on that axis (each side).
+DOMAIN_MARGIN = 0.1
+
+
+def _vec(values) -> str:
+    return "(" + ",".join(repr(float(a)) for a in values) + ")"
+
+
+def pfc_density(pack: Pack) -> np.ndarray:
+    """(N,) the ball densities (kg/m^3) that give PFC granpack's masses: the material's
+    density in 3D and for 2D discs, 4/3 r rho for granpack's 2D sphere mass (PFC2D's balls
+    are discs of unit thickness)."""
+    s = pack.scene
+    r = np.asarray(pack.radii, dtype=np.float64)
+    rho = float(s.material.density)
+    if s.dim == 2 and s.inertia_2d == "sphere":
+        return 4.0 / 3.0 * r * rho
+    return np.full(r.shape, rho)
+
+
+def write_pfc(pack: Pack, path: str | Path) -> Path:
+    """Writes a PFC 7 data file of commands that creates the pack's balls with their
+    radii, velocities, spins and densities in its domain (layout in the module docstring;
+    PFC3D for a 3D pack, PFC2D for a 2D one). Returns the path."""
+    from ..export import lammps_positions
+
+    s = pack.scene
+    d = s.dim
+    n = len(pack)
+    x = lammps_positions(pack)[:, :d]
+    r = np.asarray(pack.radii, dtype=np.float64)
+    v = np.asarray(pack.velocities, dtype=np.float64)
+    spins = np.asarray(pack.spins, dtype=np.float64)
+    rho = pfc_density(pack)
+    lo, hi = pack.box
+    kind, radius = container_of(pack)
+    periodic = [kind == "periodic" and a < d - 1 for a in range(d)]
+    m = s.material
+    out = io.StringIO()
+    program = "PFC3D" if d == 3 else "PFC2D"
+    out.write(
+        f"; {program} 7 commands from granpack: dim={d} N={n} seed={s.seed} stream={s.stream} "
+        f"(SI units, vertical {'z' if d == 3 else 'y'})\n"
+    )
+    out.write(f"; granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
+    out.write(
+        f"; material: density={m.density!r} young={m.young!r} poisson={m.poisson!r} "
+        f"friction={m.friction!r} damping_ratio={m.damping!r}"
+        + (f" mass={s.inertia_2d}" if d == 2 else "")
+        + "; walls and the contact model are not set here\n"
+    )
+    out.write("model new\n")
+    extent = []
+    for a in range(d):
+        if periodic[a]:
+            extent += [lo[a], hi[a]]
+        else:
+            pad = DOMAIN_MARGIN * (hi[a] - lo[a])
+            extent += [lo[a] - pad, hi[a] + pad]
+    conditions = " ".join("periodic" if p else "stop" for p in periodic)
+    out.write(
+        "model domain extent "
+        + " ".join(repr(float(e)) for e in extent)
+        + f" condition {conditions}\n"
+    )
+    for k in range(n):
+        out.write(f"ball create id {k + 1} radius {float(r[k])!r} position {_vec(x[k])}\n")
+    for k in range(n):
+        spin = _vec(spins[k]) if d == 3 else repr(float(spins[k]))
+        out.write(
+            f"ball attribute density {float(rho[k])!r} velocity {_vec(v[k])} spin {spin} "
+            f"range id {k + 1}\n"
+        )
+    return atomic_write(Path(path), out.getvalue().encode())
