@@ -39,6 +39,33 @@ def _peer(names: tuple[str, ...], package: str) -> str:
     pytest.skip(f"{why}; apt-get install {package} (.ci/run does where apt is available)")
 
 
+def peer_module(module: str, package: str):
+    """The imported `module` of a peer program's Python package (in the test extra), or a
+    skip (a failure where .ci/run requires the peers: GRANPACK_PEERS=required)."""
+    import importlib
+    import os
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        why = f"{package} not importable ({exc})"
+    if os.environ.get("GRANPACK_PEERS") == "required":
+        pytest.fail(f"{why}, though GRANPACK_PEERS=required", pytrace=False)
+    pytest.skip(f'{why}; pip install {package} (or ".[test]")')
+
+
+@pytest.fixture(scope="session")
+def gsd_hoomd():
+    """``gsd.hoomd`` (PyPI gsd, HOOMD-blue's file library), or a skip."""
+    return peer_module("gsd.hoomd", "gsd")
+
+
+@pytest.fixture(scope="session")
+def ovito_io():
+    """``ovito.io`` (PyPI ovito, OVITO's Python module), or a skip."""
+    return peer_module("ovito.io", "ovito")
+
+
 @pytest.fixture(scope="session")
 def lmp() -> str:
     """LAMMPS' executable (the Debian package lammps), or a skip."""

@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Prints the microstructure of a granpack pack (.npz), a LAMMPS or "
         "LIGGGHTS dump custom file (columns x y z or xs ys zs, radius or diameter, id), a "
         "LAMMPS data file (atom_style sphere), YADE's text export (#format x_y_z_r), "
-        "extended XYZ with a radius property, a CSV or Parquet table with columns x y (z) "
+        "extended XYZ with a radius property, a gsd file (HOOMD-blue's schema), a CSV or "
+        "Parquet table with columns x y (z) "
         "and r, radius or diameter, or a plain text file with columns x y r (2D) or "
         "x y z r (3D; lines starting with # are comments). The format is detected from the "
         "content and the suffix, and printed. --contacts adds another code's contact "
@@ -395,21 +396,23 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser(
         "export",
         help="write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "
-        "csv, parquet, or the DEM codes Kratos, MercuryDPM, PFC and DEM-Engine",
+        "OVITO/freud/HOOMD-blue (gsd), csv, parquet, or the DEM codes Kratos, MercuryDPM, "
+        "PFC and DEM-Engine",
         description="Writes a saved pack as a VTK XML unstructured grid (.vtu: particles "
         "with radius, layer, velocity, spin, contact count; contacts as lines with their "
         "forces; the container in <stem>.container.vtu), a LAMMPS data file for atom_style "
         "sphere with in.granpack, the input that continues the run in LAMMPS (lammps) or "
-        "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), CSV/Parquet "
-        "tables of particles and contacts, or the particles for another DEM code: a Kratos "
-        "DEM model part (kratos, .mdpa), a MercuryDPM .data file (mercurydpm), a PFC 7 "
-        "command file (pfc) or DEM-Engine's clump CSV with its sphere templates (demengine).",
+        "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), a gsd file "
+        "for OVITO, freud and HOOMD-blue (gsd), CSV/Parquet tables of particles and "
+        "contacts, or the particles for another DEM code: a Kratos DEM model part (kratos, "
+        ".mdpa), a MercuryDPM .data file (mercurydpm), a PFC 7 command file (pfc) or "
+        "DEM-Engine's clump CSV with its sphere templates (demengine).",
     )
     e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
     e.add_argument(
         "--format",
         choices=(
-            *("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet"),
+            *("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet", "gsd"),
             *("kratos", "mercurydpm", "pfc", "demengine"),
         ),
         default=None,
@@ -1078,7 +1081,7 @@ def cmd_analyze(args, console: _Console) -> int:
         "container": m.container,
         "container_source": m.container_source,
     }
-    if particles.n_snapshots > 1 or particles.format in ("lammps-dump", "xyz"):
+    if particles.n_snapshots > 1 or particles.format in ("lammps-dump", "xyz", "gsd"):
         head.update(
             snapshot=particles.snapshot,
             n_snapshots=particles.n_snapshots,
@@ -1161,8 +1164,8 @@ def cmd_export(args, console: _Console) -> int:
     fmt = args.format
     if fmt is None and args.out is None:
         raise GranpackError(
-            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet, kratos, mercurydpm, "
-            "pfc, demengine) or an --out file name"
+            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet, gsd, kratos, "
+            "mercurydpm, pfc, demengine) or an --out file name"
         )
     out = args.out
     if out is None:
