@@ -463,13 +463,22 @@ pub fn neighbor_pairs_periodic<const D: usize>(
 /// shrink towards the fines, whose stencils then hold a few fines each instead of
 /// hundreds, and the few large particles pay for wide stencils. The choice changes
 /// only the work, never the pairs found.
-fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real) -> Real {
+fn search_cell<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    reach_max: Real,
+    period: Option<&Period<D>>,
+) -> Real {
     let coarse = 2.0 * reach_max;
     let reach_min = reach.iter().cloned().fold(Real::INFINITY, Real::min);
     // (reach_min > 0.0 is false for a NaN too)
     let positive = reach_min > 0.0;
     if !positive || !coarse.is_finite() || reach_max < 1.5 * reach_min {
         return coarse;
+    }
+    if coarse / 16.0 >= 2.0 * reach_min {
+        // beyond the divisors below (size ratios of 16 and more)
+        return search_cell_wide(x, reach, reach_max, reach_min, period);
     }
     // candidates per unit volume: the particles over their bounding box
     let mut lo = x[0];
@@ -534,6 +543,171 @@ fn search_cell<const D: usize>(x: &[Vector<D>], reach: &[Real], reach_max: Real)
     best.1
 }
 
+/// [`search_cell`] at size ratios of 16 and more (a few large particles among fines
+/// 16 to 1000s of times smaller), where the divisors 1 to 16 leave cells that hold
+/// hundreds or thousands of fines. The divisors go on (x 1.5, x 2 in turn) down to the
+/// finest cell, 2 reach_min, or to the smallest cell the grid allows (about 8 cells a
+/// particle: the grid then grows its cells itself), and the cost model of
+/// [`search_cell`] reads the density where the particles are:
+///
+/// - a small particle's candidates: the density of the centres around it (a histogram
+///   of about N/4 cells over the centres' bounding box, read at about 1024 sampled
+///   particles) times its 3^D cells, at most N: a cluster of fines beside one large
+///   particle far away is dense, though the bounding box of all centres is not;
+/// - a large particle's stencil: clamped to the grid (a ball wider than the pack visits
+///   every cell once, its candidates at most N).
+fn search_cell_wide<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    reach_max: Real,
+    reach_min: Real,
+    period: Option<&Period<D>>,
+) -> Real {
+    let n = x.len();
+    let nr = n as Real;
+    let coarse = 2.0 * reach_max;
+    let mut lo = x[0];
+    let mut hi = x[0];
+    for p in x {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    // the grid's extent per axis: the centres', or the whole period on a periodic axis
+    let mut ext = [0.0 as Real; D];
+    let mut wrap = [false; D];
+    for k in 0..D {
+        ext[k] = hi[k] - lo[k];
+        if let Some(per) = period.filter(|per| per.periodic(k)) {
+            ext[k] = per.len[k];
+            wrap[k] = true;
+        }
+        if !ext[k].is_finite() {
+            return coarse;
+        }
+    }
+    // the local density: a histogram of about N/4 cells over the centres' bounding box
+    let mut bbox = 1.0;
+    for k in 0..D {
+        bbox *= (hi[k] - lo[k]).max(2.0 * reach_min);
+    }
+    let mut side_h = (bbox / (0.25 * nr).max(1.0))
+        .powf(1.0 / D as Real)
+        .max(2.0 * reach_min);
+    let mut dims_h = [1usize; D];
+    // (a long thin spread of centres: coarser bins, at most about 4 a particle)
+    let limit = (4 * n + 64) as Real;
+    for _ in 0..64 {
+        let mut total = 1.0;
+        for k in 0..D {
+            total *= ((hi[k] - lo[k]) / side_h).floor() + 1.0;
+        }
+        if total <= limit || !total.is_finite() {
+            break;
+        }
+        side_h *= (total / limit).powf(1.0 / D as Real) * 1.01;
+    }
+    if !side_h.is_finite() {
+        return coarse;
+    }
+    for k in 0..D {
+        dims_h[k] = (((hi[k] - lo[k]) / side_h).floor() as usize).saturating_add(1);
+    }
+    let cells_h = dims_h.iter().product::<usize>();
+    if cells_h > 4 * n + 64 {
+        return coarse;
+    }
+    let cell_h = |p: &Vector<D>| -> usize {
+        (0..D).rev().fold(0usize, |acc, k| {
+            let c = (((p[k] - lo[k]) / side_h) as usize).min(dims_h[k] - 1);
+            acc * dims_h[k] + c
+        })
+    };
+    let mut counts = vec![0u32; cells_h];
+    for p in x {
+        counts[cell_h(p)] += 1;
+    }
+    let vol_h = side_h.powi(D as i32);
+    // as in search_cell (fitted at ratios 1 to 8)
+    const ROW: Real = 10.0;
+    const LARGE: Real = 3.0;
+    const LARGE_ROW: Real = 4.0;
+    const LARGE_FIXED: Real = 300.0;
+    const CELL: Real = 1.0;
+    let stride = (n / 1024).max(1);
+    let sample: Vec<(Real, Real)> = (0..n)
+        .step_by(stride)
+        .map(|i| (reach[i], counts[cell_h(&x[i])] as Real / vol_h))
+        .collect();
+    let scale = nr / sample.len() as Real;
+    let max_cells = (8 * n + 64) as Real;
+    let dims_at = |cell: Real| -> [Real; D] {
+        let mut d = [1.0; D];
+        for k in 0..D {
+            d[k] = if wrap[k] {
+                (ext[k] / cell).floor().max(1.0)
+            } else {
+                (ext[k] / cell).floor() + 1.0
+            };
+        }
+        d
+    };
+    let (ball, rows_frac) = if D == 3 { (0.52, 0.79) } else { (0.79, 1.0) };
+    let cost = |cell: Real| -> Real {
+        let dims = dims_at(cell);
+        let cells: Real = dims.iter().product();
+        let mut volume = 1.0;
+        for e in ext {
+            volume *= e.max(cell);
+        }
+        let density = nr / volume;
+        let small_rows = ROW * 3.0_f64.powi(D as i32 - 1);
+        let mut total = 0.0;
+        for &(r, local) in &sample {
+            total += if r <= 0.5 * cell {
+                (local * (3.0 * cell).powi(D as i32)).min(nr) + small_rows
+            } else {
+                let side = 2.0 * ((r + reach_max) / cell).ceil() + 1.0;
+                let mut span = 1.0;
+                let mut rows = 1.0;
+                for (k, &dk) in dims.iter().enumerate() {
+                    let v = side.min(dk);
+                    span *= v * cell;
+                    if k > 0 {
+                        rows *= v;
+                    }
+                }
+                LARGE * (ball * density * span).min(nr) + LARGE_ROW * rows_frac * rows + LARGE_FIXED
+            };
+        }
+        total * scale + CELL * cells.min(max_cells)
+    };
+    let mut best = (cost(coarse), coarse);
+    let mut s = 1.0;
+    let mut step = 1.5;
+    loop {
+        s *= step;
+        step = if step == 1.5 { 4.0 / 3.0 } else { 1.5 };
+        let mut cell = coarse / s;
+        if cell < 2.0 * reach_min || !cell.is_finite() {
+            break;
+        }
+        // below the grid's smallest cell the grid grows its cells: that cell, then stop
+        let cells: Real = dims_at(cell).iter().product();
+        let capped = cells > max_cells;
+        if capped {
+            cell *= (cells / max_cells).powf(1.0 / D as Real) * 1.01;
+        }
+        let c = cost(cell);
+        if c < best.0 {
+            best = (c, cell);
+        }
+        if capped {
+            break;
+        }
+    }
+    best.1
+}
+
 /// The search behind all three: each particle `i` with `from(i)` (and each large one)
 /// tests the candidates in the cells around it and takes its pairs with j > i, and
 /// those with j < i when `lower(j)` (the partner is never visited itself).
@@ -562,15 +736,120 @@ fn search<const D: usize>(
         return Vec::new();
     }
     let reach_max = reach.iter().cloned().fold(0.0, Real::max);
-    let cell = search_cell(x, reach, reach_max);
-    search_in(x, reach, reach_max, cell, period, sep, from, lower)
+    if let Some(per) = period {
+        let reach_min = reach.iter().cloned().fold(Real::INFINITY, Real::min);
+        if let Some((xg, left)) = unwrap_gaps(x, per, 2.0 * reach_max, reach_min) {
+            let cell = search_cell(&xg, reach, reach_max, left.as_ref());
+            return search_in(
+                x,
+                &xg,
+                reach,
+                reach_max,
+                cell,
+                left.as_ref(),
+                sep,
+                from,
+                lower,
+            );
+        }
+    }
+    let cell = search_cell(x, reach, reach_max, period);
+    search_in(x, x, reach, reach_max, cell, period, sep, from, lower)
+}
+
+/// The periodic axes of `per` along which the centres leave an empty stretch of at
+/// least `cut` (the largest cutoff, 2 reach_max): no pair crosses that stretch, so the
+/// axis can be searched as a bounded one whose ends lie in the stretch. A cluster in a
+/// wide periodic cell (a period above 4 reach_max around one large particle holds few
+/// small ones) then gets a grid over the centres instead of a few coarse cells over the
+/// whole period, capped at about 8 cells a particle.
+///
+/// Returns the positions for the grid, shifted by one period below the middle of each
+/// stretch (so that the occupied part of the axis is one interval), and the axes left
+/// periodic (None: none); None where no axis has such a stretch. The pair distances stay
+/// those of the given positions: the shift only places particles in cells.
+fn unwrap_gaps<const D: usize>(
+    x: &[Vector<D>],
+    per: &Period<D>,
+    cut: Real,
+    reach_min: Real,
+) -> Option<(Vec<Vector<D>>, Option<Period<D>>)> {
+    // bins of a histogram of the centres along the axis; a stretch is its empty bins
+    const BINS: usize = 4096;
+    let mut left = *per;
+    let mut split = [Real::NAN; D];
+    let mut any = false;
+    for k in 0..D {
+        if !per.periodic(k) {
+            continue;
+        }
+        let (lo, len) = (per.lo[k], per.len[k]);
+        // the shift by one period must stay far below a cell (rounding of x + L)
+        if !(len.is_finite() && cut > 0.0 && (lo.abs() + 2.0 * len) < 1e6 * reach_min) {
+            continue;
+        }
+        let w = len / BINS as Real;
+        let mut occupied = vec![false; BINS];
+        for p in x {
+            let b = ((p[k] - lo) / w).clamp(0.0, (BINS - 1) as Real) as usize;
+            occupied[b] = true;
+        }
+        // the longest circular run of empty bins, from just after an occupied one
+        let Some(first) = occupied.iter().position(|&o| o) else {
+            continue;
+        };
+        let (mut best, mut best_start, mut run, mut start) = (0usize, 0usize, 0usize, 0usize);
+        for m in 1..=BINS {
+            let b = (first + m) % BINS;
+            if occupied[b] {
+                if run > best {
+                    (best, best_start) = (run, start);
+                }
+                run = 0;
+            } else {
+                if run == 0 {
+                    start = b;
+                }
+                run += 1;
+            }
+        }
+        // a centre on a bin's edge may be counted in the bin beside: two bins spare
+        if best < 3 || ((best - 2) as Real) * w < cut {
+            continue;
+        }
+        let mid = (best_start + best / 2) % BINS;
+        split[k] = lo + mid as Real * w;
+        left = left.without_axis(k);
+        any = true;
+    }
+    if !any {
+        return None;
+    }
+    let xg = x
+        .iter()
+        .map(|p| {
+            let mut q = *p;
+            for k in 0..D {
+                // (false for the NaN of an axis left as it is)
+                if q[k] < split[k] {
+                    q[k] += per.len[k];
+                }
+            }
+            q
+        })
+        .collect();
+    let still = (0..D).any(|k| left.periodic(k));
+    Some((xg, still.then_some(left)))
 }
 
 /// [`search`] on a grid with cells of side at least `cell` (m); any cell gives the
-/// same pairs. `reach_max` (m) is the largest of `reach`.
+/// same pairs. `reach_max` (m) is the largest of `reach`. `xg` places the particles in
+/// the grid (`x` itself, or `x` shifted by a period along axes searched as bounded, see
+/// [`unwrap_gaps`]); distances are those of `x`.
 #[allow(clippy::too_many_arguments)]
 fn search_in<const D: usize>(
     x: &[Vector<D>],
+    xg: &[Vector<D>],
     reach: &[Real],
     reach_max: Real,
     cell: Real,
@@ -583,9 +862,16 @@ fn search_in<const D: usize>(
     if n < 2 {
         return Vec::new();
     }
-    let grid = CellGrid::build_with(x, cell, period);
-    // a small particle's pairs with small ones lie in the 3^D cells around it
-    let half_cell = 0.5 * grid.cell_size();
+    let grid = CellGrid::build_with(xg, cell, period);
+    // a small particle's pairs with small ones lie in the 3^D cells around it; with
+    // shifted positions, a hair less, so that the shift's rounding never moves a partner
+    // beyond the next cell
+    let shifted = !std::ptr::eq(x, xg);
+    let half_cell = if shifted {
+        0.5 * grid.cell_size() * (1.0 - 1e-9)
+    } else {
+        0.5 * grid.cell_size()
+    };
     // Positions and reaches copied in cell order: a row of cells is then one contiguous
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
@@ -603,6 +889,7 @@ fn search_in<const D: usize>(
             let mut below: Vec<u32> = Vec::new();
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let (xi, reach_i) = (x[i], reach[i]);
+                let gi = xg[i];
                 let mut w = 0usize;
                 if reach_i > half_cell {
                     // large: every partner within reach; a pair with another large
@@ -610,7 +897,7 @@ fn search_in<const D: usize>(
                     // with an active filter: a pair with an active particle
                     let active_i = from(i);
                     let mut wb = 0usize;
-                    grid.for_each_row_within(&xi, reach_i + reach_max, |run| {
+                    grid.for_each_row_within(&gi, reach_i + reach_max, |run| {
                         if mine.len() < w + run.len() {
                             mine.resize(w + run.len(), 0);
                         }
@@ -640,7 +927,7 @@ fn search_in<const D: usize>(
                     // Branch-free: every candidate is written to the next slot, and the
                     // count advances only for a small partner above i within the cutoff
                     // (a branch there went either way and mispredicted).
-                    grid.for_each_row(&xi, |run| {
+                    grid.for_each_row(&gi, |run| {
                         if mine.len() < w + run.len() {
                             mine.resize(w + run.len(), 0);
                         }
@@ -850,10 +1137,10 @@ mod tests {
             let cell = 2.0 * reach_max / s;
             let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::new(side, 1.0, 1.0), &[true, true, false]);
             let (pairs, expect) = if periodic {
-                (search_in(&x, &reach, reach_max, cell, Some(&per), |d| per.image(d), |_| true, |_| false),
+                (search_in(&x, &x, &reach, reach_max, cell, Some(&per), |d| per.image(d), |_| true, |_| false),
                  brute_force_pairs_periodic(&x, &reach, &per))
             } else {
-                (search_in(&x, &reach, reach_max, cell, None, |d| d, |_| true, |_| false),
+                (search_in(&x, &x, &reach, reach_max, cell, None, |d| d, |_| true, |_| false),
                  brute_force_pairs(&x, &reach))
             };
             prop_assert_eq!(&pairs, &expect);
@@ -862,15 +1149,66 @@ mod tests {
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
             let sep = |d| if periodic { per.image(d) } else { d };
-            let pairs = search_in(&x, &reach, reach_max, cell, periodic.then_some(&per), sep,
+            let pairs = search_in(&x, &x, &reach, reach_max, cell, periodic.then_some(&per), sep,
                                   |i| active[i], |j| !active[j]);
             prop_assert_eq!(pairs, expect);
             let (x2, reach2) = cloud::<2>(seed, n, ratio, skin);
             let reach_max2 = reach2.iter().cloned().fold(0.0, Real::max);
             let cell2 = 2.0 * reach_max2 / s;
             let per2 = Period::new(&Vector::<2>::zeros(), &Vector::<2>::repeat(1.0), &[true, false]);
-            prop_assert_eq!(search_in(&x2, &reach2, reach_max2, cell2, Some(&per2), |d| per2.image(d), |_| true, |_| false),
+            prop_assert_eq!(search_in(&x2, &x2, &reach2, reach_max2, cell2, Some(&per2), |d| per2.image(d), |_| true, |_| false),
                             brute_force_pairs_periodic(&x2, &reach2, &per2));
+        }
+
+        /// One particle 16 to 1000 times larger than a cluster of fines that touches it
+        /// (the fines' cells a few of their diameters, the large one's stencil clamped
+        /// to the grid): the brute-force pairs, in a box and in a periodic cell wider than
+        /// 4 large radii, where the fines leave most of the period empty (the search
+        /// then treats the axis as bounded) and may straddle the seam; 3D and 2D.
+        #[test]
+        fn one_large_particle_among_fines_gives_the_brute_force_pairs(
+            seed in 0u64..10_000, n in 2usize..400, ratio in 16.0f64..1000.0,
+            periodic in proptest::bool::ANY, at in 0.0f64..1.0, skin in 0.0f64..0.004) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let big = 0.01 * ratio;
+            let period = 4.5 * big;
+            let side = 0.02 * (n as f64).cbrt().max(1.0);
+            // the cluster's corner: anywhere along the period (across the seam too)
+            let corner = at * period;
+            let mut x3: Vec<Vector<3>> = (0..n)
+                .map(|_| Vector::<3>::new(
+                    corner + side * rng.random::<f64>(),
+                    corner + side * rng.random::<f64>(),
+                    big + side * rng.random::<f64>(),
+                ))
+                .collect();
+            x3.push(Vector::<3>::new(corner + 0.5 * side, corner + 0.5 * side, 0.0));
+            let mut reach: Vec<Real> = (0..n).map(|_| 0.01 + skin * rng.random::<f64>()).collect();
+            reach.push(big);
+            let per3 = Period::new(&Vector::<3>::zeros(), &Vector::<3>::new(period, period, 1.0), &[true, true, false]);
+            if periodic {
+                let xw: Vec<Vector<3>> = x3.iter().map(|p| per3.wrap(*p)).collect();
+                prop_assert_eq!(neighbor_pairs_periodic(&xw, &reach, Some(&per3)),
+                                brute_force_pairs_periodic(&xw, &reach, &per3));
+                let active: Vec<bool> = (0..=n).map(|k| k % 3 != 0).collect();
+                let expect: Vec<[u32; 2]> = brute_force_pairs_periodic(&xw, &reach, &per3)
+                    .into_iter()
+                    .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                    .collect();
+                prop_assert_eq!(neighbor_pairs_active(&xw, &reach, Some(&per3), |i| active[i]), expect);
+            } else {
+                prop_assert_eq!(neighbor_pairs(&x3, &reach), brute_force_pairs(&x3, &reach));
+            }
+            let x2: Vec<Vector<2>> = x3.iter().map(|p| Vector::<2>::new(p[0], p[2])).collect();
+            let per2 = Period::new(&Vector::<2>::zeros(), &Vector::<2>::new(period, 1.0), &[true, false]);
+            if periodic {
+                let xw: Vec<Vector<2>> = x2.iter().map(|p| per2.wrap(*p)).collect();
+                prop_assert_eq!(neighbor_pairs_periodic(&xw, &reach, Some(&per2)),
+                                brute_force_pairs_periodic(&xw, &reach, &per2));
+            } else {
+                prop_assert_eq!(neighbor_pairs(&x2, &reach), brute_force_pairs(&x2, &reach));
+            }
         }
 
         #[test]
@@ -879,6 +1217,35 @@ mod tests {
             let (x, reach) = cloud::<2>(seed, n, ratio, skin);
             prop_assert_eq!(neighbor_pairs(&x, &reach), brute_force_pairs(&x, &reach));
         }
+    }
+
+    #[test]
+    fn a_cluster_in_a_wide_periodic_cell_is_searched_as_bounded() {
+        // a cluster across the seam of x, spread over the whole period along y
+        let per = Period::new(
+            &Vector::<3>::zeros(),
+            &Vector::<3>::new(10.0, 1.0, 1.0),
+            &[true, true, false],
+        );
+        let x: Vec<Vector<3>> = (0..50)
+            .map(|k| Vector::<3>::new(if k % 2 == 0 { 0.01 } else { 9.99 }, k as f64 / 50.0, 0.5))
+            .collect();
+        let (xg, left) = unwrap_gaps(&x, &per, 0.5, 0.01).expect("a gap along x");
+        let left = left.expect("y stays periodic");
+        assert!(!left.periodic(0) && left.periodic(1) && !left.periodic(2));
+        // one interval along x: the particles below the gap moved up by the period
+        let (lo, hi) = xg
+            .iter()
+            .fold((Real::INFINITY, Real::NEG_INFINITY), |(l, h), p| {
+                (l.min(p[0]), h.max(p[0]))
+            });
+        assert!(hi - lo < 0.05, "{lo} {hi}");
+        assert!(unwrap_gaps(&x, &per, 9.99, 0.01).is_none());
+        let r = vec![0.011; 50];
+        assert_eq!(
+            neighbor_pairs_periodic(&x, &r, Some(&per)),
+            brute_force_pairs_periodic(&x, &r, &per)
+        );
     }
 
     #[test]

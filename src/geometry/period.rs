@@ -33,6 +33,13 @@ impl<const D: usize> Period<D> {
         Period { lo: *lo, len, inv }
     }
 
+    /// The same cell with axis `k` no longer periodic.
+    pub fn without_axis(mut self, k: usize) -> Self {
+        self.len[k] = 0.0;
+        self.inv[k] = 0.0;
+        self
+    }
+
     /// Whether axis `k` is periodic.
     #[inline(always)]
     pub fn periodic(&self, k: usize) -> bool {
