@@ -292,6 +292,68 @@ def test_kratos_round_trip_keeps_positions_radii_and_container(pack, tmp_path):
     assert "Begin SubModelPart DEMParts_Body" in text
 
 
+# a sphere model part as Kratos' own DEM tools write one (DEMApplication's
+# mesh_to_mdpa_converter.py: fixed-width numbers, a Properties block with variables,
+# continuum elements, more nodal data; the GiD interface's comment after a block name)
+_KRATOS_TOOLS_FILE = """\
+Begin ModelPartData
+//  VARIABLE_NAME value
+End ModelPartData
+
+Begin Properties 1
+PARTICLE_DENSITY 2650.0
+YOUNG_MODULUS 8.03e7
+DEM_CONTINUUM_CONSTITUTIVE_LAW_NAME DEM_KDEM_with_damage_parallel_bond_Hertz //_Hertz
+End Properties
+
+Begin Nodes
+7   0.10000000   0.20000000   0.30000000
+3   0.00000000   0.00000000   0.05000000
+5   1.00000000   1.00000000   1.00000000
+End Nodes
+
+Begin Elements SphericContinuumParticle3D// GUI group identifier: dem
+1 1 7
+2 1 3
+End Elements
+
+Begin NodalData RADIUS
+7 0   0.05000000
+3 0   0.04000000
+End NodalData
+
+Begin NodalData COHESIVE_GROUP
+7 0 1
+3 0 1
+End NodalData
+
+Begin SubModelPart PartsCont_dem // Group dem // Subtree PartsCont
+    Begin SubModelPartNodes
+7
+3
+End SubModelPartNodes
+    Begin SubModelPartElements
+1
+2
+End SubModelPartElements
+    Begin SubModelPartConditions
+    End SubModelPartConditions
+End SubModelPart
+"""
+
+
+def test_a_model_part_from_kratos_dem_tools_reads(tmp_path):
+    path = tmp_path / "toolsDEM.mdpa"
+    path.write_text(_KRATOS_TOOLS_FILE)
+    p = gp.read_particles(path)
+    assert p.format == "kratos" and p.dim == 3
+    # the spheres are the element nodes (5 is no sphere), sorted by id
+    assert p.ids.tolist() == [3, 7]
+    np.testing.assert_array_equal(p.positions, [[0.0, 0.0, 0.05], [0.1, 0.2, 0.3]])
+    np.testing.assert_array_equal(p.radii, [0.04, 0.05])
+    assert p.container is None and p.box is None
+
+
 def test_mdpa_is_told_by_suffix_and_content(tmp_path):
     pack = gp.generate(small_scene(3).fast())
     path = export(pack, tmp_path / "pack.mdpa")[0]
@@ -384,7 +446,9 @@ def test_a_bad_model_part_is_a_file_format_error_naming_the_line(mdpa_text, case
     text, line, words = _bad(mdpa_text, case)
     path = tmp_path / "bad.mdpa"
     path.write_text(text)
-    for read in (read_kratos, gp.read_particles):
+    # another format's whole content is that format's by its content; read as Kratos,
+    # it is refused
+    for read in (read_kratos, lambda f: gp.read_particles(f, format="kratos")):
         with pytest.raises(FileFormatError) as exc:
             read(path)
         assert exc.value.path == path
