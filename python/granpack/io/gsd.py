@@ -62,7 +62,7 @@ from .._validate import FileFormatError, GranpackError, InvalidParameterError, s
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ..particles import ParticleFile
+from .particle_file import ParticleFile
 
 if TYPE_CHECKING:
     from ..pack import Pack
