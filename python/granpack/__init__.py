@@ -8,7 +8,6 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
 from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
-from .contact_files import ContactFile, read_contacts
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -20,8 +19,8 @@ from .errors import (
     UnstableTimeStepError,
 )
 from .grading import Grading, realised_grading, target_grading
+from .io import ContactFile, ParticleFile, read_contacts, read_particles
 from .pack import Pack, UnsettledPackWarning, generate, load_pack
-from .particles import ParticleFile, read_particles
 from .scene import PRESETS, PackScene
 from .tile import tile
 

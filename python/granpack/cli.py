@@ -40,9 +40,9 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import GranpackError, InvalidParameterError, check_outputs
-from .contact_files import LAYOUTS as CONTACT_LAYOUTS
 from .container_tag import CONTAINER_KINDS
-from .particles import FORMATS
+from .io import FORMATS
+from .io import LAYOUTS as CONTACT_LAYOUTS
 
 __all__ = ["main", "build_parser"]
 
@@ -997,7 +997,7 @@ def paper_phi() -> dict[tuple[str, bool], list[float]]:
 def _load_for_analysis(args, console: _Console):
     """(particles, microstructure kwargs) for any file read_particles reads; kwargs
     replace the file's box when --box is given."""
-    from .particles import detect_format, read_particles
+    from .io import detect_format, read_particles
 
     path: Path = args.file
     fmt = args.format or detect_format(path)
@@ -1007,7 +1007,7 @@ def _load_for_analysis(args, console: _Console):
     for note in particles.notes:
         console.note(note, path.name)
     if args.contacts is not None:
-        from .contact_files import read_contacts
+        from .io import read_contacts
 
         found = read_contacts(args.contacts, particles, layout=args.contact_layout)
         for note in found.notes:
@@ -1158,7 +1158,8 @@ def cmd_analyze(args, console: _Console) -> int:
 
 
 def cmd_export(args, console: _Console) -> int:
-    from .export import FORMATS, export
+    from .io import EXPORT_FORMATS as FORMATS
+    from .io import export
     from .pack import load_pack
 
     fmt = args.format

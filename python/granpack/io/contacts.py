@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import FileFormatError, InvalidParameterError, is_number, short_repr
-from .analysis.inputs import check_contacts_touch
-from .contacts import Contacts
-from .particles import ParticleFile
+from .._validate import FileFormatError, InvalidParameterError, is_number, short_repr
+from ..analysis.inputs import check_contacts_touch
+from ..contacts import Contacts
+from .particle_file import ParticleFile
 
 __all__ = ["LAYOUTS", "COLUMN_NAMES", "ContactFile", "read_contacts"]
 
@@ -290,7 +290,7 @@ def read_contacts(
             parameter="snapshot",
             value=snapshot,
         )
-    from .io._text import _read_text
+    from ._text import _read_text
 
     lines = _read_text(path).splitlines()
     blocks = _scan(path, lines)

@@ -18,7 +18,7 @@ from .._validate import (
     is_number,
 )
 from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of, lammps_input, liggghts_input
+from ..dem_input import SNIPPET_NAME, container_of, lammps_input, liggghts_input
 from ..pack import atomic_write
 
 if TYPE_CHECKING:
@@ -201,7 +201,7 @@ def _scan_dump(path: Path, lines: list[str]) -> list[_Snapshot]:
     return snaps
 
 
-def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
+def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     lines = _read_text(path).splitlines()
     snaps = _scan_dump(path, lines)
     n_snap = len(snaps)
@@ -329,7 +329,7 @@ def _read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     )
 
 
-def _read_data(path: Path, dim: int | None) -> ParticleFile:
+def read_data(path: Path, dim: int | None) -> ParticleFile:
 
     data = read_lammps_data(path)
     x3 = data["positions"]
@@ -744,3 +744,21 @@ def read_lammps_data(path: str | Path) -> dict:
         "style": style,
         "title": lines[0],
     }
+
+
+def _write_with_input(pack: Pack, path: str | Path, code: str) -> list[Path]:
+    path = Path(path)
+    # the input first: it refuses a 2D pack for LIGGGHTS before anything is written
+    text = input_text(pack, path.name, code)
+    return [write_lammps(pack, path), atomic_write(path.with_name(SNIPPET_NAME), text.encode())]
+
+
+def write_lammps_files(pack: Pack, path: str | Path) -> list[Path]:
+    """The data file at `path` and ``in.granpack`` beside it, the LAMMPS input that
+    continues the run (`granpack.dem_input`)."""
+    return _write_with_input(pack, path, "lammps")
+
+
+def write_liggghts_files(pack: Pack, path: str | Path) -> list[Path]:
+    """The data file at `path` and ``in.granpack`` beside it, the LIGGGHTS input (3D)."""
+    return _write_with_input(pack, path, "liggghts")

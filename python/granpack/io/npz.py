@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 from .particle_file import ParticleFile
 
 
-def _read_npz(path: Path, dim: int | None) -> ParticleFile:
+def read_npz(path: Path, dim: int | None) -> ParticleFile:
     from ..dem_input import container_of
     from ..pack import load_pack
 

@@ -248,3 +248,15 @@ def write_parquet(pack: Pack, path: str | Path) -> list[Path]:
         df.write_parquet(buf, metadata={"granpack": f"dim={pack.dim} {_tag(pack)}"})
         out.append(atomic_write(target, buf.getvalue()))
     return out
+
+
+def read_csv(path: Path, dim: int | None = None) -> ParticleFile:
+    """A CSV table of particles (columns in `read_particles`' notes), with the container
+    tag of granpack's export where the file has it."""
+    return _read_table(Path(path), "csv", dim)
+
+
+def read_parquet(path: Path, dim: int | None = None) -> ParticleFile:
+    """A Parquet table of particles, with the container tag in its metadata where
+    granpack's export wrote one."""
+    return _read_table(Path(path), "parquet", dim)

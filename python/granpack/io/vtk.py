@@ -278,3 +278,9 @@ def write_vtk_container(pack: Pack, path: str | Path) -> Path:
         "",
     ]
     return atomic_write(Path(path), "\n".join(lines).encode())
+
+
+def write_vtk_files(pack: Pack, path: str | Path) -> list[Path]:
+    """The particles' VTK file at `path` and the container's beside it
+    (``<stem>.container.vtu``)."""
+    return [write_vtk(pack, path), write_vtk_container(pack, container_path(path))]

@@ -97,7 +97,7 @@ _XYZ_TRUE = ("T", "TRUE")
 _XYZ_FALSE = ("F", "FALSE")
 
 
-def _read_extxyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
+def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     """Extended XYZ, one or more frames, each: the count, the comment line with
     ``Properties=`` (and optionally an orthogonal ``Lattice``, ``Origin``, ``pbc``), then
     the rows. Frame `snapshot` is read (-1: the last), as a dump's snapshot."""

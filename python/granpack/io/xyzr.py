@@ -11,7 +11,7 @@ if TYPE_CHECKING:
 from .particle_file import ParticleFile
 
 
-def _read_xyzr(path: Path, dim: int | None) -> ParticleFile:
+def read_xyzr_file(path: Path, dim: int | None) -> ParticleFile:
     from ..analysis import read_xyzr
 
     x, r, d = read_xyzr(path, dim=dim)

@@ -40,7 +40,7 @@ _YADE_HEADER = re.compile(r"^#\s*format\s+(\S+)\s*$")
 YADE_LAYOUTS = ("x_y_z_r", "x_y_z_r_matId", "id_x_y_z_r_matId")
 
 
-def _read_yade(path: Path, dim: int | None) -> ParticleFile:
+def read_yade(path: Path, dim: int | None) -> ParticleFile:
     """YADE's text export: the ``#format`` header names the columns."""
     lines = _read_text(path).splitlines()
     k0 = next((k for k, ln in enumerate(lines) if ln.strip()), None)
