@@ -36,7 +36,8 @@ Read it with ``pandas.read_csv(path, comment="#", dtype={"name": str})``.
 
 2D packs lie in the plane z = 0 (DEM-Engine is 3D). A periodic pack's centres are
 wrapped into [0, L). Numbers are written at full precision (``repr``); DEM-Engine reads
-them as single-precision floats.
+them as single-precision floats (its CSV parser, ``src/core/utils/csv.hpp``, sums the
+digits in single precision: within a few units in the last place).
 """
 
 from __future__ import annotations
