@@ -63,6 +63,18 @@ def pack(request) -> gp.Pack:
     return gp.generate(scene.fast())
 
 
+def test_a_missing_peer_package_skips_here_and_fails_where_required(monkeypatch):
+    from conftest import peer_module
+
+    monkeypatch.delenv("GRANPACK_PEERS", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="pip install nosuch"):
+        peer_module("granpack_no_such_module", "nosuch")
+    monkeypatch.setenv("GRANPACK_PEERS", "required")
+    with pytest.raises(pytest.fail.Exception, match="GRANPACK_PEERS=required"):
+        peer_module("granpack_no_such_module", "nosuch")
+    assert peer_module("numpy", "numpy") is np
+
+
 # -- the gsd export --------------------------------------------------------------------------
 
 
@@ -329,7 +341,8 @@ def test_damaged_and_foreign_gsd_files_are_refused_naming_frame_and_chunk(
             traj.append(_frame(gsd_hoomd, x, d, box))
         _refused(path, match)
     # a gsd file of another schema, a frame the file does not hold, a damaged tag
-    gsd_fl = pytest.importorskip("gsd.fl")
+    import gsd.fl as gsd_fl
+
     other = tmp_path / "other.gsd"
     with gsd_fl.open(str(other), "w", application="t", schema="mine", schema_version=[1, 0]) as f:
         f.write_chunk("particles/N", np.array([1], np.uint32))
@@ -344,6 +357,29 @@ def test_damaged_and_foreign_gsd_files_are_refused_naming_frame_and_chunk(
         frame.log = {"granpack/container": "dim=3 container=sphere"}
         traj.append(frame)
     _refused(path, "frame 1, chunk log/granpack/container: container='sphere'")
+
+
+def test_a_changed_byte_gives_particles_or_a_file_format_error(gsd_hoomd, tmp_path):
+    # gsd has no checksums: a changed value in the data reads as that value, anything
+    # else is refused; never another error
+    pack = gp.generate(small_scene(3).replace(height=0.1).fast())
+    good = write_gsd(pack, tmp_path / "good.gsd").read_bytes()
+    rng = np.random.default_rng(7)
+    path = tmp_path / "bad.gsd"
+    refused = 0
+    for _ in range(60):
+        data = bytearray(good)
+        for k in rng.integers(0, len(data), size=int(rng.integers(1, 6))):
+            data[k] = int(rng.integers(0, 256))
+        path.write_bytes(bytes(data))
+        try:
+            p = gp.read_particles(path, format="gsd")
+        except gp.FileFormatError as e:
+            assert str(path) in str(e)
+            refused += 1
+        else:
+            assert len(p) == len(pack) and np.all(p.radii > 0)
+    assert refused > 0
 
 
 # -- OVITO ------------------------------------------------------------------------------------
