@@ -192,6 +192,25 @@ def test_contacts_touching_within_the_printed_precision_still_read(tmp_path):
     assert len(gp.read_contacts(path, p)) == m
 
 
+def test_contacts_of_single_precision_positions_still_touch():
+    """Positions stored as float32 (7 digits): barely touching pairs move apart by up to
+    half a float32 unit per coordinate, which the check allows for."""
+    rng = np.random.default_rng(8)
+    m = 300
+    a = rng.uniform(0.2, 0.8, (m, 3)) + np.arange(m)[:, None] * np.array([0.1, 0.0, 0.0])
+    u = rng.normal(size=(m, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    x = np.empty((2 * m, 3))
+    x[0::2], x[1::2] = a, a + u * 2 * R * (1 - 1e-9)
+    x = x.astype(np.float32).astype(float)
+    r = np.full(2 * m, R)
+    gaps = np.linalg.norm(x[1::2] - x[0::2], axis=1) - 2 * R
+    assert gaps.max() > 1e-6 * R
+    pairs = {"i": np.arange(0, 2 * m, 2), "j": np.arange(1, 2 * m, 2), "normal": u}
+    m_ = gp.microstructure(positions=x, radii=r, contacts=pairs, core_margin=0.0)
+    assert m_.n_contacts == m
+
+
 def test_analyze_with_contacts_of_another_run_exits_with_the_message(tmp_path, capsys):
     x, r, box, pairs = lattice()
     atoms = atoms_dump(tmp_path / "atoms.dump", x, r, box)

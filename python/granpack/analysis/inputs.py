@@ -234,11 +234,22 @@ def _resolution(values, p: int) -> np.ndarray:
     return np.where(np.isfinite(out), out, 0.0)
 
 
+def _float32_resolution(values) -> np.ndarray:
+    """Half a float32 unit in the last place of each value where every value is a float32
+    (positions stored or computed in single precision), else 0."""
+    a = np.asarray(values, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        single = a.astype(np.float32)
+        if not np.array_equal(single.astype(float), a):
+            return np.zeros_like(a)
+        return 0.5 * np.spacing(np.abs(single)).astype(float)
+
+
 def _position_resolution(x: np.ndarray, box, p: int) -> np.ndarray:
     """(N, D) how far each coordinate may lie from the value the file meant: half a unit
     in the last of `p` printed digits, or in the last digit of the fractions of the box
     (LAMMPS' scaled coordinates xs, ys, zs), whichever the file printed."""
-    res = _resolution(x, p)
+    res = np.maximum(_resolution(x, p), _float32_resolution(x))
     if box is not None:
         try:
             lo = np.asarray(box[0], dtype=float).ravel()
@@ -278,8 +289,9 @@ def check_contacts_touch(
 
     A pair is a contact where |x_j - x_i| (the minimum image across periodic axes) is at
     most r_i + r_j plus a tolerance: `CONTACT_GAP_TOLERANCE` of the smaller radius, plus
-    what the printed precision of the positions and radii allows (half a unit in their
-    last digit, counted from the values themselves), plus rounding. A wall contact
+    what the precision of the positions and radii allows (half a unit in the last
+    printed digit, the digits counted from the values themselves; half a float32 unit
+    where every value is a float32), plus rounding. A wall contact
     (j < 0) is checked against the wall's distance where the walls are known (`walls`,
     with `container`): the floor, a box side, the cylinder; a wall id that this
     container does not have is refused.
@@ -323,7 +335,7 @@ def check_contacts_touch(
     # values, such as one radius for all, have fewer than the file printed)
     digits = max(_digits(x), _digits(r))
     res_x = _position_resolution(x, box, digits)
-    res_r = _resolution(r, digits)
+    res_r = np.maximum(_resolution(r, digits), _float32_resolution(r))
     big = float(np.max(np.abs(x))) + float(np.max(r)) + float(np.max(per[finite], initial=0.0))
     rounding = 64.0 * np.finfo(float).eps * big
 
