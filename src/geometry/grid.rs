@@ -545,9 +545,9 @@ fn search_cell<const D: usize>(
 
 /// [`search_cell`] at size ratios of 16 and more (a few large particles among fines
 /// 16 to 1000s of times smaller), where the divisors 1 to 16 leave cells that hold
-/// hundreds or thousands of fines. The divisors go on (x 1.5, x 2 in turn) down to the
-/// finest cell, 2 reach_min, or to the smallest cell the grid allows (about 8 cells a
-/// particle: the grid then grows its cells itself), and the cost model of
+/// hundreds or thousands of fines. The divisors go on (1.5, 2, 3, 4, 6, 8, 12, ...) down
+/// to the finest cell, 2 reach_min, or to the smallest cell the grid allows (about 8
+/// cells a particle: the grid then grows its cells itself), and the cost model of
 /// [`search_cell`] reads the density where the particles are:
 ///
 /// - a small particle's candidates: the density of the centres around it (a histogram
