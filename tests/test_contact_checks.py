@@ -345,3 +345,35 @@ def test_a_wall_the_container_does_not_have_is_refused():
     m2 = {"i": np.array([q]), "j": np.array([-4]), "normal": np.array([[0.0, -1.0]])}
     with pytest.raises(gp.InvalidParameterError, match="wall id -4, which the box container"):
         gp.microstructure(positions=x2, radii=r2, contacts=m2, box=(lo[[0, 2]], hi[[0, 2]]))
+
+
+def test_contacts_across_a_periodic_vertical_side_are_named_as_such(tmp_path):
+    """A fully periodic dump (pp pp pp): read_contacts takes the pairs across the vertical
+    seam by the file's minimum image; the analysis bounds the vertical axis, so
+    with_contacts refuses them, saying why."""
+    x, r, box, pairs = lattice(periodic=True)
+    lo, hi = box
+    hi = hi.copy()
+    hi[2] = lo[2] + N_SIDE[2] * SPACING + R - 0.5 * SPACING
+    lo = lo.copy()
+    lo[2] = R - 0.5 * SPACING
+    g = np.round((x - x.min(axis=0)) / SPACING).astype(int)
+    top = np.flatnonzero(g[:, 2] == N_SIDE[2] - 1)
+    across = np.array(
+        [(k, int(np.flatnonzero((g[:, :2] == g[k, :2]).all(1) & (g[:, 2] == 0))[0])) for k in top]
+    )
+    path = tmp_path / "atoms.dump"
+    atoms_dump(path, x, r, (lo, hi), periodic=True)
+    path.write_text(path.read_text().replace("pp pp ff", "pp pp pp"))
+    p = gp.read_particles(path)
+    periods = hi - lo
+    both = np.vstack([pairs, across])
+    found = gp.read_contacts(
+        contact_dump(
+            tmp_path / "pairs.dump", "liggghts", x, both, both[:, 0] + 1, both[:, 1] + 1, periods
+        ),
+        p,
+    )
+    assert len(found) == len(both)
+    with pytest.raises(gp.FileFormatError, match="across the file's periodic z side"):
+        p.with_contacts(found)

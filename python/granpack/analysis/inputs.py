@@ -282,6 +282,7 @@ def check_contacts_touch(
     lines=None,
     ids=None,
     what: str = "contacts",
+    file_periods=None,
 ) -> None:
     """Refuses contacts whose two particles (or particle and wall) do not touch: the one
     check of every contact table the analysis is given, read from a file or passed as
@@ -312,6 +313,10 @@ def check_contacts_touch(
         The file the contacts came from: the error is then a FileFormatError naming it
         (with `lines`, the line of each contact; `ids`, the particles' ids there).
         Otherwise an InvalidParameterError naming `what`.
+    file_periods : (D,) float, optional
+        The periods the positions' file declares (inf where none): a pair that touches
+        only across one the container does not repeat (a dump's periodic vertical axis)
+        is named as such.
 
     Raises
     ------
@@ -408,6 +413,21 @@ def check_contacts_touch(
             f"{' by minimum image' if np.any(finite) else ''}, r_i + r_j = "
             f"{r[a] + r[b]:.6g} m; at most {tol[k]:.2g} m allowed)"
         )
+        if file_periods is not None:
+            fp = np.asarray(file_periods, dtype=float)
+            extra = np.isfinite(fp) & ~finite
+            if np.any(extra):
+                dxf = x[b] - x[a]
+                on = np.isfinite(fp) | finite
+                both = np.where(np.isfinite(fp), fp, per)
+                dxf[on] -= both[on] * np.round(dxf[on] / both[on])
+                if np.linalg.norm(dxf) - (r[a] + r[b]) <= tol[k]:
+                    axes = ", ".join("xyz"[q] for q in np.flatnonzero(extra))
+                    what_k += (
+                        f"; they touch across the file's periodic {axes} side, which the "
+                        "analysis does not repeat (it bounds the vertical axis by the floor "
+                        "and the open top)"
+                    )
     elif wall_missing[k]:
         kind = container.kind if container is not None else "box"
         what_k = (

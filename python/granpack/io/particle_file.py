@@ -127,6 +127,11 @@ class ParticleFile:
         container, walls = analysis_container(self)
         source = getattr(contacts, "path", None)
         ids = self.ids if self.ids is not None else np.arange(1, len(self) + 1)
+        file_periods = None
+        if self.periodic is not None and self.box is not None:
+            size = np.asarray(self.box[1], dtype=float) - np.asarray(self.box[0], dtype=float)
+            flags = list(self.periodic)[: self.dim] + [False] * self.dim
+            file_periods = np.where(flags[: self.dim], size, np.inf)
         check_contacts_touch(
             c.i,
             c.j,
@@ -137,6 +142,7 @@ class ParticleFile:
             box=self.box,
             path=source,
             ids=ids if source is not None else None,
+            file_periods=file_periods,
         )
         notes = self.notes + tuple(getattr(contacts, "notes", ()))
         return ParticleFile(
