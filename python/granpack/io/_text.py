@@ -10,13 +10,14 @@ import numpy as np
 
 from .._validate import (
     FileFormatError,
+    InvalidParameterError,
+    short_repr,
 )
 from ..container_tag import ContainerTag, container_tag, parse_container_tag
 from ..dem_input import container_of
 
 if TYPE_CHECKING:
     from ..pack import Pack
-from .particle_file import ParticleFile  # noqa: F401
 
 _RADIUS_NAMES = ("radius", "r")
 
@@ -199,3 +200,20 @@ def _tag(pack: Pack) -> str:
     """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top))."""
     lo, hi = pack.box
     return container_tag(*container_of(pack), lo, hi)
+
+
+def _read_args(snapshot, dim) -> int:
+    """Checks a reader's `snapshot` (an integer) and `dim` (None, 2 or 3); returns the
+    snapshot as an int."""
+    if isinstance(snapshot, bool) or not isinstance(snapshot, int | np.integer):
+        raise InvalidParameterError(
+            f"invalid snapshot = {short_repr(snapshot)}: must be an integer (0 the first, "
+            "-1 the last)",
+            parameter="snapshot",
+            value=snapshot,
+        )
+    if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
+        raise InvalidParameterError(
+            f"invalid dim = {short_repr(dim)}: must be None, 2 or 3", parameter="dim", value=dim
+        )
+    return int(snapshot)

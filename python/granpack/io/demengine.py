@@ -53,6 +53,7 @@ from .._validate import InvalidParameterError
 from ..container_tag import container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
+from ._text import _pad3
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -178,7 +179,7 @@ def write_demengine(
             batch->SetVel(vel[name]);
         }
     """
-    from ..export import lammps_positions
+    from .lammps import lammps_positions
 
     path = Path(path)
     s = pack.scene
@@ -186,14 +187,8 @@ def write_demengine(
     n = len(pack)
     x = lammps_positions(pack)
     r = np.asarray(pack.radii, dtype=np.float64)
-    v = np.zeros((n, 3))
-    v[:, :d] = np.asarray(pack.velocities, dtype=np.float64)
-    spins = np.asarray(pack.spins, dtype=np.float64)
-    w = np.zeros((n, 3))
-    if spins.ndim == 1:
-        w[:, 2] = spins
-    else:
-        w[:, :] = spins
+    v = _pad3(pack.velocities)
+    w = _pad3(pack.spins)  # 2D: the spin about z
     templates, index, err = sphere_templates(r, max_templates)
     names = [f"{k:04d}" for k in range(len(templates))]
     rho = float(s.material.density)

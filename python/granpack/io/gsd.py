@@ -58,10 +58,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
+from .._validate import FileFormatError, GranpackError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
+from ._text import _read_args
 from .particle_file import ParticleFile
 
 if TYPE_CHECKING:
@@ -299,17 +300,7 @@ def read_gsd(path: str | Path, dim: int | None = None, snapshot: int = -1) -> Pa
         The ``gsd`` package is not installed.
     """
     path = Path(path)
-    if isinstance(snapshot, bool) or not isinstance(snapshot, int | np.integer):
-        raise InvalidParameterError(
-            f"invalid snapshot = {short_repr(snapshot)}: must be an integer (0 the first, "
-            "-1 the last)",
-            parameter="snapshot",
-            value=snapshot,
-        )
-    if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
-        raise InvalidParameterError(
-            f"invalid dim = {short_repr(dim)}: must be None, 2 or 3", parameter="dim", value=dim
-        )
+    snapshot = _read_args(snapshot, dim)
     gsd = _gsd_fl()
     _check_head(path)
     try:

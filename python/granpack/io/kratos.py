@@ -53,10 +53,11 @@ from .._validate import FileFormatError, InvalidParameterError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
+from ._text import _pad3, _read_text
 
 if TYPE_CHECKING:
     from ..pack import Pack
-    from ..particles import ParticleFile
+    from .particle_file import ParticleFile
 
 __all__ = ["write_kratos", "read_kratos", "ELEMENT_3D", "ELEMENT_2D", "SUB_MODEL_PART"]
 
@@ -89,21 +90,15 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
     variables (the DEM solver adds them); name it ``<problem>DEM.mdpa`` for Kratos' DEM
     analysis stage.
     """
-    from ..export import lammps_positions
+    from .lammps import lammps_positions
 
     s = pack.scene
     d = s.dim
     n = len(pack)
     x = lammps_positions(pack)
     r = np.asarray(pack.radii, dtype=np.float64)
-    v = np.zeros((n, 3))
-    v[:, :d] = np.asarray(pack.velocities, dtype=np.float64)
-    w = np.zeros((n, 3))
-    spins = np.asarray(pack.spins, dtype=np.float64)
-    if spins.ndim == 1:
-        w[:, 2] = spins
-    else:
-        w[:, :] = spins
+    v = _pad3(pack.velocities)
+    w = _pad3(pack.spins)  # 2D: the spin about z
     ids = np.arange(1, n + 1)
     kind, radius = container_of(pack)
     lo, hi = pack.box
@@ -166,19 +161,6 @@ def _fail(path: Path, line: int, what: str) -> FileFormatError:
     return FileFormatError(f"{path}:{line}: {what}", path=path, reason=what)
 
 
-def _read_lines(path: Path) -> list[str]:
-    try:
-        return path.read_text(encoding="utf-8-sig").splitlines()
-    except FileNotFoundError:
-        raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(
-            f"cannot read {path}: not a text file (byte {exc.start} is not UTF-8)", path=path
-        ) from None
-    except OSError as exc:
-        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
-
-
 def _numbers(path: Path, line: int, fields: list[str], names: str) -> list[float]:
     out = []
     for f in fields:
@@ -223,14 +205,14 @@ def read_kratos(path: str | Path, dim: int | None = None) -> ParticleFile:
         element whose node is not in ``Nodes`` or has no radius, no ``NodalData RADIUS``
         block.
     """
-    from ..particles import ParticleFile
+    from .particle_file import ParticleFile
 
     path = Path(path)
     if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
         raise InvalidParameterError(
             f"invalid dim = {dim!r}: must be None, 2 or 3", parameter="dim", value=dim
         )
-    lines = _read_lines(path)
+    lines = _read_text(path).splitlines()
     nodes: dict[int, tuple[list[float], int]] = {}  # id -> (x y z, line)
     elements: list[tuple[int, int, str]] = []  # (node id, line, element name)
     element_of: dict[int, int] = {}  # node id -> the line of its element

@@ -20,8 +20,6 @@ from importlib import import_module
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from .._validate import (
     FileFormatError,
     GranpackError,
@@ -30,7 +28,7 @@ from .._validate import (
     is_number,
     short_repr,
 )
-from ._text import _SNIFF_LINES, _head, _single_snapshot
+from ._text import _SNIFF_LINES, _head, _read_args, _single_snapshot
 from .particle_file import ParticleFile
 
 if TYPE_CHECKING:
@@ -302,18 +300,7 @@ def read_particles(
             value=format,
             expected=", ".join(FORMATS),
         )
-    if isinstance(snapshot, bool) or not isinstance(snapshot, int | np.integer):
-        raise InvalidParameterError(
-            f"invalid snapshot = {short_repr(snapshot)}: must be an integer (0 the first, "
-            "-1 the last)",
-            parameter="snapshot",
-            value=snapshot,
-        )
-    snapshot = int(snapshot)
-    if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
-        raise InvalidParameterError(
-            f"invalid dim = {short_repr(dim)}: must be None, 2 or 3", parameter="dim", value=dim
-        )
+    snapshot = _read_args(snapshot, dim)
     fmt = format if format is not None else detect_format(path)
     reader = READERS[fmt]
     try:
