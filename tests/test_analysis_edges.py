@@ -112,3 +112,11 @@ def test_rattlers_without_the_wall_rows_give_the_pair_only_count():
     pairs, _ = rattlers_iterative(i[j >= 0], j[j >= 0], 4, 3)
     assert not walls.any() and left == 6
     assert pairs.all()
+
+
+@pytest.mark.parametrize("lo_y", [-1.0, 0.0])
+def test_a_box_far_too_small_for_its_particles_is_refused_not_phi_inf(lo_y):
+    box = (np.array([0.0, lo_y]), np.array([1e-320, 1e-320]))
+    with pytest.raises(gp.InvalidParameterError, match="phi = inf") as info:
+        gp.microstructure(positions=np.array([[0.0, 0.0]]), radii=np.array([0.1]), box=box)
+    assert info.value.parameter == "box"

@@ -128,11 +128,19 @@ def microstructure(
     n_slices = as_int("slices", slices, 1, MAX_SLICES)
 
     # -- packing fraction ---------------------------------------------------------------
-    phi = float(solid / box_volume)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        phi = float(np.float64(solid) / np.float64(box_volume))
     if not phi > 0.0:
         raise InvalidParameterError(
             f"invalid positions/radii: solid volume {solid:.3g} in a box of {box_volume:.3g} "
             "gives phi = 0 (underflow); rescale the coordinates and radii"
+        )
+    if not math.isfinite(phi):
+        raise InvalidParameterError(
+            f"invalid box: the particles' volume {solid:.3g} in a container of "
+            f"{box_volume:.3g} gives phi = {phi} (overflow): the box must hold the particles "
+            "(m)",
+            parameter="box",
         )
     h_centres = float(np.max(x[:, -1])) - lo[-1]
     phi_centres = (
