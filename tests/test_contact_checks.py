@@ -328,6 +328,22 @@ def test_a_pack_files_contacts_are_checked_walls_too(tmp_path, dim, container):
         gp.InvalidParameterError, match=r"does not touch the floor wall \(wall id -1\)"
     ):
         gp.microstructure(lifted)
+    # a side wall's contact (the cylinder's, or x = lo) moved to the particle farthest from it
+    side = np.flatnonzero(c.j == -2)
+    if side.size:
+        x = pack.positions
+        if container == "cylinder":
+            axis = np.asarray(pack.scene.base) / 2
+            away = int(np.argmin(np.linalg.norm(x[:, :2] - axis, axis=1)))
+            words = "does not touch the cylinder wall"
+        else:
+            away = int(np.argmax(x[:, 0]))
+            words = "does not touch the x = lo wall"
+        i = c.i.copy()
+        i[side[0]] = away
+        moved = dataclasses.replace(pack, contacts=dataclasses.replace(c, i=i))
+        with pytest.raises(gp.InvalidParameterError, match=words):
+            gp.microstructure(moved)
 
 
 @pytest.mark.filterwarnings("ignore::granpack.analysis.MicrostructureWarning")
