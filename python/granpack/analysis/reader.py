@@ -47,10 +47,17 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
         raise GranpackError(f"cannot read {path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise GranpackError(f"cannot read {path}: {exc}") from None
+    from ..io._text import _number_table
+
+    all_lines = text.splitlines()
+    a = _number_table(all_lines, 0, (3, 4))
+    if a is not None and np.all(np.isfinite(a)) and np.all(a[:, -1] > 0.0):
+        return _columns(path, a, dim)
+    # the line-by-line reading, which names the line at fault
     rows: list[list[float]] = []
     lines: list[int] = []
     ncol = None
-    for lineno, line in enumerate(text.splitlines(), 1):
+    for lineno, line in enumerate(all_lines, 1):
         body = line.split("#", 1)[0].replace(",", " ").split()
         if not body:
             continue
@@ -73,7 +80,12 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
         lines.append(lineno)
     if not rows:
         raise FileFormatError(f"{path}: no particles (every line is blank or a comment)", path=path)
-    a = np.array(rows)
+    return _columns(path, np.array(rows), dim)
+
+
+def _columns(path: Path, a: np.ndarray, dim: int | None):
+    """(positions, radii, dim) of the rows `a` (x y r or x y z r)."""
+    ncol = a.shape[1]
     radii = np.ascontiguousarray(a[:, -1])
     if ncol == 3:
         if dim == 3:

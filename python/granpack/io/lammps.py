@@ -453,14 +453,12 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     for (lo, hi), ax in zip(bounds, "xyz", strict=True):
         out.write(f"{lo!r} {hi!r} {ax}lo {ax}hi\n")
     out.write("\nAtoms # sphere\n\n")
-    ids = np.arange(1, n + 1)
-    atoms = np.column_stack([d, rho, x])
-    for k in range(n):
-        out.write(f"{ids[k]} 1 " + " ".join(repr(float(val)) for val in atoms[k]) + "\n")
+    # repr of Python floats: the shortest text that reads back to the same bits
+    atoms = np.column_stack([d, rho, x]).tolist()
+    out.write("".join(f"{k} 1 {' '.join(map(repr, row))}\n" for k, row in enumerate(atoms, 1)))
     out.write("\nVelocities\n\n")
-    vel = np.column_stack([v, w])
-    for k in range(n):
-        out.write(f"{ids[k]} " + " ".join(repr(float(val)) for val in vel[k]) + "\n")
+    vel = np.column_stack([v, w]).tolist()
+    out.write("".join(f"{k} {' '.join(map(repr, row))}\n" for k, row in enumerate(vel, 1)))
     return atomic_write(path, out.getvalue().encode())
 
 

@@ -23,6 +23,7 @@ from ._text import (
     _choose_dim,
     _comment_tag,
     _integer_ids,
+    _number_table,
     _pad3,
     _read_text,
     _sorted_by_id,
@@ -56,6 +57,9 @@ def read_yade(path: Path, dim: int | None) -> ParticleFile:
     layout = head.group(1)
     names = layout.split("_")
     ncol = len(names)
+    fast = _number_table(lines, k0 + 1, (ncol,), commas=False)
+    if fast is not None:
+        return _yade_particles(path, lines, k0, names, fast, dim)
     rows: list[list[float]] = []
     row_line: list[int] = []
     for k in range(k0 + 1, len(lines)):
@@ -75,16 +79,38 @@ def read_yade(path: Path, dim: int | None) -> ParticleFile:
         row_line.append(k + 1)
     if not rows:
         raise FileFormatError(f"{path}: no spheres after the header '#format {layout}'", path=path)
-    a = np.array(rows, dtype=np.float64)
+    return _yade_particles(path, lines, k0, names, np.array(rows, dtype=np.float64), dim, row_line)
+
+
+def _yade_particles(
+    path: Path,
+    lines: list[str],
+    k0: int,
+    names: list[str],
+    a: np.ndarray,
+    dim: int | None,
+    row_line: list[int] | None = None,
+) -> ParticleFile:
+    """The ParticleFile of YADE's rows `a` (columns `names`); `row_line` the line of each
+    row, found from `lines` only where an error needs it."""
+    found: list[list[int]] = [] if row_line is None else [row_line]
+
+    def line_of(k: int) -> int:
+        if not found:  # the rows' lines, counted only when a message needs one
+            found.append(
+                [j + 1 for j in range(k0 + 1, len(lines)) if lines[j].split("#", 1)[0].strip()]
+            )
+        return found[0][k]
+
     x3 = a[:, [names.index(c) for c in ("x", "y", "z")]]
     r = a[:, names.index("r")]
     ids = None
-    order = np.arange(len(rows))
+    order = np.arange(a.shape[0])
     if "id" in names:
-        ids = _integer_ids(path, a[:, names.index("id")], lambda k: row_line[k])
-        order = _sorted_by_id(path, ids, lambda k: row_line[k])
+        ids = _integer_ids(path, a[:, names.index("id")], line_of)
+        order = _sorted_by_id(path, ids, line_of)
         ids, x3, r = ids[order], x3[order], r[order]
-    _check_values(path, x3, r, lambda k: row_line[int(order[k])])
+    _check_values(path, x3, r, lambda k: line_of(int(order[k])))
     d = _choose_dim(path, x3, True, dim)
     tag = _comment_tag(path, lines, d)
     return ParticleFile(
