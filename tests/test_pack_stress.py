@@ -207,7 +207,11 @@ def test_strong_and_weak_fabrics_weighted_by_counts_give_the_fabric(seed, m, dim
     # a row of unit spheres, each touching the next
     x = np.stack([np.arange(n) * 1.9] + [np.full(n, 2.0)] * (dim - 1), 1)
     cols = random_contacts(rng, n, m, dim)
-    res = gp.microstructure(positions=x, radii=np.ones(n), contacts=cols, core_margin=0.0)
+    with warnings.catch_warnings():
+        # a few random normals can make the fabric too anisotropic for the bin-free force
+        # estimator (its quantities NaN, with a warning): not what this test checks
+        warnings.simplefilter("ignore", MicrostructureWarning)
+        res = gp.microstructure(positions=x, radii=np.ones(n), contacts=cols, core_margin=0.0)
     fn = cols["force_normal"]
     n_s = int(np.sum(fn > np.mean(fn)))
     n_c = len(fn)
