@@ -452,9 +452,10 @@ def _tiled_record(value, dim: int, n: int) -> dict | None:
         raise ValueError(f"'tiled' is {type(value).__name__}, expected a table")
     counts = [int(c) for c in value["counts"]]
     base = [float(b) for b in value["base"]]
+    particles = int(value["particles"])
     record = {
         "counts": counts,
-        "particles": int(value["particles"]),
+        "particles": particles,
         "base": base,
         "seed": int(value["seed"]),
         "stream": int(value["stream"]),
@@ -462,9 +463,9 @@ def _tiled_record(value, dim: int, n: int) -> dict | None:
     }
     if len(counts) != dim - 1 or len(base) != dim - 1 or min(counts) < 1:
         raise ValueError(f"'tiled' has counts {counts} and base {base} for dim = {dim}")
-    if record["particles"] * math.prod(counts) != n:
+    if particles * math.prod(counts) != n:
         raise ValueError(
-            f"'tiled' says {record['particles']} particles times {counts}, but the pack "
+            f"'tiled' says {particles} particles times {counts}, but the pack "
             f"holds {n}"
         )
     return record
