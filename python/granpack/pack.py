@@ -465,8 +465,7 @@ def _tiled_record(value, dim: int, n: int) -> dict | None:
         raise ValueError(f"'tiled' has counts {counts} and base {base} for dim = {dim}")
     if particles * math.prod(counts) != n:
         raise ValueError(
-            f"'tiled' says {particles} particles times {counts}, but the pack "
-            f"holds {n}"
+            f"'tiled' says {particles} particles times {counts}, but the pack holds {n}"
         )
     return record
 
