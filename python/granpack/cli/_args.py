@@ -1,0 +1,140 @@
+"""The commands' argument types, the options of the commands that make packs, and the
+hidden development options."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+# -- argument types ------------------------------------------------------------------------------
+
+
+def on_off(value: str) -> bool:
+    v = value.lower()
+    if v in ("on", "true", "yes", "1"):
+        return True
+    if v in ("off", "false", "no", "0"):
+        return False
+    raise argparse.ArgumentTypeError(f"invalid value {short(value)!r}: use on or off")
+
+
+def short(text: str, limit: int = 40) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def positive_int(value: str) -> int:
+    try:
+        v = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"invalid value {short(value)!r}: expected an integer"
+        ) from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"invalid value {short(str(v))}: must be >= 1")
+    return v
+
+
+def count(hi: int, what: str):
+    """An argparse type: an integer in [1, hi]; the bound keeps a typo (an extra digit
+    or twenty) from starting a run that never ends."""
+
+    def parse(value: str) -> int:
+        v = positive_int(value)
+        if v > hi:
+            raise argparse.ArgumentTypeError(
+                f"invalid value {short(str(v))}: {what} must lie in [1, {hi}]"
+            )
+        return v
+
+    return parse
+
+
+def packs(value: str) -> int:
+    from ..ensemble import MAX_PACKS
+
+    return count(MAX_PACKS, "packs")(value)
+
+
+def workers(value: str) -> int:
+    from ..ensemble import max_workers
+
+    return count(max_workers(), "workers (four per core)")(value)
+
+
+def seed(value: str) -> int:
+    try:
+        v = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"invalid seed {short(value)!r}: expected an integer"
+        ) from None
+    if not 0 <= v < 2**64:
+        raise argparse.ArgumentTypeError(f"invalid seed {short(str(v))}: must lie in [0, 2^64 - 1]")
+    return v
+
+
+def positive_float(value: str) -> float:
+    try:
+        v = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"invalid value {short(value)!r}: expected a number"
+        ) from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"invalid value {short(value)!r}: must be > 0")
+    return v
+
+
+def add_run_options(p: argparse.ArgumentParser) -> None:
+    """The options of the commands that make packs: where they run, --quiet, --fast."""
+    p.add_argument(
+        "--workers",
+        type=workers,
+        default=None,
+        help="local worker processes (default: one per core)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="run the packs on this Dask distributed scheduler (e.g. tcp://host:8786) "
+        "instead of local processes; needs granpack[dask]",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument(
+        "--fast",
+        action="store_true",
+        help="PackScene.fast(): adaptive settling, freezing of buried settled particles, "
+        "a larger dt where the scene's is below 0.55 of the stable step (3D presets), "
+        "and 0.75 of it once each layer has landed (ensemble statistics within one sd, "
+        "see the README)",
+    )
+    # Development and test knobs (not the paper's physics): hidden from --help.
+    p.add_argument("--settle-time", type=positive_float, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--scale", type=positive_float, default=None, help=argparse.SUPPRESS)
+
+
+# -- the development options -----------------------------------------------------------------------
+
+
+def dev_changes(scene, settle_time: float | None, scale: float | None) -> dict:
+    """Scene changes from the hidden development options (--scale, --settle-time)."""
+    changes: dict = {}
+    if settle_time is not None:
+        changes["settle_time"] = settle_time
+    if scale is not None:
+        changes["base"] = tuple(b * scale for b in scene.base)
+        changes["height"] = scene.height * scale
+        if scene.cylinder_radius is not None:
+            changes["cylinder_radius"] = scene.cylinder_radius * scale
+    return changes
+
+
+def dev_note(settle_time: float | None, scale: float | None) -> dict:
+    """The hidden development options in force, for the report's warning."""
+    note = {}
+    if settle_time is not None:
+        note["settle_time"] = f"{settle_time:g} s per layer"
+    if scale is not None:
+        note["base and height scaled by"] = f"{scale:g}"
+    return note

@@ -1,0 +1,70 @@
+"""``granpack export``: a saved pack in another program's format."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .._validate import GranpackError
+from ._common import say_removed
+from ._console import Console
+
+HELP = (
+    "write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "
+    "OVITO/freud/HOOMD-blue (gsd), csv, parquet, or the DEM codes Kratos, MercuryDPM, "
+    "PFC and DEM-Engine"
+)
+DESCRIPTION = (
+    "Writes a saved pack as a VTK XML unstructured grid (.vtu: particles "
+    "with radius, layer, velocity, spin, contact count; contacts as lines with their "
+    "forces; the container in <stem>.container.vtu), a LAMMPS data file for atom_style "
+    "sphere with in.granpack, the input that continues the run in LAMMPS (lammps) or "
+    "LIGGGHTS (liggghts), YADE's text format (yade), extended XYZ (xyz), a gsd file "
+    "for OVITO, freud and HOOMD-blue (gsd), CSV/Parquet tables of particles and "
+    "contacts, or the particles for another DEM code: a Kratos DEM model part (kratos, "
+    ".mdpa), a MercuryDPM .data file (mercurydpm), a PFC 7 command file (pfc) or "
+    "DEM-Engine's clump CSV with its sphere templates (demengine)."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    e = parser
+    e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
+    e.add_argument(
+        "--format",
+        choices=(
+            *("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet", "gsd"),
+            *("kratos", "mercurydpm", "pfc", "demengine"),
+        ),
+        default=None,
+        help="output format (default: from the suffix of --out)",
+    )
+    e.add_argument("--out", type=Path, default=None, help="output file (default: beside PACK)")
+    e.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    from ..io import EXPORT_FORMATS as FORMATS
+    from ..io import export
+    from ..pack import load_pack
+
+    fmt = args.format
+    if fmt is None and args.out is None:
+        raise GranpackError(
+            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet, gsd, kratos, "
+            "mercurydpm, pfc, demengine) or an --out file name"
+        )
+    out = args.out
+    if out is None:
+        out = args.pack.with_suffix(FORMATS[fmt])
+    pack = load_pack(args.pack)
+    files = export(pack, out, fmt, refuse=[args.pack], parameter="--out")
+    for f in files:
+        console.say(str(f))
+    # the temporaries an export of the same files left when it was killed
+    from ..pack import remove_stale_temporaries
+
+    for folder in sorted({f.parent for f in files}):
+        names = [f.name for f in files if f.parent == folder]
+        say_removed(remove_stale_temporaries(folder, of=names), folder, console)
+    return 0
