@@ -82,3 +82,10 @@ def liggghts() -> str:
 def yade() -> str:
     """YADE's executable (the Debian package yade, 2023.02a), or a skip."""
     return _peer(("yade",), "yade")
+
+
+@pytest.fixture(scope="session")
+def example_4_3() -> gp.Pack:
+    """The paper's example 4.3 with the fast settings (about 8 000 spheres in the walled
+    box, 20-40 s), made once for every test that checks an export of it with a peer."""
+    return gp.generate(gp.PackScene.preset("4.3").fast())

@@ -397,12 +397,6 @@ def mono(request) -> gp.Pack:
     return gp.generate(scene.replace(container=container))
 
 
-@pytest.fixture(scope="module")
-def example_4_3() -> gp.Pack:
-    """The paper's example 4.3 (fast settings): about 8000 spheres, 20-40 s."""
-    return gp.generate(gp.PackScene.preset("4.3").fast())
-
-
 def _pbc(pack: gp.Pack) -> tuple[bool, bool, bool]:
     """The pack's periodic axes, as OVITO's cell flags (2D: x, y, then z)."""
     periodic = pack.scene.container == "periodic"

@@ -256,3 +256,33 @@ def test_peers_count_the_contacts_of_packs_made_in_each_container(name, lmp, lig
     if pack.dim == 3:
         export.export(pack, tmp_path / "pack.data", "liggghts")
         assert _step0_contacts(liggghts, tmp_path) == 2 * n_pairs(pack)
+
+
+def test_lammps_write_data_of_the_4_3_pack_reads_back(lmp, tmp_path, example_4_3):
+    # LAMMPS reads granpack's data export of example 4.3 and writes it again with its own
+    # write_data (image flags on every Atoms row, a Velocities section); granpack reads
+    # that back with the pack's ids, positions, radii, velocities and box, bit for bit
+    pack = example_4_3
+    export.export(pack, tmp_path / "pack.data", "lammps")
+    run(
+        lmp,
+        tmp_path,
+        "units si\natom_style sphere\nboundary p p f\nread_data pack.data\n"
+        "pair_style zero 1.0\npair_coeff * *\nwrite_data out.data\n",
+    )
+    text = (tmp_path / "out.data").read_text()
+    atoms = text.split("Atoms # sphere")[1].split("Velocities")[0]
+    assert {len(row.split()) for row in atoms.splitlines() if row.strip()} == {10}
+    p = gp.read_particles(tmp_path / "out.data")
+    assert p.format == "lammps-data" and p.dim == 3 and len(p) == len(pack)
+    np.testing.assert_array_equal(p.ids, np.arange(1, len(pack) + 1))
+    np.testing.assert_array_equal(p.positions, pack.positions)
+    np.testing.assert_array_equal(p.radii, pack.radii)
+    np.testing.assert_array_equal(p.box[0], pack.box[0])
+    np.testing.assert_array_equal(p.box[1], pack.box[1])
+    data = export.read_lammps_data(tmp_path / "out.data")
+    np.testing.assert_array_equal(data["velocities"], pack.velocities)
+    # LAMMPS' own file carries no container: the analysis says it assumed the box
+    m = gp.microstructure(p, core_margin=0.05)
+    assert (m.container, m.container_source) == ("box", "assumed")
+    assert m.n_contacts == gp.microstructure(pack, core_margin=0.05).n_contacts

@@ -71,10 +71,6 @@ with open(out, "w") as f:
 """
 
 
-def pack_43() -> gp.Pack:
-    return gp.generate(gp.PackScene.preset("4.3").fast())
-
-
 def pack_43_periodic() -> gp.Pack:
     scene = gp.PackScene.preset("4.3").replace(container="periodic", height=0.2)
     return gp.generate(scene.fast())
@@ -84,7 +80,8 @@ def pack_2d_periodic() -> gp.Pack:
     return gp.generate(small_scene(2, container="periodic"))
 
 
-PACKS = {"4.3": pack_43, "4.3-periodic": pack_43_periodic, "2d-periodic": pack_2d_periodic}
+# "4.3" is the session's example_4_3 (tests/conftest.py), shared with the other peer checks
+PACKS = {"4.3": None, "4.3-periodic": pack_43_periodic, "2d-periodic": pack_2d_periodic}
 
 
 def run_yade(yade: str, pack: gp.Pack, folder) -> dict:
@@ -128,7 +125,8 @@ def granpack_pairs(pack: gp.Pack) -> tuple[set, set]:
 @pytest.fixture(scope="module", params=list(PACKS))
 def case(request, yade, tmp_path_factory) -> tuple[gp.Pack, dict]:
     # (the yade fixture comes first: without YADE nothing is generated)
-    pack = PACKS[request.param]()
+    make = PACKS[request.param]
+    pack = request.getfixturevalue("example_4_3") if make is None else make()
     return pack, run_yade(yade, pack, tmp_path_factory.mktemp(request.param))
 
 
