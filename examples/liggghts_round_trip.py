@@ -6,10 +6,10 @@ Makes a small 3D pack, exports it for LIGGGHTS (pack.data and in.granpack, the i
 that continues the run with granpack's contact law, material, walls and gravity), runs
 LIGGGHTS on it, and reads its dumps back with gp.read_particles: at step 0 the positions
 are granpack's to the last bit; after 200 steps (0.02 s) of LIGGGHTS' own dynamics the
-settled spheres have moved by a few percent of a radius at most. Needs the `liggghts` executable on PATH (Debian and
-Ubuntu: apt-get install liggghts); without it the script says so and stops after the
-export. Files go to OUTPUT_FOLDER (default: a new temporary folder). A few seconds on
-two cores.
+settled spheres have moved by a few percent of a radius at most. Needs the `liggghts`
+executable on PATH (Debian and Ubuntu: apt-get install liggghts); without it the script
+says so and stops after the export. Files go to OUTPUT_FOLDER (default: a new temporary
+folder). A few seconds on two cores.
 """
 
 import shutil
