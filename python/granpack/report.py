@@ -1,8 +1,9 @@
 """``report.md``: one page that says what was run and links the tables and figures.
 
-`paper_report` is written by ``granpack paper`` (the paper's section 4 beside ours),
-`ensemble_report` by ``granpack generate``. Links are relative to the report, so the
-output folder can be moved or published as it is.
+`ensemble_report` is written by ``granpack generate``; the paper's report, written by
+``granpack paper``, is `granpack.paper.report.paper_report` (``paper_report`` here too,
+for existing scripts). Links are relative to the report, so the output folder can be
+moved or published as it is.
 """
 
 from __future__ import annotations
@@ -10,7 +11,6 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import platform
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -18,29 +18,18 @@ import numpy as np
 
 from .pack import atomic_write
 
-__all__ = ["paper_report", "ensemble_report"]
-
-_TABLE_TOPICS = {
-    # table number -> (example, what)
-    2: ("4.1", "packing densities phi, rotations ON and OFF"),
-    3: ("4.1", "void ratio e and empirical Z(e), rotations ON"),
-    4: ("4.1", "void ratio e and empirical Z(e), rotations OFF"),
-    5: ("4.2", "packing densities phi, rotations ON and OFF"),
-    6: ("4.2", "void ratio e and empirical Z(e), rotations ON"),
-    7: ("4.2", "void ratio e and empirical Z(e), rotations OFF"),
-    8: ("4.3", "packing densities phi, rotations ON and OFF"),
-    9: ("4.3", "void ratio e and empirical Z(e), rotations ON"),
-    10: ("4.3", "void ratio e and empirical Z(e), rotations OFF"),
-    11: ("4.4", "packing densities phi, rotations ON and OFF"),
-    12: ("4.4", "void ratio e and empirical Z(e), rotations ON"),
-    13: ("4.4", "void ratio e and empirical Z(e), rotations OFF"),
-}
+# paper_report comes from __getattr__ below
+__all__ = ["paper_report", "ensemble_report"]  # noqa: F822
 
 
-def _default_2d_convention() -> str:
-    from .scene import PackScene
+def __getattr__(name: str):
+    # paper_report's former home: loaded on first use, as granpack.paper.report builds on
+    # the functions of this module
+    if name == "paper_report":
+        from .paper.report import paper_report
 
-    return PackScene.preset("4.1").inertia_2d
+        return paper_report
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _rel(path: Path, base: Path) -> str:
@@ -72,11 +61,6 @@ def _grouped_links(files: Sequence[Path], base: Path) -> dict[str, list[tuple[st
     return groups
 
 
-def _table_sort_key(stem: str):
-    m = re.fullmatch(r"table(\d+)", stem)
-    return (0, int(m.group(1)), "") if m else (1, 0, stem)
-
-
 def _environment_line(wall_time: float) -> str:
     from . import __version__
 
@@ -104,129 +88,6 @@ def _dev_banner(dev_changes: Mapping) -> list[str]:
         "Do not compare these numbers with the paper.",
         "",
     ]
-
-
-def paper_report(
-    out_dir: str | Path,
-    *,
-    examples: Sequence[str],
-    n_packs: int,
-    quick: bool,
-    records: Mapping[tuple[str, bool], Sequence[Mapping]],
-    paper_phi: Mapping[tuple[str, bool], Sequence[float]],
-    table_files: Sequence[Path],
-    figures: Mapping,
-    wall_time: float,
-    pack_time: float,
-    dev_changes: Mapping | None = None,
-    seed: int = 0,
-    mass_2d=None,
-) -> Path:
-    """Writes ``out_dir/report.md`` for ``granpack paper`` and returns its path.
-
-    Parameters
-    ----------
-    examples : the examples run ("4.1" ...).
-    n_packs : packs per case.
-    quick : True for ``--quick`` (the report says that fewer packs were run).
-    records : per case (example, rotations), one dict per pack with at least ``phi``,
-        ``n_particles`` and, when known, ``z``, ``z_mech``, ``wall_time``.
-    paper_phi : the paper's per-pack phi per case (may be empty).
-    table_files : files written by ``tables.write_tables`` (CSV and Markdown).
-    figures : {(example, rotations): {"packs"|"normals"|"forces"|"view": path},
-        (example, "phi"): path}.
-    wall_time, pack_time : seconds for everything and for the packs.
-    dev_changes : development options in force, {what: value text} (flagged loudly).
-    mass_2d : the 2D cases' phi under both mass conventions
-        (`granpack.mass2d.convention_table`), or None.
-    """
-    out = Path(out_dir)
-    lines = ["# granpack: the paper's section 4, reproduced", ""]
-    cmd = f"granpack paper --out {out}" + (" --quick" if quick else "")
-    if not quick and n_packs != 10:
-        cmd += f" --packs {n_packs}"
-    if quick:
-        lines += [
-            f"> **Quick run:** {n_packs} packs per case instead of the paper's 10. The "
-            "scenes and physics constants are the paper's (dt = 1e-4 s, 1.0 s of jamming "
-            "per layer, E = 1e8 Pa, nu = 0.25, xi = 0.1, mu = 0.2, g = 2 m/s², "
-            "c_D = 0.005 N s/m); means are indicative and standard deviations from "
-            f"{n_packs} packs are rough. `granpack paper --out {out}` runs the full "
-            "reproduction and reuses the packs made here.",
-            "",
-        ]
-    lines += _dev_banner(dev_changes or {})
-    lines += [
-        f"`{cmd}`: examples {', '.join(examples)}, rotations ON and OFF, {n_packs} "
-        f"pack(s) each, master seed {seed} (pack k uses random stream k). "
-        f"{_environment_line(wall_time)}; packs {_duration(pack_time)}.",
-        "",
-        "## Summary: ours beside the paper",
-        "",
-        "| example | rotations | packs | N (mean) | phi, ours | phi, paper | Z = 2N_c/N_p "
-        "| Z_m (no rattlers) | figures |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for ex in examples:
-        for rot in (True, False):
-            recs = records.get((ex, rot), [])
-            figs = figures.get((ex, rot), {})
-            links = " · ".join(f"[{name}]({_rel(p, out)})" for name, p in figs.items())
-            n_mean = np.mean(_col(recs, "n_particles")) if recs else float("nan")
-            paper = paper_phi.get((ex, rot))
-            lines.append(
-                f"| {ex} | {'ON' if rot else 'OFF'} | {len(recs)} | {n_mean:.0f} "
-                f"| {_mean_sd(_col(recs, 'phi'))} | {_mean_sd(paper) if paper else 'n/a'} "
-                f"| {_mean_sd(_col(recs, 'z'), 2)} | {_mean_sd(_col(recs, 'z_mech'), 2)} "
-                f"| {links} |"
-            )
-    lines += [
-        "",
-        "Mean ± sample standard deviation (ddof = 1, as the paper's tables) over the packs. "
-        "phi = solid volume / (base × H_top), H_top = max(z + r). The paper gives no "
-        "contact counts, only the empirical Z(e) of its eqs. 16-19 (in tables 3-13).",
-        "",
-    ]
-    if mass_2d is not None and mass_2d.height:
-        from .mass2d import report_lines
-
-        csv = out / "tables" / "mass_2d.csv"
-        lines += report_lines(mass_2d, _default_2d_convention(), _rel(csv, out))
-    lines += [
-        "## Tables",
-        "",
-    ]
-    groups = _grouped_links(table_files, out)
-    for stem in sorted(groups, key=_table_sort_key):
-        m = re.fullmatch(r"table(\d+)", stem)
-        if m and int(m.group(1)) in _TABLE_TOPICS:
-            ex, what = _TABLE_TOPICS[int(m.group(1))]
-            title = f"Table {m.group(1)} (example {ex}): {what}"
-        else:
-            title = stem.replace("_", " ")
-        links = " · ".join(f"[{suffix}]({link})" for suffix, link in groups[stem])
-        lines.append(f"- {title}: {links}")
-    phi_figs = [(ex, figures[ex, "phi"]) for ex in examples if (ex, "phi") in figures]
-    if phi_figs:
-        lines += [
-            "",
-            "## Packing fraction over the ensembles",
-            "",
-            " · ".join(f"[example {ex}]({_rel(p, out)})" for ex, p in phi_figs),
-        ]
-    lines += [
-        "",
-        "## Files",
-        "",
-        "- `packs/<example>-<on|off>/pack_k.npz`: every pack (`granpack.load_pack`; "
-        "`granpack export PACK --format vtk|lammps|csv|parquet` for ParaView, "
-        "LAMMPS/LIGGGHTS `read_data`, tables).",
-        "- `micro/<example>-<on|off>/pack_k.json`: each pack's microstructure.",
-        "- `tables/`, `figures/`: what is linked above. Figures are named after the "
-        "paper's (fig2 = example 4.1, rotations ON, ... fig9 = 4.4, OFF).",
-        "",
-    ]
-    return atomic_write(out / "report.md", "\n".join(lines).encode())
 
 
 def ensemble_report(

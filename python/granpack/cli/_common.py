@@ -1,5 +1,5 @@
 """What the commands share: the output folder's lock, the checks that keep a run from
-writing over its input or its own results, the JSON helpers and the per-pack records."""
+writing over its input or its own results, strict JSON and the per-pack records."""
 
 from __future__ import annotations
 
