@@ -244,3 +244,22 @@ def _number_table(
     if a.shape[0] == 0 or a.shape[1] not in ncol:
         return None
     return a
+
+
+def _rows_text(*columns, prefix: str = "") -> str:
+    """Lines of space-separated columns (each (N,) ints or float64), each float at full
+    precision: the shortest decimal that reads back to the same bits, as ``repr`` writes
+    it (polars' writer, about 20 times faster than formatting in Python). `prefix` is
+    written at the start of every line."""
+    import polars as pl
+
+    cols: dict[str, object] = {}
+    if prefix:
+        n = len(columns[0]) if columns else 0
+        cols["_p"] = pl.repeat(prefix, n, eager=True, dtype=pl.String)
+    for k, c in enumerate(columns):
+        a = np.asarray(c)
+        cols[f"c{k}"] = a if a.dtype.kind in "iu" else a.astype(np.float64, copy=False)
+    return pl.DataFrame(cols).write_csv(
+        separator=" ", include_header=False, quote_style="never", line_terminator="\n"
+    )

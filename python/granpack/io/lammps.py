@@ -33,6 +33,7 @@ from ._text import (
     _pad3,
     _pick,
     _read_text,
+    _rows_text,
     _sorted_by_id,
     _tag_fields,
 )
@@ -453,12 +454,10 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     for (lo, hi), ax in zip(bounds, "xyz", strict=True):
         out.write(f"{lo!r} {hi!r} {ax}lo {ax}hi\n")
     out.write("\nAtoms # sphere\n\n")
-    # repr of Python floats: the shortest text that reads back to the same bits
-    atoms = np.column_stack([d, rho, x]).tolist()
-    out.write("".join(f"{k} 1 {' '.join(map(repr, row))}\n" for k, row in enumerate(atoms, 1)))
+    ids = np.arange(1, n + 1)
+    out.write(_rows_text(ids, np.ones(n, dtype=np.int64), d, rho, x[:, 0], x[:, 1], x[:, 2]))
     out.write("\nVelocities\n\n")
-    vel = np.column_stack([v, w]).tolist()
-    out.write("".join(f"{k} {' '.join(map(repr, row))}\n" for k, row in enumerate(vel, 1)))
+    out.write(_rows_text(ids, v[:, 0], v[:, 1], v[:, 2], w[:, 0], w[:, 1], w[:, 2]))
     return atomic_write(path, out.getvalue().encode())
 
 

@@ -23,6 +23,7 @@ from ._text import (
     _check_values,
     _choose_dim,
     _read_text,
+    _rows_text,
 )
 from .lammps import lammps_positions
 from .particle_file import ParticleFile
@@ -273,6 +274,5 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
     )
     out = io.StringIO()
     out.write(f"{len(pack)}\n{comment}\n")
-    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
-        out.write(f"X {x0!r} {x1!r} {x2!r} {rk!r}\n")
+    out.write(_rows_text(x[:, 0], x[:, 1], x[:, 2], r, prefix="X"))
     return atomic_write(Path(path), out.getvalue().encode())

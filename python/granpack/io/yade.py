@@ -26,6 +26,7 @@ from ._text import (
     _number_table,
     _pad3,
     _read_text,
+    _rows_text,
     _sorted_by_id,
     _tag,
     _tag_fields,
@@ -127,6 +128,5 @@ def write_yade(pack: Pack, path: str | Path) -> Path:
     out.write("#format x_y_z_r\n")
     # ymport.text skips comment lines; read_particles takes the container from this one
     out.write(f"# granpack: dim={pack.dim} {_tag(pack)}\n")
-    for (x0, x1, x2), rk in zip(x.tolist(), r.tolist(), strict=True):
-        out.write(f"{x0!r} {x1!r} {x2!r} {rk!r}\n")
+    out.write(_rows_text(x[:, 0], x[:, 1], x[:, 2], r))
     return atomic_write(Path(path), out.getvalue().encode())
