@@ -263,3 +263,27 @@ def _rows_text(*columns, prefix: str = "") -> str:
     return pl.DataFrame(cols).write_csv(
         separator=" ", include_header=False, quote_style="never", line_terminator="\n"
     )
+
+
+def _column_table(block: list[str], ncol: int, usecols: list[int]) -> np.ndarray | None:
+    """The columns `usecols` of the rows `block` (each `ncol` fields, no comments or blank
+    lines) as float64, parsed by numpy's C reader in one pass; None where any row does
+    not hold `ncol` fields or a used field is not a number, so that the caller's
+    row-by-row reading names the row at fault."""
+    import io
+    import warnings
+
+    if not block:
+        return None
+    text = "\n".join(block)
+    if len(text.split()) != len(block) * ncol or len(block[0].split()) != ncol:
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            a = np.loadtxt(
+                io.StringIO(text), usecols=usecols, ndmin=2, comments=None, dtype=np.float64
+            )
+    except (ValueError, UserWarning):
+        return None
+    return a if a.shape == (len(block), len(usecols)) else None

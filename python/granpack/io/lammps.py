@@ -28,6 +28,7 @@ from ._text import (
     _ID_NAMES,
     _check_values,
     _choose_dim,
+    _column_table,
     _head,
     _integer_ids,
     _pad3,
@@ -251,7 +252,11 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         )
     first = atoms_line + 1
     ncol = len(names)
-    table = [row.split() for row in lines[first : first + s.n]]
+    want = [c for c in (*coord, i_rad if i_rad is not None else i_dia) if c is not None]
+    if i_id is not None:
+        want.append(i_id)
+    fast = _column_table(lines[first : first + s.n], ncol, want)
+    table = [] if fast is not None else [row.split() for row in lines[first : first + s.n]]
     for j, t in enumerate(table):
         if len(t) != ncol:
             raise FileFormatError(
@@ -259,12 +264,13 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
                 f"{len(t)}",
                 path=path,
             )
-    want = [c for c in (*coord, i_rad if i_rad is not None else i_dia) if c is not None]
-    if i_id is not None:
-        want.append(i_id)
     try:
-        a = np.array([[t[c] for c in want] for t in table], dtype=np.float64).reshape(
-            s.n, len(want)
+        a = (
+            fast
+            if fast is not None
+            else np.array([[t[c] for c in want] for t in table], dtype=np.float64).reshape(
+                s.n, len(want)
+            )
         )
     except ValueError:
         for j, t in enumerate(table):

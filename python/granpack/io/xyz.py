@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 from ._text import (
     _check_values,
     _choose_dim,
+    _column_table,
     _read_text,
     _rows_text,
 )
@@ -169,21 +170,24 @@ def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
             path=path,
             reason="missing columns",
         )
-    rows = [ln.split() for ln in lines[b + 2 : b + 2 + n]]
-    for k, t in enumerate(rows):
-        if len(t) != at:
-            raise FileFormatError(
-                f"{path}:{c + k + 1}: expected {at} values (Properties), found {len(t)}",
-                path=path,
-            )
     p0, pn = cols["pos"]
     r0 = cols["radius"][0]
-    num = [[t[j] for j in (*range(p0, p0 + pn), r0)] for t in rows]
-    for k, t in enumerate(num):
-        bad = next((v for v in t if not is_number(v)), None)
-        if bad is not None:
-            raise FileFormatError(f"{path}:{c + k + 1}: {bad!r} is not a number", path=path)
-    a = np.array(num, dtype=np.float64).reshape(n, pn + 1)
+    used = [*range(p0, p0 + pn), r0]
+    a = _column_table(lines[b + 2 : b + 2 + n], at, used)
+    if a is None:  # row by row, naming the row at fault
+        rows = [ln.split() for ln in lines[b + 2 : b + 2 + n]]
+        for k, t in enumerate(rows):
+            if len(t) != at:
+                raise FileFormatError(
+                    f"{path}:{c + k + 1}: expected {at} values (Properties), found {len(t)}",
+                    path=path,
+                )
+        num = [[t[j] for j in used] for t in rows]
+        for k, t in enumerate(num):
+            bad = next((v for v in t if not is_number(v)), None)
+            if bad is not None:
+                raise FileFormatError(f"{path}:{c + k + 1}: {bad!r} is not a number", path=path)
+        a = np.array(num, dtype=np.float64).reshape(n, pn + 1)
     x3 = np.zeros((n, 3))
     x3[:, :pn] = a[:, :pn]
     r = a[:, pn]
