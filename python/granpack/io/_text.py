@@ -287,3 +287,13 @@ def _column_table(block: list[str], ncol: int, usecols: list[int]) -> np.ndarray
     except (ValueError, UserWarning):
         return None
     return a if a.shape == (len(block), len(usecols)) else None
+
+
+def _state3(pack: Pack) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(positions, radii, velocities, spins) as the DEM codes' files write them: (N, 3)
+    each (2D at z = 0, the spin about z), a periodic pack's centres wrapped into its cell
+    (`granpack.io.lammps.lammps_positions`)."""
+    from .lammps import lammps_positions
+
+    r = np.asarray(pack.radii, dtype=np.float64)
+    return lammps_positions(pack), r, _pad3(pack.velocities), _pad3(pack.spins)

@@ -53,7 +53,7 @@ from .._validate import InvalidParameterError
 from ..container_tag import container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ._text import _pad3
+from ._text import _state3
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -179,16 +179,12 @@ def write_demengine(
             batch->SetVel(vel[name]);
         }
     """
-    from .lammps import lammps_positions
 
     path = Path(path)
     s = pack.scene
     d = s.dim
     n = len(pack)
-    x = lammps_positions(pack)
-    r = np.asarray(pack.radii, dtype=np.float64)
-    v = _pad3(pack.velocities)
-    w = _pad3(pack.spins)  # 2D: the spin about z
+    x, r, v, w = _state3(pack)
     templates, index, err = sphere_templates(r, max_templates)
     names = [f"{k:04d}" for k in range(len(templates))]
     rho = float(s.material.density)

@@ -53,7 +53,7 @@ from .._validate import FileFormatError, InvalidParameterError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ._text import _pad3, _read_text
+from ._text import _read_text, _state3
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -90,15 +90,11 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
     variables (the DEM solver adds them); name it ``<problem>DEM.mdpa`` for Kratos' DEM
     analysis stage.
     """
-    from .lammps import lammps_positions
 
     s = pack.scene
     d = s.dim
     n = len(pack)
-    x = lammps_positions(pack)
-    r = np.asarray(pack.radii, dtype=np.float64)
-    v = _pad3(pack.velocities)
-    w = _pad3(pack.spins)  # 2D: the spin about z
+    x, r, v, w = _state3(pack)
     ids = np.arange(1, n + 1)
     kind, radius = container_of(pack)
     lo, hi = pack.box
