@@ -231,10 +231,10 @@ def _number_table(
     import warnings
 
     body = "\n".join(lines[start:])
-    if "," in body:
-        if not commas:
-            return None
+    if commas and "," in body:
         body = body.replace(",", " ")
+    # (without `commas`, a comma in a row is not a number to numpy's reader either: the
+    # parse fails and the caller's reading names the line; commas in comments are skipped)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # "input contained no data": the slow path says it
@@ -297,3 +297,16 @@ def _state3(pack: Pack) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     r = np.asarray(pack.radii, dtype=np.float64)
     return lammps_positions(pack), r, _pad3(pack.velocities), _pad3(pack.spins)
+
+
+def _format_lines(template: str, *columns) -> str:
+    """One line per row: `template` with its ``{}`` filled by the columns (each (N,) of
+    ints, float64 or text), floats at full precision as ``repr`` writes them (the shortest
+    decimal that reads back to the same bits), formatted by polars."""
+    import polars as pl
+
+    if not columns or len(columns[0]) == 0:
+        return ""
+    df = pl.DataFrame({f"c{k}": np.asarray(c) for k, c in enumerate(columns)})
+    lines = df.select(pl.format(template, *(pl.col(f"c{k}") for k in range(len(columns)))))
+    return lines.write_csv(include_header=False, quote_style="never", line_terminator="\n")

@@ -53,7 +53,7 @@ from .._validate import InvalidParameterError
 from ..container_tag import container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ._text import _state3
+from ._text import _format_lines, _state3
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -199,10 +199,15 @@ def write_demengine(
 
     out = io.StringIO()
     out.write(",".join(COLUMNS) + "\n")
-    for k in range(n):
-        row = [*(repr(float(a)) for a in x[k]), "1.0", "0.0", "0.0", "0.0", names[index[k]]]
-        row += [repr(float(a)) for a in (*v[k], *w[k])]
-        out.write(",".join(row) + "\n")
+    out.write(
+        _format_lines(
+            "{},{},{},1.0,0.0,0.0,0.0,{},{},{},{},{},{},{}",
+            *x.T,
+            np.array(names, dtype=object)[index] if n else np.array([], dtype=str),
+            *v.T,
+            *w.T,
+        )
+    )
 
     lo, hi = pack.box
     kind, radius = container_of(pack)

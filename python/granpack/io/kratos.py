@@ -53,7 +53,7 @@ from .._validate import FileFormatError, InvalidParameterError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ._text import _read_text, _state3
+from ._text import _format_lines, _read_text, _state3
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -69,14 +69,10 @@ SUB_MODEL_PART = "DEMParts_Body"
 
 
 def _rows(ids: np.ndarray, *columns) -> str:
-    out = io.StringIO()
-    for k, i in enumerate(ids.tolist()):
-        out.write(
-            f"{i} "
-            + " ".join(repr(float(c[k])) if isinstance(c, np.ndarray) else str(c) for c in columns)
-            + "\n"
-        )
-    return out.getvalue()
+    """Lines of the node id and the columns (arrays, or a number for every row)."""
+    n = len(ids)
+    cols = [c if isinstance(c, np.ndarray) else np.full(n, c) for c in columns]
+    return _format_lines(" ".join(["{}"] * (1 + len(cols))), ids, *cols)
 
 
 def write_kratos(pack: Pack, path: str | Path) -> Path:
@@ -124,8 +120,7 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
     out.write(_rows(ids, x[:, 0], x[:, 1], x[:, 2]))
     out.write("End Nodes\n\n")
     out.write(f"Begin Elements {element}\n")
-    for i in ids.tolist():
-        out.write(f"{i} 1 {i}\n")
+    out.write(_format_lines("{} 1 {}", ids, ids))
     out.write("End Elements\n\n")
     nodal = [("RADIUS", r)]
     nodal += [(f"VELOCITY_{a}", v[:, k]) for k, a in enumerate("XYZ"[:d])]

@@ -42,6 +42,7 @@ import numpy as np
 from ..container_tag import container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
+from ._text import _format_lines
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -87,12 +88,9 @@ def write_mercurydpm(pack: Pack, path: str | Path) -> Path:
     box = " ".join(repr(float(a)) for a in (*lo, *hi))
     out.write(f"{n} 0.0 {box} granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
     if d == 3:
-        for k in range(n):
-            vals = (*x[k], *v[k], r[k], 0.0, 0.0, 0.0, *spins[k])
-            out.write(" ".join(repr(float(a)) for a in vals) + " 0\n")
+        cols = [*x.T, *v.T, r, *np.zeros((3, n)), *spins.T]
     else:
-        for k in range(n):
-            # 0.0 - w: never a negative zero
-            vals = (x[k, 0], x[k, 1], v[k, 0], v[k, 1], r[k], 0.0, 0.0 - spins[k])
-            out.write(" ".join(repr(float(a)) for a in vals) + " 0\n")
+        # 0.0 - w: never a negative zero
+        cols = [x[:, 0], x[:, 1], v[:, 0], v[:, 1], r, np.zeros(n), 0.0 - spins]
+    out.write(_format_lines(" ".join(["{}"] * len(cols)) + " 0", *cols))
     return atomic_write(Path(path), out.getvalue().encode())

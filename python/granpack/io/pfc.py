@@ -43,6 +43,7 @@ import numpy as np
 from ..container_tag import container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
+from ._text import _format_lines
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -52,10 +53,6 @@ __all__ = ["write_pfc", "DOMAIN_MARGIN", "pfc_density"]
 #: How far the domain reaches past the box on an axis that is not periodic, as a fraction
 #: of the box's length on that axis (each side).
 DOMAIN_MARGIN = 0.1
-
-
-def _vec(values) -> str:
-    return "(" + ",".join(repr(float(a)) for a in values) + ")"
 
 
 def pfc_density(pack: Pack) -> np.ndarray:
@@ -115,12 +112,18 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
         + " ".join(repr(float(e)) for e in extent)
         + f" condition {conditions}\n"
     )
-    for k in range(n):
-        out.write(f"ball create id {k + 1} radius {float(r[k])!r} position {_vec(x[k])}\n")
-    for k in range(n):
-        spin = _vec(spins[k]) if d == 3 else repr(float(spins[k]))
-        out.write(
-            f"ball attribute density {float(rho[k])!r} velocity {_vec(v[k])} spin {spin} "
-            f"range id {k + 1}\n"
+    ids = np.arange(1, n + 1)
+    vec = "(" + ",".join(["{}"] * d) + ")"
+    out.write(_format_lines(f"ball create id {{}} radius {{}} position {vec}", ids, r, *x.T))
+    spin_cols = list(spins.T) if d == 3 else [spins]
+    spin = vec if d == 3 else "{}"
+    out.write(
+        _format_lines(
+            f"ball attribute density {{}} velocity {vec} spin {spin} range id {{}}",
+            rho,
+            *v.T,
+            *spin_cols,
+            ids,
         )
+    )
     return atomic_write(Path(path), out.getvalue().encode())
