@@ -10,6 +10,9 @@ from .. import _core
 from .._validate import FileFormatError, GranpackError, InvalidParameterError
 from ..contacts import WALL_IDS, Contacts
 
+#: Largest coordinate the analysis takes (m): the cube of a span of 2e100 m is still a
+#: finite volume.
+MAX_COORDINATE = 1e100
 #: Wall ids of the contact table (j < 0).
 _MIN_WALL_ID = -5
 
@@ -135,6 +138,13 @@ def _as_particles(positions, radii):
         raise InvalidParameterError(f"invalid radii: shape {r.shape}, expected ({x.shape[0]},)")
     if not np.all(np.isfinite(x)):
         raise InvalidParameterError("invalid positions: non-finite values")
+    if np.max(np.abs(x)) > MAX_COORDINATE:
+        k = int(np.argmax(np.max(np.abs(x), axis=1)))
+        raise InvalidParameterError(
+            f"invalid positions[{k}] = {x[k].tolist()}: coordinates must lie within "
+            f"+-{MAX_COORDINATE:g} m (beyond it the container's volume overflows)",
+            parameter="positions",
+        )
     if not (np.all(np.isfinite(r)) and np.all(r > 0)):
         k = int(np.argmin(np.where(np.isfinite(r), r, -np.inf)))
         raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)")
