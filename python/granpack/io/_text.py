@@ -273,10 +273,21 @@ def _column_table(block: list[str], ncol: int, usecols: list[int]) -> np.ndarray
     import io
     import warnings
 
-    if not block:
+    if not block or len(block[0].split()) != ncol:
         return None
     text = "\n".join(block)
-    if len(text.split()) != len(block) * ncol or len(block[0].split()) != ncol:
+    try:
+        # every column a number (a dump's, say): numpy's reader itself refuses a row whose
+        # field count differs from the first's
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            a = np.loadtxt(io.StringIO(text), ndmin=2, comments=None, dtype=np.float64)
+        if a.shape == (len(block), ncol):
+            return a[:, usecols]
+    except (ValueError, UserWarning):
+        pass
+    # a column of text (an XYZ species): the field count checked on the whole block
+    if len(text.split()) != len(block) * ncol:
         return None
     try:
         with warnings.catch_warnings():
