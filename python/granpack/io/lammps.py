@@ -467,6 +467,34 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     return atomic_write(path, out.getvalue().encode())
 
 
+# a row whose integer columns are written as integers (an id "1.0" is not one)
+_INT_WORD = r"[-+]?[0-9]+"
+
+
+def _data_rows(
+    lines: list[str], rows: list[int], ncol: int, integers: tuple[int, ...]
+) -> np.ndarray | None:
+    """The section rows `rows` as an (n, ncol) float64 table in one pass of numpy's
+    reader, where every row holds `ncol` finite numbers and the columns `integers` are
+    written as integers within 2**53; None otherwise, so that the row-by-row reading runs
+    and names the row at fault."""
+    block = [lines[k] for k in rows]
+    a = _column_table(block, ncol, list(range(ncol)))
+    if a is None or not np.all(np.isfinite(a)):
+        return None
+    ints = a[:, list(integers)]
+    if np.any(np.abs(ints) >= 2.0**53):
+        return None
+    # the integer columns' text: a compiled pattern over each row (the rows were read
+    # as numbers already, so only the form of those columns is left to check)
+    pattern = re.compile(
+        r"^\s*" + r"\s+".join(_INT_WORD if c in integers else r"\S+" for c in range(ncol)) + r"\s*$"
+    )
+    if not all(pattern.match(row) for row in block):
+        return None
+    return a
+
+
 def read_lammps_data(path: str | Path) -> dict:
     """Reads the particles of a LAMMPS data file for ``atom_style sphere``, as granpack's
     export and LAMMPS' ``write_data`` write it.
@@ -673,7 +701,13 @@ def read_lammps_data(path: str | Path) -> dict:
     types = np.zeros(n_atoms, dtype=np.int64)
     atoms = np.zeros((n_atoms, 5))  # diameter density x y z
     image = np.zeros((n_atoms, 3), dtype=np.int64)
-    for j, k in enumerate(rows):
+    fast = _data_rows(lines, rows, ncol, (0, 1, *range(7, ncol)))
+    if fast is not None:
+        ids, types = fast[:, 0].astype(np.int64), fast[:, 1].astype(np.int64)
+        atoms = np.ascontiguousarray(fast[:, 2:7])
+        if ncol == 10:
+            image = fast[:, 7:10].astype(np.int64)
+    for j, k in enumerate(rows if fast is None else ()):
         words = lines[k].split("#", 1)[0].split()
         if len(words) != ncol:
             raise FileFormatError(
@@ -708,10 +742,20 @@ def read_lammps_data(path: str | Path) -> dict:
                 "truncated or inconsistent file",
                 path=path,
             )
-        at = {int(i): j for j, i in enumerate(ids)}
+        vfast = _data_rows(lines, vrows, 7, (0,))
+        if vfast is not None:
+            # every id once, and each an atom's: then the rows go to their atoms at once
+            vid = vfast[:, 0].astype(np.int64)
+            where = np.searchsorted(ids, vid)
+            where = np.minimum(where, n_atoms - 1)
+            if np.array_equal(np.sort(vid), ids) and np.array_equal(ids[where], vid):
+                vel[where] = vfast[:, 1:]
+            else:
+                vfast = None
+        at = {int(i): j for j, i in enumerate(ids)} if vfast is None else {}
         seen: dict[int, int] = {}
         vnames = ("id", "vx", "vy", "vz", "wx", "wy", "wz")
-        for k in vrows:
+        for k in vrows if vfast is None else ():
             words = lines[k].split("#", 1)[0].split()
             if len(words) != 7:
                 raise FileFormatError(
