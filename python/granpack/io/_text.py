@@ -44,6 +44,20 @@ def _head(path: Path, n: int = 65536) -> bytes:
         raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
 
 
+def _frame_index(path: Path, snapshot: int, n: int, holder: str, unit: str) -> int:
+    """The 0-based index of `snapshot` (Python's: -1 the last) among the `n` snapshots or
+    frames (`unit`) that the file (`holder`: "dump", "file") holds; out of range, a
+    FileFormatError that gives the range."""
+    if not -n <= snapshot < n:
+        raise FileFormatError(
+            f"{path}: snapshot = {snapshot} is out of range: the {holder} holds {n} "
+            f"{unit}{'s' if n > 1 else ''} (0 to {n - 1}, or -{n} to -1)",
+            path=path,
+            reason="snapshot out of range",
+        )
+    return int(snapshot) % n
+
+
 def _single_snapshot(path: Path, snapshot: int) -> None:
     if snapshot not in (0, -1):
         raise FileFormatError(

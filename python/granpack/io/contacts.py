@@ -25,6 +25,7 @@ import numpy as np
 from .._validate import FileFormatError, InvalidParameterError, is_number, short_repr
 from ..analysis.inputs import check_contacts_touch
 from ..contacts import Contacts
+from ._text import _frame_index
 from .particle_file import ParticleFile
 
 __all__ = ["LAYOUTS", "COLUMN_NAMES", "ContactFile", "read_contacts"]
@@ -301,14 +302,7 @@ def read_contacts(
         if want_step is not None:
             k_snap = next((k for k, b in enumerate(blocks) if b.timestep == want_step), n_snap - 1)
     else:
-        if not -n_snap <= snapshot < n_snap:
-            raise FileFormatError(
-                f"{path}: snapshot = {snapshot} is out of range: the dump holds {n_snap} "
-                f"snapshot{'s' if n_snap > 1 else ''}",
-                path=path,
-                reason="snapshot out of range",
-            )
-        k_snap = int(snapshot) % n_snap
+        k_snap = _frame_index(path, int(snapshot), n_snap, "dump", "snapshot")
     b = blocks[k_snap]
     assert b.names is not None and b.n is not None
     if want_step is not None and b.timestep != want_step:

@@ -62,7 +62,7 @@ from .._validate import FileFormatError, GranpackError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of
 from ..pack import atomic_write
-from ._text import _read_args
+from ._text import _frame_index, _read_args
 from .particle_file import ParticleFile
 
 if TYPE_CHECKING:
@@ -353,14 +353,7 @@ def _read_open(f: Any, path: Path, dim: int | None, snapshot: int) -> ParticleFi
     n_frames = int(f.nframes)
     if n_frames == 0:
         raise FileFormatError(f"{path}: the file holds no frames", path=path)
-    if not -n_frames <= snapshot < n_frames:
-        raise FileFormatError(
-            f"{path}: snapshot = {snapshot} is out of range: the file holds {n_frames} "
-            f"frame{'s' if n_frames > 1 else ''} (0 to {n_frames - 1}, or -{n_frames} to -1)",
-            path=path,
-            reason="snapshot out of range",
-        )
-    k = snapshot % n_frames
+    k = _frame_index(path, snapshot, n_frames, "file", "frame")
     fr = _Frame(f, path, k)
 
     count = fr.array("particles/N", (1,))

@@ -29,7 +29,7 @@ from ._text import (
     _check_values,
     _choose_dim,
     _column_table,
-    _head,
+    _frame_index,
     _integer_ids,
     _pad3,
     _pick,
@@ -207,14 +207,7 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     lines = _read_text(path).splitlines()
     snaps = _scan_dump(path, lines)
     n_snap = len(snaps)
-    if not -n_snap <= snapshot < n_snap:
-        raise FileFormatError(
-            f"{path}: snapshot = {snapshot} is out of range: the dump holds {n_snap} "
-            f"snapshot{'s' if n_snap > 1 else ''} (0 to {n_snap - 1}, or -{n_snap} to -1)",
-            path=path,
-            reason="snapshot out of range",
-        )
-    k_snap = snapshot % n_snap
+    k_snap = _frame_index(path, snapshot, n_snap, "dump", "snapshot")
     s = snaps[k_snap]
     assert s.cols is not None and s.n is not None and s.bounds is not None
     atoms_line, names = s.cols
@@ -337,7 +330,6 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
 
 
 def read_data(path: Path, dim: int | None) -> ParticleFile:
-
     data = read_lammps_data(path)
     x3 = data["positions"]
     ids = data["id"]
@@ -351,8 +343,7 @@ def read_data(path: Path, dim: int | None) -> ParticleFile:
     lo, hi = data["box"]
     # LAMMPS keeps the boundary flags in the input script, not the data file: the
     # container is known only from granpack's tag on the title line
-    title = _head(path, 4096).decode("utf-8-sig", errors="replace").partition("\n")[0]
-    tag = parse_container_tag(title, path, 1, d)
+    tag = parse_container_tag(data["title"], path, 1, d)
     return ParticleFile(
         path=path,
         format="lammps-data",

@@ -23,6 +23,7 @@ from ._text import (
     _check_values,
     _choose_dim,
     _column_table,
+    _frame_index,
     _read_text,
     _rows_text,
 )
@@ -108,14 +109,7 @@ def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     lines = _read_text(path).splitlines()
     starts = _xyz_frames(path, lines)
     n_frames = len(starts)
-    if not -n_frames <= snapshot < n_frames:
-        raise FileFormatError(
-            f"{path}: snapshot = {snapshot} is out of range: the file holds {n_frames} "
-            f"frame{'s' if n_frames > 1 else ''} (0 to {n_frames - 1}, or -{n_frames} to -1)",
-            path=path,
-            reason="snapshot out of range",
-        )
-    k_frame = snapshot % n_frames
+    k_frame = _frame_index(path, snapshot, n_frames, "file", "frame")
     b = starts[k_frame]  # the frame's count line (0-based); its comment is line b + 2
     n = int(lines[b])
     if n == 0:
