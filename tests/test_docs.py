@@ -26,10 +26,10 @@ MAP = ROOT / "ARCHITECTURE.md"
 BANNED = [
     re.compile(r"\bsessions? \d+", re.IGNORECASE),
     re.compile(r"\bsessions \d+\s*(-|to|and)\s*\d+", re.IGNORECASE),
-    # "issue 7", "Issue #6", "issues #6", "issue-7"; not the verb ("it issues 5 square roots")
+    # a tracker's numbered issue, with or without "#" or a hyphen; not the verb
     re.compile(r"\bissue[ -]?#?\d+|\bissues #\d+", re.IGNORECASE),
     re.compile(r"\bVMs?\b"),
-    # "no device machine for this task (`status`: not drawn)"
+    # what a piece of work was or was not lent to measure with, rather than the CPU measured
     re.compile(r"\bdevice machines?\b", re.IGNORECASE),
     re.compile(r"\bstatus\W{0,3}:?\W{0,3}not drawn|\bnot drawn\)", re.IGNORECASE),
     re.compile(r"\b(in|for|of) this task\b", re.IGNORECASE),

@@ -27,11 +27,12 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import FileFormatError
+from .analysis.container import CONTAINERS
 
 __all__ = ["ContainerTag", "container_tag", "parse_container_tag", "CONTAINER_KINDS"]
 
-#: The container kinds a tag names.
-CONTAINER_KINDS = ("box", "periodic", "cylinder")
+#: The container kinds a tag names: the analysis' (granpack.analysis.container).
+CONTAINER_KINDS = CONTAINERS
 
 _WORD = re.compile(r"(?<![\w.])(container|cylinder_radius|lo|hi)=(\S+)")
 # granpack's LAMMPS data files before the tag: "..., container cylinder radius 0.1)"
