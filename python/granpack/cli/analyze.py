@@ -208,9 +208,9 @@ def _load_for_analysis(args, console: Console):
     elif args.contact_layout is not None:
         raise GranpackError("--contact-layout needs --contacts FILE")
     where: dict = {}
-    if getattr(args, "container", None) is not None:
+    if args.container is not None:
         where["container"] = args.container
-    if getattr(args, "cylinder_radius", None) is not None:
+    if args.cylinder_radius is not None:
         where["cylinder_radius"] = args.cylinder_radius
     if args.box is None:
         return particles, where

@@ -169,7 +169,7 @@ _DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
 _YADE_HEADER = re.compile(r"^#\s*format\s+(\S+)\s*$")
 
 
-def _by_content(path: Path, head: bytes) -> str | None:
+def _by_content(head: bytes) -> str | None:
     """The format the first bytes show, or None for text that could be any table."""
     if head.startswith(b"PK\x03\x04"):
         return "npz"
@@ -217,7 +217,7 @@ def detect_format(path) -> str:
     """
     path = Path(path)
     head = _head(path)
-    found = _by_content(path, head)
+    found = _by_content(head)
     if found is not None:
         return found
     suffix = path.suffix.lower()
