@@ -9,6 +9,7 @@ moved or published as it is.
 from __future__ import annotations
 
 import datetime as _dt
+import importlib
 import os
 import platform
 from collections.abc import Mapping, Sequence
@@ -23,12 +24,11 @@ __all__ = ["paper_report", "ensemble_report"]  # noqa: F822
 
 
 def __getattr__(name: str):
-    # paper_report's former home: loaded on first use, as granpack.paper.report builds on
-    # the functions of this module
+    # paper_report's former home: loaded by name on first use, as granpack.paper.report
+    # builds on the functions of this module (an import statement here would make the two
+    # modules import each other)
     if name == "paper_report":
-        from .paper.report import paper_report
-
-        return paper_report
+        return importlib.import_module("granpack.paper.report").paper_report
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -62,7 +62,7 @@ def _grouped_links(files: Sequence[Path], base: Path) -> dict[str, list[tuple[st
 
 
 def _environment_line(wall_time: float) -> str:
-    from . import __version__
+    from ._core import __version__
 
     when = _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     return (

@@ -21,8 +21,8 @@ from .inputs import (
     check_contacts_touch,
     find_container_contacts,
 )
+from .order import bond_order
 from .stress import contact_forces, k0, love_weber
-from .structure import bond_order
 from .tensors import ANISOTROPY_FACTOR, anisotropy_magnitude, fabric_tensor
 
 #: Most slices of a depth profile.

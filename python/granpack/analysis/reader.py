@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._numbers import _number_table
 from .._validate import FileFormatError, GranpackError, InvalidParameterError, is_number
 
 __all__ = ["read_xyzr"]
@@ -47,8 +48,6 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
         raise GranpackError(f"cannot read {path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise GranpackError(f"cannot read {path}: {exc}") from None
-    from ..io._text import _number_table
-
     all_lines = text.splitlines()
     a = _number_table(all_lines, 0, (3, 4))
     if a is not None and np.all(np.isfinite(a)) and np.all(a[:, -1] > 0.0):

@@ -29,9 +29,9 @@ import signal
 import sys
 from collections.abc import Sequence
 
+from .._console import Console
+from .._outputs import LOCK_NAME as LOCK_NAME
 from .._validate import GranpackError
-from ._common import LOCK_NAME as LOCK_NAME
-from ._console import Console
 
 __all__ = ["main", "build_parser"]
 
@@ -76,8 +76,7 @@ def _command(name: str):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``granpack`` command."""
-    from .. import __version__
-    from .._core import cpu_level
+    from .._core import __version__, cpu_level
 
     parser = _Parser(
         prog="granpack",

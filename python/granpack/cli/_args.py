@@ -112,29 +112,3 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     # Development and test knobs (not the paper's physics): hidden from --help.
     p.add_argument("--settle-time", type=positive_float, default=None, help=argparse.SUPPRESS)
     p.add_argument("--scale", type=positive_float, default=None, help=argparse.SUPPRESS)
-
-
-# -- the development options -----------------------------------------------------------------------
-
-
-def dev_changes(scene, settle_time: float | None, scale: float | None) -> dict:
-    """Scene changes from the hidden development options (--scale, --settle-time)."""
-    changes: dict = {}
-    if settle_time is not None:
-        changes["settle_time"] = settle_time
-    if scale is not None:
-        changes["base"] = tuple(b * scale for b in scene.base)
-        changes["height"] = scene.height * scale
-        if scene.cylinder_radius is not None:
-            changes["cylinder_radius"] = scene.cylinder_radius * scale
-    return changes
-
-
-def dev_note(settle_time: float | None, scale: float | None) -> dict:
-    """The hidden development options in force, for the report's warning."""
-    note = {}
-    if settle_time is not None:
-        note["settle_time"] = f"{settle_time:g} s per layer"
-    if scale is not None:
-        note["base and height scaled by"] = f"{scale:g}"
-    return note

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .._console import Console
+from .._outputs import json_text, jsonable, microstructure
 from .._validate import GranpackError, InvalidParameterError, check_outputs
 from ..container_tag import CONTAINER_KINDS
 from ..io import FORMATS
 from ..io import LAYOUTS as CONTACT_LAYOUTS
-from ._common import json_text, jsonable, microstructure
-from ._console import Console
 
 HELP = "microstructure of a saved pack or of particles from another code"
 DESCRIPTION = (

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .._console import Console
+from .._outputs import say_removed
 from .._validate import GranpackError
-from ._common import say_removed
-from ._console import Console
 
 HELP = (
     "write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "

@@ -9,17 +9,19 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import GranpackError, InvalidParameterError
-from . import _args
-from ._common import (
+from .._console import Console
+from .._outputs import (
     analyze_packs,
+    dev_changes,
+    dev_note,
     locked,
     refuse_scene_among_outputs,
     same_file,
     sweep_temporaries,
     unsettled_as_notes,
 )
-from ._console import Console
+from .._validate import GranpackError, InvalidParameterError
+from . import _args
 
 HELP = "make an ensemble of packs of a scene, with microstructure, tables, pictures"
 DESCRIPTION = (
@@ -91,7 +93,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         scene = scene.replace(**changes)
     if args.trim:
         scene = scene.replace(trim=True)
-    dev = _args.dev_changes(scene, args.settle_time, args.scale)
+    dev = dev_changes(scene, args.settle_time, args.scale)
     if dev:
         scene = scene.replace(**dev)
     if args.fast:
@@ -194,7 +196,7 @@ def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text
         table_files=table_files,
         figures=figures,
         wall_time=time.perf_counter() - t0,
-        dev_changes=_args.dev_note(args.settle_time, args.scale),
+        dev_changes=dev_note(args.settle_time, args.scale),
     )
     phi = np.array([rec["phi"] for rec in records])
     sd = f" ± {phi.std(ddof=1):.4f}" if phi.size > 1 else ""

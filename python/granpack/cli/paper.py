@@ -6,9 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .._console import Console
 from ..paper.reproduction import PAPER_EXAMPLES, PAPER_PACKS, QUICK_PACKS
 from . import _args
-from ._console import Console
 
 HELP = "reproduce the paper's section 4 (examples 4.1-4.4, rotations on and off)"
 DESCRIPTION = (

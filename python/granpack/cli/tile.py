@@ -7,10 +7,10 @@ import math
 import time
 from pathlib import Path
 
+from .._console import Console
+from .._outputs import say_removed
 from .._validate import check_outputs
 from . import _args
-from ._common import say_removed
-from ._console import Console
 
 HELP = "copy a periodic pack nx x ny times into one larger periodic pack"
 DESCRIPTION = (

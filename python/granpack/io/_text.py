@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._numbers import _loadtxt
 from .._validate import (
     FileFormatError,
     InvalidParameterError,
@@ -233,39 +234,6 @@ def _read_args(snapshot, dim) -> int:
     return int(snapshot)
 
 
-def _number_table(
-    lines: list[str], start: int, ncol: tuple[int, ...], commas: bool = True
-) -> np.ndarray | None:
-    """lines[start:] as a table of numbers, parsed in one pass by numpy's C reader: blank
-    lines and ``#`` comments skipped, every row `ncol` numbers (one of the counts given,
-    the same for all), commas as blanks where `commas`. None where that fails for any reason: the
-    caller's line-by-line reader then reads the file again and names the line at fault,
-    so that this path changes the speed, never the result or the message."""
-    body = "\n".join(lines[start:])
-    if commas and "," in body:
-        body = body.replace(",", " ")
-    # (without `commas`, a comma in a row is not a number to numpy's reader either: the
-    # parse fails and the caller's reading names the line; commas in comments are skipped)
-    a = _loadtxt(body, comments="#")
-    if a is None or a.shape[0] == 0 or a.shape[1] not in ncol:
-        return None
-    return a
-
-
-def _loadtxt(text: str, **options) -> np.ndarray | None:
-    """numpy's C reader on `text` as an at-least-2D float64 table, or None where it fails
-    or finds no data (the callers' row-by-row readings then name the fault)."""
-    import io
-    import warnings
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")  # "input contained no data"
-            return np.loadtxt(io.StringIO(text), ndmin=2, dtype=np.float64, **options)
-    except (ValueError, UserWarning):
-        return None
-
-
 def _rows_text(*columns, prefix: str = "") -> str:
     """Lines of space-separated columns (each (N,) of ints or float64), floats at full
     precision as `_format_lines` writes them; `prefix` starts every line. Plain columns go
@@ -305,12 +273,23 @@ def _column_table(block: list[str], ncol: int, usecols: list[int]) -> np.ndarray
     return a if a is not None and a.shape == (len(block), len(usecols)) else None
 
 
+def lammps_positions(pack: Pack) -> np.ndarray:
+    """(N, 3) centres as the data file writes them: 2D at z = 0, and a periodic pack's
+    wrapped into [0, L) along each periodic axis."""
+    x = _pad3(pack.positions)
+    kind, _ = container_of(pack)
+    if kind == "periodic":
+        for ax, length in enumerate(pack.scene.base):
+            x[:, ax] = np.mod(x[:, ax], length)
+            # mod can round a tiny negative up to L itself
+            x[x[:, ax] >= length, ax] = 0.0
+    return x
+
+
 def _state3(pack: Pack) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(positions, radii, velocities, spins) as the DEM codes' files write them: (N, 3)
     each (2D at z = 0, the spin about z), a periodic pack's centres wrapped into its cell
-    (`granpack.io.lammps.lammps_positions`)."""
-    from .lammps import lammps_positions
-
+    (`lammps_positions`)."""
     r = np.asarray(pack.radii, dtype=np.float64)
     return lammps_positions(pack), r, _pad3(pack.velocities), _pad3(pack.spins)
 

@@ -37,6 +37,7 @@ from ._text import (
     _rows_text,
     _sorted_by_id,
     _tag_fields,
+    lammps_positions,
 )
 from .particle_file import ParticleFile
 
@@ -384,19 +385,6 @@ def lammps_density(pack: Pack) -> np.ndarray:
         # unit-thickness disc: m = rho pi r^2
         return rho * (math.pi * r**2) / (4.0 / 3.0 * math.pi * r**3)
     return np.full(r.shape, rho)
-
-
-def lammps_positions(pack: Pack) -> np.ndarray:
-    """(N, 3) centres as the data file writes them: 2D at z = 0, and a periodic pack's
-    wrapped into [0, L) along each periodic axis."""
-    x = _pad3(pack.positions)
-    kind, _ = container_of(pack)
-    if kind == "periodic":
-        for ax, length in enumerate(pack.scene.base):
-            x[:, ax] = np.mod(x[:, ax], length)
-            # mod can round a tiny negative up to L itself
-            x[x[:, ax] >= length, ax] = 0.0
-    return x
 
 
 def input_text(pack: Pack, data_name: str, code: str) -> str:

@@ -73,7 +73,7 @@ def write_mercurydpm(pack: Pack, path: str | Path) -> Path:
     """Writes the pack as a MercuryDPM ``.data`` file (format 14 in 3D, 8 in 2D; layout in
     the module docstring), which ``DPMBase::readDataFile`` reads into a ``Mercury3D`` or
     ``Mercury2D`` problem. Returns the path."""
-    from .lammps import lammps_positions
+    from ._text import lammps_positions
 
     s = pack.scene
     d = s.dim

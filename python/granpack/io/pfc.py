@@ -71,7 +71,7 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
     """Writes a PFC 7 data file of commands that creates the pack's balls with their
     radii, velocities, spins and densities in its domain (layout in the module docstring;
     PFC3D for a 3D pack, PFC2D for a 2D one). Returns the path."""
-    from .lammps import lammps_positions
+    from ._text import lammps_positions
 
     s = pack.scene
     d = s.dim

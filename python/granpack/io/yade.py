@@ -18,12 +18,12 @@ from ..pack import atomic_write
 if TYPE_CHECKING:
     from ..pack import Pack
 
+from .._numbers import _number_table
 from ._text import (
     _check_values,
     _choose_dim,
     _comment_tag,
     _integer_ids,
-    _number_table,
     _pad3,
     _read_text,
     _rows_text,

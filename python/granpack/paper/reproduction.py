@@ -10,10 +10,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .._console import Console
+from .._outputs import (
+    analyze_packs,
+    dev_changes,
+    dev_note,
+    locked,
+    sweep_temporaries,
+    unsettled_as_notes,
+)
 from .._validate import InvalidParameterError, as_int, as_real
-from ..cli._args import dev_changes, dev_note
-from ..cli._common import analyze_packs, locked, sweep_temporaries, unsettled_as_notes
-from ..cli._console import Console
 
 __all__ = ["reproduce", "paper_phi", "PAPER_EXAMPLES", "PAPER_PACKS", "QUICK_PACKS"]
 

@@ -1,5 +1,6 @@
-"""What the commands share: the output folder's lock, the checks that keep a run from
-writing over its input or its own results, strict JSON and the per-pack records."""
+"""What the runs that write an output folder share (the ``granpack`` commands and the
+paper's reproduction): the folder's lock, the checks that keep a run from writing over its
+input or its own results, strict JSON, the per-pack records and the development options."""
 
 from __future__ import annotations
 
@@ -14,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import GranpackError, InvalidParameterError, check_outputs
 from ._console import Console
+from ._validate import GranpackError, InvalidParameterError, check_outputs
 
 #: The lock file of an output folder (see `locked`).
 LOCK_NAME = ".granpack.lock"
@@ -90,7 +91,7 @@ def sweep_temporaries(out: Path, console: Console) -> None:
     """Removes, and names, the temporaries that writes cut off by a kill left in the
     output folder (only files named as granpack's atomic writes name them). Called
     under the folder's lock: no other run is writing there."""
-    from ..pack import remove_stale_temporaries
+    from .pack import remove_stale_temporaries
 
     say_removed(remove_stale_temporaries(out), out, console)
 
@@ -115,7 +116,7 @@ def say_removed(removed: list[Path], out: Path, console: Console) -> None:
 def unsettled_as_notes(console: Console) -> Iterator[None]:
     """UnsettledPackWarnings raised while a run makes its packs become console notes
     (one line per kind, with the packs it concerns), not warnings with a source line."""
-    from ..pack import UnsettledPackWarning
+    from .pack import UnsettledPackWarning
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnsettledPackWarning)
@@ -174,7 +175,7 @@ def microstructure(console: Console, label: str, *args, **kwargs):
     """granpack.microstructure(...), with its MicrostructureWarnings (an undefined
     quantity, e.g. an empty core window in a small pack) turned into notes that the
     console prints once per message, instead of warnings with a source line."""
-    from .. import analysis as ms
+    from . import analysis as ms
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ms.MicrostructureWarning)
@@ -190,7 +191,7 @@ def microstructure(console: Console, label: str, *args, **kwargs):
 def analyze_packs(paths: Sequence[Path], micro_dir: Path, console: Console) -> list:
     """Loads each pack, computes its microstructure and writes micro/pack_k.json.
     Returns [(pack, microstructure, record)] in order."""
-    from ..pack import atomic_write, load_pack
+    from .pack import atomic_write, load_pack
 
     out = []
     for k, path in enumerate(paths):
@@ -202,3 +203,29 @@ def analyze_packs(paths: Sequence[Path], micro_dir: Path, console: Console) -> l
         out.append((pack, m, rec))
     console.flush_notes()
     return out
+
+
+# -- the development options -----------------------------------------------------------------------
+
+
+def dev_changes(scene, settle_time: float | None, scale: float | None) -> dict:
+    """Scene changes from the hidden development options (--scale, --settle-time)."""
+    changes: dict = {}
+    if settle_time is not None:
+        changes["settle_time"] = settle_time
+    if scale is not None:
+        changes["base"] = tuple(b * scale for b in scene.base)
+        changes["height"] = scene.height * scale
+        if scene.cylinder_radius is not None:
+            changes["cylinder_radius"] = scene.cylinder_radius * scale
+    return changes
+
+
+def dev_note(settle_time: float | None, scale: float | None) -> dict:
+    """The hidden development options in force, for the report's warning."""
+    note = {}
+    if settle_time is not None:
+        note["settle_time"] = f"{settle_time:g} s per layer"
+    if scale is not None:
+        note["base and height scaled by"] = f"{scale:g}"
+    return note
