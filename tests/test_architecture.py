@@ -25,3 +25,23 @@ def test_the_import_graph_has_no_circle():
         timeout=300,
     )
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_import_granpack_loads_no_heavy_library():
+    # `import granpack` stays fast: numpy, polars, matplotlib and the rest load on first use
+    heavy = ("numpy", "polars", "matplotlib", "scipy", "dask", "tqdm", "tomli_w")
+    code = f"import sys, granpack; print([m for m in {heavy!r} if m in sys.modules])"
+    run = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True
+    )
+    assert run.stdout.strip() == "[]"
+
+
+def test_the_names_of_the_api_load_on_first_use():
+    code = (
+        "import granpack as gp; "
+        "assert all(getattr(gp, n) is not None for n in gp.__all__); "
+        "assert gp.profiles.__module__ == 'granpack.analysis.profiles'; "
+        "assert gp.analysis.microstructure is gp.microstructure"
+    )
+    subprocess.run([sys.executable, "-c", code], timeout=120, check=True)

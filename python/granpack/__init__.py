@@ -3,13 +3,18 @@ microstructure.
 
 The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 (`granpack._core`); this package is the thin Python layer over it.
+
+``import granpack`` loads the extension and the error classes only; every other name of
+the API, and numpy, polars and the rest with it, is imported on first use.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
 
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
-from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
-from .contacts import Contacts
-from .engine import Material, Simulation
 from .errors import (
     BlowUpError,
     FileFormatError,
@@ -18,11 +23,65 @@ from .errors import (
     SaturationError,
     UnstableTimeStepError,
 )
-from .grading import Grading, realised_grading, target_grading
-from .io import ContactFile, ParticleFile, read_contacts, read_particles
-from .pack import Pack, UnsettledPackWarning, generate, load_pack
-from .scene import PRESETS, PackScene
-from .tile import tile
+
+if TYPE_CHECKING:
+    from .analysis import microstructure, radial_profiles, rdf, steinhardt
+    from .analysis.profiles import profiles
+    from .contacts import Contacts
+    from .engine import Material, Simulation
+    from .grading import Grading, realised_grading, target_grading
+    from .io import ContactFile, ParticleFile, read_contacts, read_particles
+    from .pack import Pack, UnsettledPackWarning, generate, load_pack
+    from .scene import PRESETS, PackScene
+    from .tile import tile
+
+#: Where each name of the API loaded on first use lives.
+_LAZY = {
+    "microstructure": "analysis",
+    "profiles": "analysis.profiles",
+    "radial_profiles": "analysis",
+    "rdf": "analysis",
+    "steinhardt": "analysis",
+    "Contacts": "contacts",
+    "Material": "engine",
+    "Simulation": "engine",
+    "Grading": "grading",
+    "realised_grading": "grading",
+    "target_grading": "grading",
+    "ContactFile": "io",
+    "ParticleFile": "io",
+    "read_contacts": "io",
+    "read_particles": "io",
+    "Pack": "pack",
+    "UnsettledPackWarning": "pack",
+    "generate": "pack",
+    "load_pack": "pack",
+    "PRESETS": "scene",
+    "PackScene": "scene",
+    "tile": "tile",
+}
+#: The modules that ``import granpack`` loaded before the API was loaded on first use, still
+#: reachable as attributes of the package (``granpack.analysis``) without their own import.
+_SUBMODULES = frozenset(
+    ("analysis", "contacts", "engine", "grading", "io", "pack", "scene", "tile")
+    + ("container_tag", "dem_input", "_validate")
+)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__) | _SUBMODULES)
+
 
 __all__ = [
     "GranpackError",
