@@ -28,11 +28,11 @@ if TYPE_CHECKING:
     from .analysis import microstructure, radial_profiles, rdf, steinhardt
     from .analysis.profiles import profiles
     from .contacts import Contacts
-    from .engine import Material, Simulation
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
     from .pack import Pack, UnsettledPackWarning, generate, load_pack
     from .scene import PRESETS, PackScene
+    from .simulation import Material, Simulation
     from .tile import tile
 
 #: Where each name of the API loaded on first use lives.
@@ -43,8 +43,8 @@ _LAZY = {
     "rdf": "analysis",
     "steinhardt": "analysis",
     "Contacts": "contacts",
-    "Material": "engine",
-    "Simulation": "engine",
+    "Material": "simulation",
+    "Simulation": "simulation",
     "Grading": "grading",
     "realised_grading": "grading",
     "target_grading": "grading",
@@ -63,7 +63,7 @@ _LAZY = {
 #: The modules that ``import granpack`` loaded before the API was loaded on first use, still
 #: reachable as attributes of the package (``granpack.analysis``) without their own import.
 _SUBMODULES = frozenset(
-    ("analysis", "contacts", "engine", "grading", "io", "pack", "scene", "tile")
+    ("analysis", "contacts", "grading", "io", "pack", "scene", "simulation", "tile")
     + ("container_tag", "dem_input", "_validate")
 )
 

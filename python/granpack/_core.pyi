@@ -16,6 +16,8 @@ __all__ = [
     "__version__",
     "MAX_STEPS_PER_CALL",
     "MAX_STEPS_PER_LAYER",
+    "CONTAINERS",
+    "RADIUS_LAWS",
     "cpu_level",
     "cpu_levels",
     "Simulation",
@@ -45,6 +47,10 @@ Inertia2D: TypeAlias = Literal["sphere", "disc"]
 RadiusLawName: TypeAlias = Literal[
     "constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"
 ]
+CONTAINERS: tuple[ContainerName, ...]
+"""The containers a scene may name (`PackScene.container`), the engine's list."""
+RADIUS_LAWS: tuple[RadiusLawName, ...]
+"""The radius laws a scene may name (`PackScene.radius_law`), the engine's list."""
 CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
 
 class MaterialFields(Protocol):

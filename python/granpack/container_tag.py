@@ -45,7 +45,8 @@ class ContainerTag:
 
     Attributes
     ----------
-    kind : {"box", "periodic", "cylinder"}
+    kind : str
+        One of `CONTAINER_KINDS`.
     cylinder_radius : float or None
         R (m) of the cylinder; None for the other kinds.
     lo, hi : (D,) float64 or None

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from numbers import Integral
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import tomli_w
 
@@ -26,17 +26,20 @@ from ._validate import (
     short_repr,
     unknown_keys,
 )
-from .engine import Material
 from .errors import UnstableTimeStepError
+from .simulation import Material
+
+if TYPE_CHECKING:
+    from ._core import ContainerName, RadiusLawName
 
 __all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS", "RADIUS_LAWS"]
 
-#: The containers a scene may have (`PackScene.container`).
-CONTAINERS = ("box", "periodic", "cylinder")
+#: The containers a scene may have (`PackScene.container`), as the engine names them.
+CONTAINERS: tuple[ContainerName, ...] = _core.CONTAINERS
 
 #: The radius laws a scene may have (`PackScene.radius_law`; docs/scene.md, "Size
-#: distributions").
-RADIUS_LAWS = ("constant", "gaussian", "uniform", "lognormal", "discrete", "sieve")
+#: distributions"), as the engine names them.
+RADIUS_LAWS: tuple[RadiusLawName, ...] = _core.RADIUS_LAWS
 
 #: The scene keys that hold lists of numbers of a radius law.
 _LAW_LISTS = ("radii", "fractions", "sieve_sizes", "sieve_passing")
@@ -133,20 +136,20 @@ class PackScene:
         Box lengths along the horizontal axes (m): (L,) in 2D, (B1, B2) in 3D. The box
         spans [0, L] (x [0, B2]); the floor is at 0; the top is open. In a periodic
         container these are the periods; in a cylinder (2R, 2R).
-    container : {"box", "periodic", "cylinder"}
-        What bounds the pack laterally (the floor is a wall and the top is open in
-        all three). "box" (default): the paper's walls at 0 and base. "periodic": the
-        horizontal axes are periodic with periods base (2D and 3D): no side walls,
-        centres in [0, L). "cylinder" (3D only): a vertical cylinder of radius
-        cylinder_radius with its axis through (R, R), so that the pack lies in
-        [0, 2R]^2 laterally.
+    container : str
+        One of `CONTAINERS`: what bounds the pack laterally (the floor is a wall and the top is open
+        in all three). "box" (default): the paper's walls at 0 and base. "periodic": the horizontal
+        axes are periodic with periods base (2D and 3D): no side walls, centres in [0, L).
+        "cylinder" (3D only): a vertical cylinder of radius cylinder_radius with its axis through
+        (R, R), so that the pack lies in [0, 2R]^2 laterally.
     cylinder_radius : float or None
         Radius R of the cylinder (m), at least 2 r_max; base is then (2R, 2R). None
         (default): R = base / 2 (base must be square). Only with container="cylinder".
     height : float
         Desired pack height H_d (m): layers are added while max(z + r) < H_d.
-    radius_law : {"constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"}
-        Radius distribution (docs/scene.md, "Size distributions"). Default "constant".
+    radius_law : str
+        One of `RADIUS_LAWS`: the radius distribution (docs/scene.md, "Size
+        distributions"). Default "constant".
     r_mean : float
         Radius (constant law), or the mean of the radius before truncation (gaussian,
         lognormal) (m). Derived (the mean by number) for the uniform, discrete and
@@ -235,12 +238,10 @@ class PackScene:
 
     dim: int = 2
     base: tuple[float, ...] = (1.0,)
-    container: Literal["box", "periodic", "cylinder"] = "box"
+    container: ContainerName = "box"
     cylinder_radius: float | None = None
     height: float = 0.5
-    radius_law: Literal["constant", "gaussian", "uniform", "lognormal", "discrete", "sieve"] = (
-        "constant"
-    )
+    radius_law: RadiusLawName = "constant"
     r_mean: float = 0.01
     r_std: float = 0.0
     r_min: float | None = None

@@ -20,6 +20,8 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod scene;
+
 /// The one place where the engine's errors become Python exceptions: each variant has
 /// its class in `granpack.errors`, and its fields become keyword arguments (and so
 /// attributes) of the exception.
@@ -260,7 +262,7 @@ fn vector_from<const D: usize>(name: &str, v: &[f64]) -> PyResult<Vector<D>> {
     Ok(Vector::<D>::from_fn(|k, _| v[k]))
 }
 
-/// The container named `name` ("box", "periodic", "cylinder"; a cylinder takes its
+/// The container named `name` (one of [`scene::CONTAINERS`]; a cylinder takes its
 /// radius from `radius`).
 fn container_from(name: &str, radius: Option<f64>) -> PyResult<Container> {
     match (name, radius) {
@@ -1227,5 +1229,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(radius_law_summary, m)?)?;
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
+    scene::register(m)?;
     Ok(())
 }

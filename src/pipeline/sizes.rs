@@ -432,6 +432,17 @@ fn window(min: Real, max: Real) -> Result<()> {
 }
 
 impl RadiusLaw {
+    /// The names a scene gives the laws (`PackScene.radius_law`), in the order of the
+    /// variants.
+    pub const NAMES: [&'static str; 6] = [
+        "constant",
+        "gaussian",
+        "uniform",
+        "lognormal",
+        "discrete",
+        "sieve",
+    ];
+
     /// Checks the law; the error names the scene key (`r_mean`, `r_std`, `r_min`,
     /// `r_max`; a discrete or sieve law is checked when it is built).
     pub fn validate(&self) -> Result<()> {

@@ -79,13 +79,13 @@ def microstructure(
         R (m) of a vertical cylinder (3D): phi is over pi R^2 (H_top - floor), the core
         window is a coaxial cylinder of radius R - core_margin, wall id -2 is the cylinder.
         Default: a Pack's cylinder (``scene.cylinder_radius``, or half its base).
-    container : {"box", "periodic", "cylinder"}, optional
-        The container to analyse in, whatever the pack or file says. Default None: a
-        Pack's scene; for a file read (ParticleFile), what the file said
+    container : str, optional
+        One of `CONTAINERS`: the container to analyse in, whatever the pack or file says.
+        Default None: a Pack's scene; for a file read (ParticleFile), what the file said
         (ParticleFile.container), else a box, assumed. ``Microstructure.container`` and
-        ``.container_source`` say which was used and why. A cylinder without `box`
-        stands on the lowest particle with its axis through the middle of the particles'
-        lateral extent.
+        ``.container_source`` say which was used and why. A cylinder without `box` stands on
+        the lowest particle with its axis through the middle of the particles' lateral
+        extent.
     binned : bool
         Also compute the paper's binned force estimator (``*_binned``). Default False.
     n_bins : int, optional

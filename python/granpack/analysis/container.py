@@ -20,12 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _core
 from .._validate import InvalidParameterError
 
 __all__ = ["Container", "CONTAINERS"]
 
-#: The container kinds.
-CONTAINERS = ("box", "periodic", "cylinder")
+#: The container kinds, as the engine names them.
+CONTAINERS = _core.CONTAINERS
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,8 @@ class Container:
 
     Attributes
     ----------
-    kind : {"box", "periodic", "cylinder"}
+    kind : str
+        One of `CONTAINERS`.
     lo, hi : (D,) float64
         Lower and upper corners (m); ``hi[-1]`` is H_top. For the cylinder, the square
         [lo, lo + 2R] that holds it laterally.

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _core
 from .._console import Console
 from .._outputs import (
     analyze_packs,
@@ -47,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--container",
-        choices=["box", "periodic", "cylinder"],
+        choices=list(_core.CONTAINERS),
         default=None,
         help="what bounds the pack laterally: the walled box, periodic horizontal axes, "
         "or a vertical cylinder (3D) (default: the scene's, box)",

@@ -43,8 +43,9 @@ class ParticleFile:
         The analysis takes periodic horizontal axes as a periodic cell (no walls there,
         contacts across the seam by minimum image); the vertical axis is always bounded
         by the floor and the open top.
-    container : {"box", "periodic", "cylinder"} or None
-        The container the file says the pack lies in: a granpack pack's scene, the
+    container : str or None
+        The container the file says the pack lies in (one of
+        `granpack.scene.CONTAINERS`): a granpack pack's scene, the
         container tag of granpack's text exports (`granpack.container_tag`), or periodic
         horizontal axes in `periodic`. None: the file does not say; the analysis then
         assumes a box (walls at `box`, or none without one) and says so

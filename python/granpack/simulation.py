@@ -1,0 +1,311 @@
+"""The DEM engine from Python: `Material` and `Simulation`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from numbers import Integral
+
+import numpy as np
+
+from . import _core
+from ._validate import InvalidParameterError, as_array, as_bool, as_real, short_repr
+from .contacts import Contacts
+
+__all__ = ["Material", "Simulation", "MAX_STEPS_PER_CALL"]
+
+#: Most steps one `Simulation.step` or `Simulation.run` call takes.
+MAX_STEPS_PER_CALL = _core.MAX_STEPS_PER_CALL
+
+
+@dataclass(frozen=True)
+class Material:
+    """Particle (and wall) material; SI units. Defaults are the paper's.
+
+    Attributes
+    ----------
+    density : float
+        Mass density rho (kg/m^3), > 0. Default 1000.
+    young : float
+        Young's modulus E (Pa), > 0. Default 1e8.
+    poisson : float
+        Poisson's ratio nu in (-1, 0.5). Default 0.25.
+    damping : float
+        Damping ratio xi of the normal and tangential dashpots, in [0, 1]
+        (the paper's "damping rate"). Default 0.1.
+    friction : float
+        Coulomb friction coefficient mu >= 0 (particles and walls). Default 0.2.
+    """
+
+    density: float = 1000.0
+    young: float = 1e8
+    poisson: float = 0.25
+    damping: float = 0.1
+    friction: float = 0.2
+
+    def __post_init__(self) -> None:
+        check = object.__setattr__
+        check(self, "density", as_real("density", self.density, 0, lo_open=True, unit="kg/m^3"))
+        check(self, "young", as_real("young", self.young, 0, lo_open=True, unit="Pa"))
+        check(
+            self, "poisson", as_real("poisson", self.poisson, -1, 0.5, lo_open=True, hi_open=True)
+        )
+        check(self, "damping", as_real("damping", self.damping, 0, 1))
+        check(self, "friction", as_real("friction", self.friction, 0))
+
+    def as_tuple(self) -> tuple[float, float, float, float, float]:
+        return (self.density, self.young, self.poisson, self.damping, self.friction)
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+    def critical_time_step(self, r_min: float) -> float:
+        """Rayleigh time step pi r_min sqrt(rho/G) / (0.1631 nu + 0.8766) (s)."""
+        return _core.rayleigh_time_step(self.density, self.young, self.poisson, float(r_min))
+
+
+class Simulation:
+    """A DEM world of discs (dim=2) or spheres (dim=3).
+
+    Parameters
+    ----------
+    dim : int
+        2 or 3.
+    material : Material
+        Default ``Material()`` (the paper's).
+    dt : float
+        Time step (s), default 1e-4; must not exceed the Rayleigh estimate of the
+        smallest particle (checked on the first step).
+    gravity : sequence of D floats, optional
+        Body acceleration (m/s^2). Default 2 m/s^2 along -y (2D) or -z (3D).
+    drag : float
+        Linear drag c_D (N s/m), f = -c_D v. Default 0.
+    box : ((lo...), (hi...)) or None
+        Floor at lo[vertical], side walls at lo and hi on the horizontal axes; the
+        top is open (hi[vertical] may be inf). None: no walls.
+    rotations : bool
+        Integrate spins. Default True; False keeps spins at zero.
+    skin_ratio : float
+        Verlet skin over the smallest radius. Default 0.2.
+    max_overlap_ratio : float
+        Overlap, as a fraction of the smaller radius, at which a run stops as
+        unstable. Default 0.5.
+    inertia_2d : {"sphere", "disc"}
+        2D mass model: a sphere confined to the plane (default) or a unit-thickness disc.
+    container : str
+        One of `granpack.scene.CONTAINERS`: what bounds the particles laterally inside `box` (needed
+        for the other two): side walls (default), periodic horizontal axes with periods hi - lo, or
+        (3D) a vertical cylinder of radius `cylinder_radius` with its axis through lo + (R, R) (the
+        box's sides must then be 2R). See docs/physics.md, "Containers".
+    cylinder_radius : float or None
+        Radius of the cylinder (m); only with container="cylinder".
+    """
+
+    dim: int
+    material: Material
+    _inertia_2d: str
+    _sim: _core.Simulation
+
+    def __init__(
+        self,
+        dim: int = 3,
+        material: Material | None = None,
+        dt: float = 1e-4,
+        gravity=None,
+        drag: float = 0.0,
+        box=None,
+        rotations: bool = True,
+        *,
+        skin_ratio: float = 0.2,
+        max_overlap_ratio: float = 0.5,
+        inertia_2d: str = "sphere",
+        container: str = "box",
+        cylinder_radius: float | None = None,
+    ) -> None:
+        if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
+            raise InvalidParameterError(f"invalid dim = {dim!r}: must be 2 or 3")
+        dim = int(dim)
+        if not isinstance(inertia_2d, str) or inertia_2d not in ("sphere", "disc"):
+            raise InvalidParameterError(
+                f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'"
+            )
+        material = Material() if material is None else material
+        if not isinstance(material, Material):
+            raise InvalidParameterError(
+                f"invalid material = {material!r}: must be a granpack.Material"
+            )
+        if not isinstance(container, str) or container not in _core.CONTAINERS:
+            raise InvalidParameterError(
+                f"invalid container = {short_repr(container)}: must be one of "
+                + ", ".join(repr(c) for c in _core.CONTAINERS),
+                parameter="container",
+                value=container,
+                expected="box | periodic | cylinder",
+            )
+        if cylinder_radius is not None:
+            cylinder_radius = as_real("cylinder_radius", cylinder_radius, unit="m")
+        dt = as_real("dt", dt, 0, lo_open=True, unit="s")
+        if gravity is None:
+            gravity = [0.0] * dim
+            gravity[dim - 1] = -2.0
+        gravity = as_array("gravity", gravity, (dim,))
+        drag = as_real("drag", drag, 0, unit="N s/m")
+        rotations = as_bool("rotations", rotations)
+        walls = None
+        if box is not None:
+            try:
+                lo, hi = box
+                lo = [float(v) for v in lo]
+                hi = [float(v) for v in hi]
+            except (TypeError, ValueError):
+                raise InvalidParameterError(
+                    f"invalid box = {box!r}: expected ((lo_1..lo_D), (hi_1..hi_D))"
+                ) from None
+            if len(lo) != dim or len(hi) != dim:
+                raise InvalidParameterError(
+                    f"invalid box = {box!r}: corners need {dim} coordinates"
+                )
+            for k in range(dim):
+                if not math.isfinite(lo[k]) or (
+                    k != dim - 1 and not (math.isfinite(hi[k]) and hi[k] > lo[k])
+                ):
+                    raise InvalidParameterError(
+                        f"invalid box = {box!r}: axis {k} needs finite lo < hi (the top may be inf)"
+                    )
+            walls = (lo, hi)
+        self.dim = dim
+        self.material = material
+        self._inertia_2d = inertia_2d
+        self._sim = _core.Simulation(
+            dim,
+            material.as_tuple(),
+            dt,
+            list(gravity),
+            drag,
+            rotations,
+            walls,
+            skin_ratio=as_real("skin_ratio", skin_ratio, 0, 10),
+            max_overlap_ratio=as_real("max_overlap_ratio", max_overlap_ratio, 0, 1, lo_open=True),
+            inertia_2d=inertia_2d,
+            container=container,
+            cylinder_radius=cylinder_radius,
+        )
+
+    def add_particles(self, positions, radii, velocities=None, spins=None) -> None:
+        """Adds N particles: positions (N, D) m, radii (N,) m > 0, velocities (N, D) m/s,
+        spins (N,) rad/s in 2D or (N, 3) in 3D."""
+        x = as_array("positions", positions, (None, self.dim))
+        r = as_array("radii", radii, (x.shape[0],))
+        if np.any(r <= 0):
+            k = int(np.argmax(r <= 0))
+            raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be > 0 (m)")
+        # The engine divides by mass and moment of inertia: both must be finite and > 0.
+        rho = self.material.density
+        with np.errstate(over="ignore", under="ignore"):
+            disc = self.dim == 2 and self._inertia_2d == "disc"
+            m = np.pi * r * r * rho if disc else 4.0 / 3.0 * np.pi * r * r * r * rho
+            inertia = (0.5 if disc else 0.4) * m * r * r
+        bad = ~(np.isfinite(m) & (m > 0) & np.isfinite(inertia) & (inertia > 0))
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            raise InvalidParameterError(
+                f"invalid radii[{k}] = {r[k]}: with density = {rho} kg/m^3 the mass "
+                f"{m[k]:.3g} kg or moment of inertia {inertia[k]:.3g} kg m^2 is not a finite "
+                "number > 0"
+            )
+        v = (
+            None
+            if velocities is None
+            else as_array("velocities", velocities, (x.shape[0], self.dim))
+        )
+        w = None
+        if spins is not None:
+            shape = (x.shape[0],) if self.dim == 2 else (x.shape[0], 3)
+            w = as_array("spins", spins, shape)
+        self._sim.add_particles(x, r, v, w)
+
+    def step(self, n: int = 1) -> None:
+        """Advances n steps, at most `MAX_STEPS_PER_CALL` (1e10) per call. The GIL is
+        released meanwhile; Ctrl-C stops the run within about 0.1 s (KeyboardInterrupt,
+        with the steps taken so far kept)."""
+        limit = _core.MAX_STEPS_PER_CALL
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n <= limit:
+            raise InvalidParameterError(
+                f"invalid n = {short_repr(n)}: must be an integer in [0, {limit}] "
+                "(steps per call; call again to go on)"
+            )
+        self._sim.step(int(n))
+
+    def run(self, seconds: float) -> None:
+        """Advances `seconds` of simulated time, rounded to whole steps; refused when
+        that is more than `MAX_STEPS_PER_CALL` steps (a tiny dt). Ctrl-C stops it as in
+        `step`."""
+        self._sim.run(as_real("seconds", seconds, 0, unit="s"))
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self._sim.time
+
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+        return self._sim.steps
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, D) positions (m); a fresh copy."""
+        return self._sim.positions
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, D) velocities (m/s); assignable."""
+        return self._sim.velocities
+
+    @velocities.setter
+    def velocities(self, v) -> None:
+        self._sim.velocities = as_array("velocities", v, (len(self), self.dim))
+
+    @property
+    def spins(self) -> np.ndarray:
+        """Angular velocities (rad/s): (N,) in 2D, (N, 3) in 3D; assignable."""
+        return self._sim.spins
+
+    @spins.setter
+    def spins(self, w) -> None:
+        shape = (len(self),) if self.dim == 2 else (len(self), 3)
+        self._sim.spins = as_array("spins", w, shape)
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(N,) radii (m)."""
+        return self._sim.radii
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(N,) masses (kg)."""
+        return self._sim.masses
+
+    def kinetic_energy(self) -> float:
+        """Translational plus rotational kinetic energy (J)."""
+        return self._sim.kinetic_energy()
+
+    def potential_energy(self) -> float:
+        """Gravitational potential energy -sum m g.x (J)."""
+        return self._sim.potential_energy()
+
+    def elastic_energy(self) -> float:
+        """Elastic energy stored in the contacts (J): Hertz 8/15 E* sqrt(R*) d^{5/2} plus
+        the tangential springs 1/2 k_t |xi_t|^2, at the last force evaluation."""
+        return self._sim.elastic_energy()
+
+    def critical_time_step(self) -> float:
+        """Rayleigh critical step for the current smallest particle (s)."""
+        return self._sim.critical_time_step()
+
+    def contacts(self) -> Contacts:
+        """The contacts in force at the last force evaluation."""
+        return Contacts.from_dict(self._sim.contacts())
+
+    def __len__(self) -> int:
+        return len(self._sim)
