@@ -48,7 +48,7 @@ where
         stream: 0,
         max_attempts: 100_000,
         max_layers: layers,
-        adaptive_settle: (fast && tol > 0.0).then_some(tol),
+        settle_tol: (fast && tol > 0.0).then_some(tol),
         freeze_depth: fast.then_some(depth),
         freeze_speed: env("SPEED", 1e-3),
         freeze_force: env("FORCE", 0.1),

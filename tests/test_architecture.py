@@ -42,7 +42,9 @@ def test_the_names_of_the_api_load_on_first_use():
         "import granpack as gp; "
         "assert all(getattr(gp, n) is not None for n in gp.__all__); "
         "assert gp.profiles.__module__ == 'granpack.analysis.profiles'; "
-        "assert gp.analysis.microstructure is gp.microstructure"
+        "assert gp.analysis.microstructure is gp.microstructure; "
+        "import granpack.tile; "
+        "assert callable(gp.tile) and gp.tile.__module__ == 'granpack.tile'"
     )
     subprocess.run([sys.executable, "-c", code], timeout=120, check=True)
 

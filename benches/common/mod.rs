@@ -37,7 +37,7 @@ fn scene<const D: usize>(
     height: f64,
     radii: RadiusLaw,
     (h_layer, phi_layer, settle_time): (f64, f64, f64),
-    adaptive_settle: Option<f64>,
+    settle_tol: Option<f64>,
 ) -> PackConfig<D> {
     PackConfig {
         sim,
@@ -51,7 +51,7 @@ fn scene<const D: usize>(
         stream: 0,
         max_attempts: 1_000_000,
         max_layers: 1000,
-        adaptive_settle,
+        settle_tol,
         freeze_depth: None,
         freeze_speed: 1e-3,
         freeze_force: 0.1,

@@ -11,6 +11,8 @@ the API, and numpy, polars and the rest with it, is imported on first use.
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING
 
 from ._core import __version__ as __version__
@@ -66,6 +68,20 @@ _SUBMODULES = frozenset(
     ("analysis", "contacts", "grading", "io", "pack", "scene", "simulation", "tile")
     + ("container_tag", "dem_input", "_validate")
 )
+
+
+class _Package(types.ModuleType):
+    """The package's module type. Importing the submodule ``granpack.tile`` binds the name
+    ``tile`` in the package to that module; the API's function of that name keeps it, as
+    it did when the package imported the function itself."""
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if name == "tile" and isinstance(value, types.ModuleType):
+            value = value.tile
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str):

@@ -96,6 +96,16 @@ def sweep_temporaries(out: Path, console: Console) -> None:
     say_removed(remove_stale_temporaries(out), out, console)
 
 
+def sweep_written(files: Sequence[Path], console: Console) -> None:
+    """Removes, and names, the temporaries that a killed write of the same `files` left
+    beside them (a command that writes beside its input: export, tile)."""
+    from .pack import remove_stale_temporaries
+
+    for folder in sorted({f.parent for f in files}):
+        names = [f.name for f in files if f.parent == folder]
+        say_removed(remove_stale_temporaries(folder, of=names), folder, console)
+
+
 def say_removed(removed: list[Path], out: Path, console: Console) -> None:
     """A note naming the stale temporaries removed under `out`, if any."""
     if removed:

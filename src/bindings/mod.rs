@@ -788,8 +788,7 @@ where
         stream: s.stream,
         max_attempts: s.max_attempts,
         max_layers: s.max_layers,
-        // the scene's settle_tol (the error messages name it so)
-        adaptive_settle: s.settle_tol,
+        settle_tol: s.settle_tol,
         freeze_depth: s.freeze_depth,
         freeze_speed: s.freeze_speed,
         freeze_force: s.freeze_force,

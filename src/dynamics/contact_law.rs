@@ -92,7 +92,7 @@ pub fn hertz_mindlin<const D: usize>(
 }
 
 /// [`hertz_mindlin`] with precomputed [`LawCoefs`]: the scalar reference of the batched
-/// law the engine runs (`dynamics::block::law_block`, tested against it).
+/// law the engine runs (`dynamics::batched_law::law_block`, tested against it).
 #[inline(always)]
 pub fn hertz_mindlin_coefs<const D: usize>(
     c: &LawCoefs,

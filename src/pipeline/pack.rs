@@ -54,7 +54,7 @@ pub struct PackConfig<const D: usize> {
     /// fallen below `tol` times m g r (mean mass and radius); `settle_time` is then the
     /// upper bound. The last layer (the free surface) always runs the whole
     /// `settle_time`. None (default): the paper's fixed `settle_time`.
-    pub adaptive_settle: Option<Real>,
+    pub settle_tol: Option<Real>,
     /// Time step (s) for the rest of a layer's jamming run once the new layer has had
     /// time to fall through its slab (sqrt(2 h_layer / g) after it is placed), and for
     /// the last layer's remainder and the final relax. The landing collisions, fast
@@ -172,7 +172,7 @@ where
         if self.max_layers == 0 {
             return Err(Error::invalid("max_layers", 0, "must be >= 1"));
         }
-        if let Some(tol) = self.adaptive_settle {
+        if let Some(tol) = self.settle_tol {
             check_range("settle_tol", tol, 0.0, false, f64::INFINITY, false)?;
         }
         if let Some(depth) = self.freeze_depth {
@@ -510,12 +510,12 @@ where
 
     /// Runs the jamming stage of one layer: at `sim.dt` until the new layer has had time
     /// to fall through its slab, then at `settle_dt` (when set) for the rest of
-    /// `settle_time`, ending early once the layer is quiet (`adaptive_settle`). Returns
+    /// `settle_time`, ending early once the layer is quiet (`settle_tol`). Returns
     /// the steps taken and the simulated time (s), or None when `poll` stopped it.
     fn settle(&mut self, poll: &mut dyn FnMut() -> bool) -> Result<Option<(u64, Real)>> {
         let dt = self.cfg.sim.dt;
         let total = (self.cfg.settle_time / dt).round() as u64;
-        let tol = self.cfg.adaptive_settle;
+        let tol = self.cfg.settle_tol;
         let dt2 = self.cfg.settle_dt.filter(|&d| d != dt);
         if tol.is_none() && dt2.is_none() {
             if !self.world.step_n_polled(total, POLL_EVERY, poll)? {
@@ -606,7 +606,7 @@ mod tests {
             stream: 0,
             max_attempts: 100_000,
             max_layers: 100,
-            adaptive_settle: None,
+            settle_tol: None,
             freeze_depth: None,
             freeze_speed: 1e-3,
             freeze_force: 0.1,

@@ -11,25 +11,13 @@ import numpy as np
 
 from .._validate import InvalidParameterError, as_int, as_real
 from .container import Container
-from .order import (
-    CRYSTAL_THRESHOLD,
-    R_MAX_FLOOR,
-    BondOrder,
-    bond_order,
-    pair_correlation,
-    spherical_harmonics,
-)
+from .order import CRYSTAL_THRESHOLD as CRYSTAL_THRESHOLD
+from .order import R_MAX_FLOOR, bond_order, pair_correlation
+from .order import BondOrder as BondOrder
+from .order import spherical_harmonics as spherical_harmonics
 from .prepare import _prepare
 
-__all__ = [
-    "BondOrder",
-    "CRYSTAL_THRESHOLD",
-    "bond_order",
-    "pair_correlation",
-    "spherical_harmonics",
-    "rdf",
-    "steinhardt",
-]
+__all__ = ["rdf", "steinhardt"]
 
 
 def _pack_or_arrays(first, radii):

@@ -1,10 +1,11 @@
-"""The commands' argument types, the options of the commands that make packs, and the
-hidden development options."""
+"""The commands' argument types, the options of the commands that make packs, and those
+of the commands that read one pack file and write beside it."""
 
 from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 # -- argument types ------------------------------------------------------------------------------
 
@@ -85,6 +86,21 @@ def positive_float(value: str) -> float:
     return v
 
 
+def add_quiet(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+
+def add_pack(p: argparse.ArgumentParser, help: str) -> None:
+    """The pack file a command reads (export, tile)."""
+    p.add_argument("pack", type=Path, metavar="PACK", help=help)
+
+
+def add_out(p: argparse.ArgumentParser, help: str) -> None:
+    """--out, where a command that reads one pack writes (export, tile), and --quiet."""
+    p.add_argument("--out", type=Path, default=None, help=help)
+    add_quiet(p)
+
+
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """The options of the commands that make packs: where they run, --quiet, --fast."""
     p.add_argument(
@@ -100,7 +116,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="run the packs on this Dask distributed scheduler (e.g. tcp://host:8786) "
         "instead of local processes; needs granpack[dask]",
     )
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    add_quiet(p)
     p.add_argument(
         "--fast",
         action="store_true",

@@ -14,6 +14,7 @@ from .._validate import GranpackError, InvalidParameterError, check_outputs
 from ..container_tag import CONTAINER_KINDS
 from ..io import FORMATS
 from ..io import LAYOUTS as CONTACT_LAYOUTS
+from . import _args
 
 HELP = "microstructure of a saved pack or of particles from another code"
 DESCRIPTION = (
@@ -87,7 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     a.add_argument("--json", action="store_true", help="print JSON instead of a table")
     a.add_argument("--figures", type=Path, default=None, metavar="DIR", help="also draw pictures")
-    a.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    _args.add_quiet(a)
 
 
 def run(args: argparse.Namespace, console: Console) -> int:

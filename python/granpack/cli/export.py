@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from .._console import Console
-from .._outputs import say_removed
+from .._outputs import sweep_written
 from .._validate import GranpackError
+from . import _args
 
 HELP = (
     "write a pack for ParaView (vtk), LAMMPS, LIGGGHTS, YADE, OVITO/ASE (xyz), "
@@ -29,7 +29,7 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     e = parser
-    e.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
+    _args.add_pack(e, "a pack file (.npz)")
     e.add_argument(
         "--format",
         choices=(
@@ -39,8 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="output format (default: from the suffix of --out)",
     )
-    e.add_argument("--out", type=Path, default=None, help="output file (default: beside PACK)")
-    e.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    _args.add_out(e, "output file (default: beside PACK)")
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
@@ -61,10 +60,5 @@ def run(args: argparse.Namespace, console: Console) -> int:
     files = export(pack, out, fmt, refuse=[args.pack], parameter="--out")
     for f in files:
         console.say(str(f))
-    # the temporaries an export of the same files left when it was killed
-    from ..pack import remove_stale_temporaries
-
-    for folder in sorted({f.parent for f in files}):
-        names = [f.name for f in files if f.parent == folder]
-        say_removed(remove_stale_temporaries(folder, of=names), folder, console)
+    sweep_written(files, console)
     return 0

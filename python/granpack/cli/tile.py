@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 
 from .._console import Console
-from .._outputs import say_removed
+from .._outputs import sweep_written
 from .._validate import check_outputs
 from . import _args
 
@@ -24,7 +23,7 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     t = parser
-    t.add_argument("pack", type=Path, metavar="PACK", help="a periodic pack file (.npz)")
+    _args.add_pack(t, "a periodic pack file (.npz)")
     t.add_argument(
         "counts",
         type=_args.positive_int,
@@ -32,17 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="COUNT",
         help="copies along x (and y in 3D), each >= 1",
     )
-    t.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="output pack file (default: <PACK stem>_tiled_NXxNY.npz beside PACK)",
-    )
-    t.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    _args.add_out(t, "output pack file (default: <PACK stem>_tiled_NXxNY.npz beside PACK)")
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
-    from ..pack import load_pack, remove_stale_temporaries
+    from ..pack import load_pack
     from ..tile import tile
 
     counts = tuple(args.counts)
@@ -61,5 +54,5 @@ def run(args: argparse.Namespace, console: Console) -> int:
         f"{' x '.join(f'{b:g}' for b in tiled.scene.base)} m "
         f"({time.perf_counter() - t0:.2f} s)"
     )
-    say_removed(remove_stale_temporaries(path.parent, of=[path.name]), path.parent, console)
+    sweep_written([path], console)
     return 0
