@@ -41,6 +41,10 @@ CONTAINERS: tuple[ContainerName, ...] = _core.CONTAINERS
 #: distributions"), as the engine names them.
 RADIUS_LAWS: tuple[RadiusLawName, ...] = _core.RADIUS_LAWS
 
+#: The keys that choose a pack's random stream: checked alone, as no other key's rule
+#: involves them (`PackScene.replace`).
+_STREAM_KEYS = frozenset(("seed", "stream"))
+
 #: The scene keys that hold lists of numbers of a radius law.
 _LAW_LISTS = ("radii", "fractions", "sieve_sizes", "sieve_passing")
 
@@ -629,8 +633,18 @@ class PackScene:
         )
 
     def replace(self, **changes) -> PackScene:
-        """A copy with some fields changed (validated again)."""
+        """A copy with some fields changed (validated again; a change of `seed` and
+        `stream` alone checks those two, as they enter no rule that combines keys)."""
         unknown_keys("scene", changes, [f.name for f in dataclasses.fields(self)])
+        if changes and changes.keys() <= _STREAM_KEYS:
+            new = object.__new__(PackScene)
+            new.__dict__.update(self.__dict__)
+            for key, value in changes.items():
+                # the checks __post_init__ gives these keys: the type, then the range
+                if isinstance(value, bool) or not isinstance(value, Integral):
+                    as_int(key, value, 0)
+                object.__setattr__(new, key, as_int(key, int(value), 0, 2**64 - 1))
+            return new
         return dataclasses.replace(self, **changes)
 
     @classmethod

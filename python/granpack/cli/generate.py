@@ -75,8 +75,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     scene, name = _scene_from_arg(args.scene)
+    # the options' changes make one scene (one validation), then the development
+    # options, which scale that scene's lengths, and --fast, which reads its r_min
+    changes: dict = {}
     if args.rotations is not None:
-        scene = scene.replace(rotations=args.rotations)
+        changes["rotations"] = args.rotations
     if args.cylinder_radius is not None and (args.container or scene.container) != "cylinder":
         raise InvalidParameterError(
             "invalid --cylinder-radius: only --container cylinder has a radius",
@@ -85,15 +88,16 @@ def run(args: argparse.Namespace, console: Console) -> int:
             expected="--container cylinder",
         )
     if args.container is not None or args.cylinder_radius is not None:
-        changes: dict = {"container": args.container or scene.container}
+        changes["container"] = args.container or scene.container
         if args.cylinder_radius is not None:
             R = args.cylinder_radius
             changes.update(cylinder_radius=R, base=(2 * R, 2 * R))
         elif changes["container"] != "cylinder":
             changes["cylinder_radius"] = None
-        scene = scene.replace(**changes)
     if args.trim:
-        scene = scene.replace(trim=True)
+        changes["trim"] = True
+    if changes:
+        scene = scene.replace(**changes)
     dev = dev_changes(scene, args.settle_time, args.scale)
     if dev:
         scene = scene.replace(**dev)
