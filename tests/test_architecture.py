@@ -60,3 +60,21 @@ def test_the_former_engine_module_warns_and_still_imports():
         "assert 'granpack.simulation' in str(w[0].message)\n"
     )
     subprocess.run([sys.executable, "-c", code], timeout=120, check=True)
+
+
+def test_every_invalid_parameter_error_names_its_parameter():
+    # the package names the parameter where it raises; reading it back from the message
+    # is left to code outside the package that gives none
+    import ast
+
+    missing = []
+    for path in sorted((ROOT / "python" / "granpack").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (
+                isinstance(node, ast.Call)
+                and getattr(node.func, "id", getattr(node.func, "attr", None))
+                == "InvalidParameterError"
+                and not any(k.arg == "parameter" for k in node.keywords)
+            ):
+                missing.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not missing, missing

@@ -56,3 +56,99 @@ def test_a_new_seed_or_stream_checks_those_alone(counted):
     assert err.value.parameter == "stream"
     scene.replace(rotations=False)
     assert counted["scene"] == 2
+
+
+class _Fields:
+    """Any object with a scene's fields: what the engine's LayerPacker reads, by
+    attribute, from a scene that Python did not build."""
+
+    def __init__(self, preset: str, changes: dict) -> None:
+        self.__dict__.update(vars(gp.PackScene.preset(preset)))
+        self.__dict__.update(changes)
+
+
+#: (preset, changes, error class, parameter): one rule of the scene each.
+RULES = [
+    ("4.1", {"dt": 1.0}, gp.UnstableTimeStepError, "dt"),
+    ("4.1", {"phi_layer": 0.6}, gp.InvalidParameterError, "phi_layer"),
+    ("4.3", {"phi_layer": 0.4}, gp.InvalidParameterError, "phi_layer"),
+    ("4.1", {"gravity": 0.0}, gp.InvalidParameterError, "gravity"),
+    ("4.1", {"gravity": -2.0}, gp.InvalidParameterError, "gravity"),
+    ("4.1", {"h_layer": -0.1}, gp.InvalidParameterError, "h_layer"),
+    ("4.1", {"height": 0.0}, gp.InvalidParameterError, "height"),
+    ("4.1", {"base": (0.01,)}, gp.InvalidParameterError, "base"),
+    ("4.1", {"settle_time": 1e9}, gp.InvalidParameterError, "settle_time"),
+    ("4.1", {"max_layers": _core.MAX_LAYERS + 1}, gp.InvalidParameterError, "max_layers"),
+    ("4.1", {"max_attempts": _core.MAX_ATTEMPTS + 1}, gp.InvalidParameterError, "max_attempts"),
+    ("4.1", {"container": "sphere"}, gp.InvalidParameterError, "container"),
+    ("4.1", {"drag": -1.0}, gp.InvalidParameterError, "drag"),
+    ("4.1", {"skin_ratio": 11.0}, gp.InvalidParameterError, "skin_ratio"),
+    ("4.1", {"max_overlap_ratio": 0.0}, gp.InvalidParameterError, "max_overlap_ratio"),
+    ("4.2", {"r_std": -0.001}, gp.InvalidParameterError, "r_std"),
+    (
+        "4.3",
+        {"container": "cylinder", "cylinder_radius": 0.03, "base": (0.06, 0.06)},
+        gp.InvalidParameterError,
+        "cylinder_radius",
+    ),
+]
+IDS = [f"{p}-{'-'.join(c)}" for p, c, _, _ in RULES]
+
+
+def _toml(preset: str, changes: dict) -> str:
+    lines = [f'preset = "{preset}"']
+    for key, value in changes.items():
+        if isinstance(value, tuple):
+            value = "[" + ", ".join(repr(v) for v in value) + "]"
+        elif isinstance(value, str):
+            value = f'"{value}"'
+        lines.append(f"{key} = {value}")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize(("preset", "changes", "cls", "parameter"), RULES, ids=IDS)
+def test_a_bad_scene_gets_one_typed_error_from_every_door(
+    preset, changes, cls, parameter, tmp_path, capsys
+):
+    from granpack.cli import build_parser
+    from granpack.cli import generate as generate_command
+    from granpack.cli._console import Console
+
+    fields = {**vars(gp.PackScene.preset(preset)), **changes}
+    with pytest.raises(cls) as built:
+        gp.PackScene(**fields)
+    with pytest.raises(cls) as engine:
+        _core.LayerPacker(_Fields(preset, changes))
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(_toml(preset, changes))
+    argv = ["generate", str(scene_file), "--out", str(tmp_path / "out"), "-q"]
+    with pytest.raises(cls) as command:
+        generate_command.run(build_parser().parse_args(argv), Console(True))
+    for err in (built, engine, command):
+        assert type(err.value) is cls
+        assert err.value.parameter == parameter
+    assert main(argv) == 2
+    assert f"invalid {parameter}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("changes", "cls", "parameter"),
+    [
+        ({"dt": 1.0}, gp.UnstableTimeStepError, "dt"),
+        ({"container": "sphere"}, gp.InvalidParameterError, "container"),
+        ({"skin_ratio": 11.0}, gp.InvalidParameterError, "skin_ratio"),
+        ({"max_overlap_ratio": 0.0}, gp.InvalidParameterError, "max_overlap_ratio"),
+    ],
+    ids=["dt", "container", "skin_ratio", "max_overlap_ratio"],
+)
+def test_the_simulation_gives_the_scene_s_error_for_the_keys_it_shares(changes, cls, parameter):
+    scene = gp.PackScene.preset("4.1")
+    with pytest.raises(cls) as built:
+        gp.PackScene(**{**vars(scene), **changes})
+    options = {"dt": scene.dt, **changes}
+    with pytest.raises(cls) as simulated:
+        sim = gp.Simulation(dim=2, material=scene.material, box=((0, 0), (1, 1)), **options)
+        sim.add_particles([[0.5, 0.5]], [scene.r_min])
+        sim.step(1)
+    assert type(simulated.value) is type(built.value)
+    assert simulated.value.parameter == built.value.parameter == parameter

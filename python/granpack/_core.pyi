@@ -16,6 +16,8 @@ __all__ = [
     "__version__",
     "MAX_STEPS_PER_CALL",
     "MAX_STEPS_PER_LAYER",
+    "MAX_ATTEMPTS",
+    "MAX_LAYERS",
     "CONTAINERS",
     "RADIUS_LAWS",
     "cpu_level",
@@ -36,6 +38,10 @@ MAX_STEPS_PER_CALL: int
 """Most steps one `Simulation.step` or `Simulation.run` call takes (1e10)."""
 MAX_STEPS_PER_LAYER: float
 """Most DEM steps one layer's jamming run may take (settle_time / dt; 1e8)."""
+MAX_ATTEMPTS: int
+"""Most consecutive failed placements of a layer's RSA (`max_attempts`; 1e9)."""
+MAX_LAYERS: int
+"""Most layers of a pack (`max_layers`; 1e6)."""
 
 Material: TypeAlias = tuple[float, float, float, float, float]
 """density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""

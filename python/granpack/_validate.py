@@ -61,21 +61,24 @@ def as_real(
     """Returns `value` as a float in the given range or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Real | np.floating | np.integer):
         raise InvalidParameterError(
-            f"invalid {name} = {short_repr(value)}: must be a real number{unit_txt(unit)}"
+            f"invalid {name} = {short_repr(value)}: must be a real number{unit_txt(unit)}",
+            parameter=name,
         )
     try:
         v = float(value)
     except OverflowError:  # an integer beyond any float
         v = math.inf if value > 0 else -math.inf  # type: ignore[operator]
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise InvalidParameterError(f"invalid {name} = {v}: must be finite{unit_txt(unit)}")
+        raise InvalidParameterError(
+            f"invalid {name} = {v}: must be finite{unit_txt(unit)}", parameter=name
+        )
     bad_lo = v <= lo if lo_open else v < lo
     bad_hi = v >= hi if hi_open else v > hi
     if bad_lo or bad_hi:
         lb = "(" if lo_open else "["
         hb = ")" if hi_open else "]"
         raise InvalidParameterError(
-            f"invalid {name} = {v}: must lie in {lb}{lo}, {hi}{hb}{unit_txt(unit)}"
+            f"invalid {name} = {v}: must lie in {lb}{lo}, {hi}{hb}{unit_txt(unit)}", parameter=name
         )
     return v
 
@@ -97,12 +100,14 @@ def unit_txt(unit: str) -> str:
 def as_int(name: str, value: object, lo: int, hi: int | None = None) -> int:
     """Returns `value` as an int in [lo, hi] or raises GranpackError naming it."""
     if isinstance(value, bool) or not isinstance(value, Integral | np.integer):
-        raise InvalidParameterError(f"invalid {name} = {short_repr(value)}: must be an integer")
+        raise InvalidParameterError(
+            f"invalid {name} = {short_repr(value)}: must be an integer", parameter=name
+        )
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         upper = "inf" if hi is None else str(hi)
         raise InvalidParameterError(
-            f"invalid {name} = {short_repr(v)}: must lie in [{lo}, {upper}]"
+            f"invalid {name} = {short_repr(v)}: must lie in [{lo}, {upper}]", parameter=name
         )
     return v
 
@@ -111,7 +116,9 @@ def as_bool(name: str, value: object) -> bool:
     """Accepts True/False (and numpy bools) only."""
     if isinstance(value, bool | np.bool_):
         return bool(value)
-    raise InvalidParameterError(f"invalid {name} = {short_repr(value)}: must be true or false")
+    raise InvalidParameterError(
+        f"invalid {name} = {short_repr(value)}: must be true or false", parameter=name
+    )
 
 
 def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -120,14 +127,16 @@ def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndar
     try:
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
-        raise InvalidParameterError(f"invalid {name}: not an array ({exc})") from None
+        raise InvalidParameterError(
+            f"invalid {name}: not an array ({exc})", parameter=name
+        ) from None
     if (
         a.dtype == object
         or not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer))
         or a.dtype == np.bool_
     ):
         raise InvalidParameterError(
-            f"invalid {name}: dtype {a.dtype}, expected a real (float64) array"
+            f"invalid {name}: dtype {a.dtype}, expected a real (float64) array", parameter=name
         )
     a = np.ascontiguousarray(a, dtype=np.float64)
     want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
@@ -135,11 +144,15 @@ def as_array(name: str, value: object, shape: tuple[int | None, ...]) -> np.ndar
     if a.ndim != len(shape) or any(
         s is not None and s != n for s, n in zip(shape, a.shape, strict=False)
     ):
-        raise InvalidParameterError(f"invalid {name}: shape {a.shape}, expected {want}")
+        raise InvalidParameterError(
+            f"invalid {name}: shape {a.shape}, expected {want}", parameter=name
+        )
     if not np.all(np.isfinite(a)):
         bad = np.argwhere(~np.isfinite(a))[0]
         where = tuple(int(b) for b in bad)
-        raise InvalidParameterError(f"invalid {name}: non-finite value at index {where}")
+        raise InvalidParameterError(
+            f"invalid {name}: non-finite value at index {where}", parameter=name
+        )
     return a
 
 
@@ -196,11 +209,14 @@ def unknown_keys(where: str, given: Iterable[str], known: Iterable[str]) -> None
     for key in given:
         if not isinstance(key, str):
             raise InvalidParameterError(
-                f"unknown {where} key {short_repr(key)}: keys are names (strings)"
+                f"unknown {where} key {short_repr(key)}: keys are names (strings)",
+                parameter=where,
             )
         if key not in known:
             close = difflib.get_close_matches(key, known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise InvalidParameterError(
-                f"unknown {where} key {short_repr(key)}{hint} (known: {', '.join(sorted(known))})"
+                f"unknown {where} key {short_repr(key)}{hint} (known: {', '.join(sorted(known))})",
+                # the key as it is written: a scene key alone, another table's after its name
+                parameter=key if where == "scene" else f"{where}.{key}",
             )

@@ -161,7 +161,8 @@ class Progress:
         if self.callback is None and mode not in ("bar", "lines", "none"):
             raise InvalidParameterError(
                 f"invalid progress = {mode!r}: use True, False, 'auto', 'bar', 'lines' "
-                "or a callable"
+                "or a callable",
+                parameter="progress",
             )
         self.mode = "callback" if self.callback is not None else mode
         self.bar: Any = None  # a tqdm bar in "bar" mode
@@ -545,7 +546,8 @@ def _check_scheduler_address(address) -> None:
     if text is None:
         raise InvalidParameterError(
             f"invalid scheduler = {type(address).__name__}: expected an address such as "
-            "tcp://host:8786 or a distributed.Client"
+            "tcp://host:8786 or a distributed.Client",
+            parameter="scheduler",
         )
     shown = text if len(text) <= 80 else text[:60] + "..."
     scheme, sep, rest = text.partition("://")
@@ -559,7 +561,8 @@ def _check_scheduler_address(address) -> None:
     if not colon or not host or not port_text.isdigit() or not 0 < int(port_text) < 65536:
         raise InvalidParameterError(
             f"invalid scheduler address {shown!r}: expected tcp://HOST:PORT with a port in "
-            "[1, 65535] (e.g. tcp://10.0.0.1:8786)"
+            "[1, 65535] (e.g. tcp://10.0.0.1:8786)",
+            parameter="scheduler",
         )
     try:
         with socket.create_connection((host, int(port_text)), SCHEDULER_CONNECT_TIMEOUT):

@@ -238,7 +238,7 @@ class _Law:
                 z = (np.log(r) - mu) / sigma
                 f = np.exp(-0.5 * (z * z - np.min(z * z))) / r
             else:  # pragma: no cover (the scene refuses other names)
-                raise InvalidParameterError(f"invalid radius_law = {law!r}")
+                raise InvalidParameterError(f"invalid radius_law = {law!r}", parameter="radius_law")
             r_all.append(r)
             fn_all.append(f)
         self.segments = (r_all, fn_all)

@@ -309,7 +309,9 @@ def load_pack(path: str | Path) -> Pack:
     """Reads a pack written by `Pack.save`; a truncated or foreign file is a
     GranpackError, never a crash."""
     if not isinstance(path, str | os.PathLike):
-        raise InvalidParameterError(f"invalid path = {path!r}: expected a file name")
+        raise InvalidParameterError(
+            f"invalid path = {path!r}: expected a file name", parameter="path"
+        )
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -542,7 +544,8 @@ def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
         raise InvalidParameterError(
             f"invalid scene: about {n:.3g} particles (~{need / 2**30:.1f} GiB) would not fit "
             f"in this machine's memory ({total_bytes / 2**30:.1f} GiB); shrink base or "
-            "height, or grow r_mean"
+            "height, or grow r_mean",
+            parameter="scene",
         )
 
 
@@ -649,7 +652,9 @@ def generate(
         the fall time through a layer's slab, or particles still moving at the end.
     """
     if not isinstance(scene, PackScene):
-        raise InvalidParameterError(f"invalid scene = {scene!r}: must be a granpack.PackScene")
+        raise InvalidParameterError(
+            f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
+        )
     check_memory(scene)
     t0 = time.perf_counter()
     packer = _packer(scene)

@@ -307,7 +307,7 @@ def packs_figure(packs: Sequence, title: str | None = None, labels: Sequence[str
     show the structure best at this size)."""
     packs = list(packs)
     if not packs:
-        raise InvalidParameterError("invalid packs: nothing to draw")
+        raise InvalidParameterError("invalid packs: nothing to draw", parameter="packs")
     ncol = 2 if len(packs) > 1 else 1
     nrow = math.ceil(len(packs) / ncol)
     dim, _, _, _, base, height = _parts(packs[0])
@@ -420,7 +420,8 @@ def normals_figure(
     normals = np.asarray(normals, dtype=np.float64)
     if normals.ndim != 2 or normals.shape[1] not in (2, 3):
         raise InvalidParameterError(
-            f"invalid normals: shape {normals.shape}, expected (M, 2) or (M, 3)"
+            f"invalid normals: shape {normals.shape}, expected (M, 2) or (M, 3)",
+            parameter="normals",
         )
     if normals.shape[1] == 2:
         fig = _figure(5.5, 5.0)

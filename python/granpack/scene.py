@@ -58,9 +58,9 @@ _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 #: Most DEM steps per layer (settle_time / dt); the paper's runs take 1e4.
 MAX_STEPS_PER_LAYER = _core.MAX_STEPS_PER_LAYER
 #: Most consecutive failed RSA placements (max_attempts); default 1e6.
-MAX_ATTEMPTS = 10**9
+MAX_ATTEMPTS: int = _core.MAX_ATTEMPTS
 #: Most layers (max_layers); default 1e4.
-MAX_LAYERS = 10**6
+MAX_LAYERS: int = _core.MAX_LAYERS
 
 
 def _material_table(table: Mapping) -> Material:
@@ -281,7 +281,9 @@ class PackScene:
         s = object.__setattr__
         dim = self.dim
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
-            raise InvalidParameterError(f"invalid dim = {short_repr(self.dim)}: must be 2 or 3")
+            raise InvalidParameterError(
+                f"invalid dim = {short_repr(self.dim)}: must be 2 or 3", parameter="dim"
+            )
         s(self, "dim", int(self.dim))
         # Every key gets its type first, so that the checks which combine keys below
         # (and the engine's, which reads them by attribute) only ever see numbers,
@@ -291,18 +293,21 @@ class PackScene:
             base = tuple(self.base)
         except TypeError:
             raise InvalidParameterError(
-                f"invalid base = {short_repr(self.base)}: expected {self.dim - 1} lengths (m)"
+                f"invalid base = {short_repr(self.base)}: expected {self.dim - 1} lengths (m)",
+                parameter="base",
             ) from None
         if len(base) != self.dim - 1:
             raise InvalidParameterError(
                 f"invalid base = {short_repr(self.base)}: expected {self.dim - 1} length(s) (m) "
-                f"for dim = {self.dim}"
+                f"for dim = {self.dim}",
+                parameter="base",
             )
         s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
         s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
         if self.inertia_2d not in ("sphere", "disc"):
             raise InvalidParameterError(
-                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'"
+                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'",
+                parameter="inertia_2d",
             )
         self._check_radius_law()
         self._check_container()
@@ -311,7 +316,8 @@ class PackScene:
                 raise InvalidParameterError(
                     f"invalid base = {short_repr(self.base)}: every length must be at least "
                     "one particle "
-                    f"diameter 2 r_max = {2 * self.r_max} (m)"
+                    f"diameter 2 r_max = {2 * self.r_max} (m)",
+                    parameter="base",
                 )
         s(self, "h_layer", as_real("h_layer", self.h_layer, 0, lo_open=True, unit="m"))
         sat = RSA_SATURATION[self.dim]
@@ -333,7 +339,8 @@ class PackScene:
                 s(self, "material", _material_table(self.material))
             else:
                 raise InvalidParameterError(
-                    f"invalid material = {short_repr(self.material)}: must be a Material"
+                    f"invalid material = {short_repr(self.material)}: must be a Material",
+                    parameter="material",
                 )
         s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
         crit = self.material.critical_time_step(self.r_min)
@@ -412,7 +419,8 @@ class PackScene:
         if not n_est <= 5e8:  # NaN (inf / inf) is refused too
             raise InvalidParameterError(
                 f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
-                "shrink base/height or grow the radii"
+                "shrink base/height or grow the radii",
+                parameter="scene",
             )
         # Checked after the particle count, the more basic of the two: both grow without
         # bound as the radii and dt shrink.
@@ -420,7 +428,8 @@ class PackScene:
             raise InvalidParameterError(
                 f"invalid settle_time = {self.settle_time:g} s: with dt = {self.dt:g} s that is "
                 f"{self.settle_time / self.dt:.3g} steps per layer; at most "
-                f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)"
+                f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)",
+                parameter="settle_time",
             )
         # The engine's own checks, the same that the layer loop runs: a scene that is
         # built is one that generates.
@@ -652,7 +661,8 @@ class PackScene:
         """From a flat dict (a TOML document); `preset = "4.3"` starts from a preset."""
         if not isinstance(d, Mapping):
             raise InvalidParameterError(
-                f"invalid scene = {short_repr(d)}: expected a table (dict) of scene keys"
+                f"invalid scene = {short_repr(d)}: expected a table (dict) of scene keys",
+                parameter="scene",
             )
         d = dict(d)
         known = [f.name for f in dataclasses.fields(cls)] + ["preset"]
@@ -663,7 +673,7 @@ class PackScene:
         if "material" in d:
             if not isinstance(d["material"], dict):
                 raise InvalidParameterError(
-                    "invalid material: expected a table of material constants"
+                    "invalid material: expected a table of material constants", parameter="material"
                 )
             unknown_keys("material", d["material"], _MATERIAL_KEYS)
             mat = dict(base.get("material", Material()).to_dict())
@@ -671,7 +681,8 @@ class PackScene:
             d["material"] = _material_table(mat)
         if "base" in d and not isinstance(d["base"], list | tuple):
             raise InvalidParameterError(
-                f"invalid base = {short_repr(d['base'])}: expected a list of lengths (m)"
+                f"invalid base = {short_repr(d['base'])}: expected a list of lengths (m)",
+                parameter="base",
             )
         base.update(d)
         return cls(**base)
@@ -680,7 +691,9 @@ class PackScene:
     def from_toml(cls, path: str | Path) -> PackScene:
         """Reads a scene from a TOML file (flat keys, a [material] table)."""
         if not isinstance(path, str | os.PathLike):
-            raise InvalidParameterError(f"invalid path = {short_repr(path)}: expected a file name")
+            raise InvalidParameterError(
+                f"invalid path = {short_repr(path)}: expected a file name", parameter="path"
+            )
         try:
             with open(path, "rb") as f:
                 doc = tomllib.load(f)
@@ -704,15 +717,19 @@ class PackScene:
                 text = bytes(text).decode()
             if not isinstance(text, str):
                 raise InvalidParameterError(
-                    f"invalid text = {short_repr(text)}: expected TOML text (str)"
+                    f"invalid text = {short_repr(text)}: expected TOML text (str)", parameter="text"
                 )
             doc = tomllib.loads(text)
         except RecursionError:
-            raise InvalidParameterError(f"invalid scene TOML: {_TOO_DEEP}") from None
+            raise InvalidParameterError(
+                f"invalid scene TOML: {_TOO_DEEP}", parameter="scene"
+            ) from None
         except UnicodeDecodeError as exc:
-            raise InvalidParameterError(f"invalid scene TOML: not UTF-8 text ({exc})") from None
+            raise InvalidParameterError(
+                f"invalid scene TOML: not UTF-8 text ({exc})", parameter="scene"
+            ) from None
         except tomllib.TOMLDecodeError as exc:
-            raise InvalidParameterError(f"invalid scene TOML: {exc}") from None
+            raise InvalidParameterError(f"invalid scene TOML: {exc}", parameter="scene") from None
         return cls.from_dict(doc)
 
     def to_dict(self) -> dict:

@@ -123,16 +123,18 @@ class Simulation:
         cylinder_radius: float | None = None,
     ) -> None:
         if isinstance(dim, bool) or not isinstance(dim, Integral) or dim not in (2, 3):
-            raise InvalidParameterError(f"invalid dim = {dim!r}: must be 2 or 3")
+            raise InvalidParameterError(f"invalid dim = {dim!r}: must be 2 or 3", parameter="dim")
         dim = int(dim)
         if not isinstance(inertia_2d, str) or inertia_2d not in ("sphere", "disc"):
             raise InvalidParameterError(
-                f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'"
+                f"invalid inertia_2d = {inertia_2d!r}: must be 'sphere' or 'disc'",
+                parameter="inertia_2d",
             )
         material = Material() if material is None else material
         if not isinstance(material, Material):
             raise InvalidParameterError(
-                f"invalid material = {material!r}: must be a granpack.Material"
+                f"invalid material = {material!r}: must be a granpack.Material",
+                parameter="material",
             )
         if not isinstance(container, str) or container not in _core.CONTAINERS:
             raise InvalidParameterError(
@@ -159,18 +161,20 @@ class Simulation:
                 hi = [float(v) for v in hi]
             except (TypeError, ValueError):
                 raise InvalidParameterError(
-                    f"invalid box = {box!r}: expected ((lo_1..lo_D), (hi_1..hi_D))"
+                    f"invalid box = {box!r}: expected ((lo_1..lo_D), (hi_1..hi_D))", parameter="box"
                 ) from None
             if len(lo) != dim or len(hi) != dim:
                 raise InvalidParameterError(
-                    f"invalid box = {box!r}: corners need {dim} coordinates"
+                    f"invalid box = {box!r}: corners need {dim} coordinates", parameter="box"
                 )
             for k in range(dim):
                 if not math.isfinite(lo[k]) or (
                     k != dim - 1 and not (math.isfinite(hi[k]) and hi[k] > lo[k])
                 ):
                     raise InvalidParameterError(
-                        f"invalid box = {box!r}: axis {k} needs finite lo < hi (the top may be inf)"
+                        f"invalid box = {box!r}: axis {k} needs finite lo < hi "
+                        "(the top may be inf)",
+                        parameter="box",
                     )
             walls = (lo, hi)
         self.dim = dim
@@ -198,7 +202,9 @@ class Simulation:
         r = as_array("radii", radii, (x.shape[0],))
         if np.any(r <= 0):
             k = int(np.argmax(r <= 0))
-            raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be > 0 (m)")
+            raise InvalidParameterError(
+                f"invalid radii[{k}] = {r[k]}: must be > 0 (m)", parameter=f"radii[{k}]"
+            )
         # The engine divides by mass and moment of inertia: both must be finite and > 0.
         rho = self.material.density
         with np.errstate(over="ignore", under="ignore"):
@@ -211,7 +217,8 @@ class Simulation:
             raise InvalidParameterError(
                 f"invalid radii[{k}] = {r[k]}: with density = {rho} kg/m^3 the mass "
                 f"{m[k]:.3g} kg or moment of inertia {inertia[k]:.3g} kg m^2 is not a finite "
-                "number > 0"
+                "number > 0",
+                parameter=f"radii[{k}]",
             )
         v = (
             None
@@ -232,7 +239,8 @@ class Simulation:
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 0 <= n <= limit:
             raise InvalidParameterError(
                 f"invalid n = {short_repr(n)}: must be an integer in [0, {limit}] "
-                "(steps per call; call again to go on)"
+                "(steps per call; call again to go on)",
+                parameter="n",
             )
         self._sim.step(int(n))
 

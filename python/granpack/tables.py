@@ -125,7 +125,8 @@ def _row(result) -> dict:
         return dict(result)
     raise InvalidParameterError(
         f"invalid result = {type(result).__name__}: expected a Microstructure or a dict "
-        "from Microstructure.to_dict()"
+        "from Microstructure.to_dict()",
+        parameter="result",
     )
 
 
@@ -146,7 +147,8 @@ def ensemble_table(results: Sequence[Microstructure | Mapping]) -> pl.DataFrame:
     if isinstance(results, Mapping | str) or not isinstance(results, Sequence):
         raise InvalidParameterError(
             f"invalid results = {type(results).__name__}: expected a sequence of "
-            "Microstructure or dicts"
+            "Microstructure or dicts",
+            parameter="results",
         )
     rows = [_row(r) for r in results]
     if not rows:
@@ -160,7 +162,7 @@ def ensemble_table(results: Sequence[Microstructure | Mapping]) -> pl.DataFrame:
         return pl.from_dicts(rows, infer_schema_length=None)
     except (TypeError, ValueError, pl.exceptions.PolarsError) as exc:
         raise InvalidParameterError(
-            f"invalid results: rows are not flat dicts of scalars ({exc})"
+            f"invalid results: rows are not flat dicts of scalars ({exc})", parameter="results"
         ) from None
 
 
@@ -191,17 +193,20 @@ def summary(
     """
     labels = tuple(labels)
     if len(labels) != 3 or not all(isinstance(s, str) for s in labels):
-        raise InvalidParameterError(f"invalid labels = {labels!r}: expected three strings")
+        raise InvalidParameterError(
+            f"invalid labels = {labels!r}: expected three strings", parameter="labels"
+        )
     out: dict[str, list] = {"statistic": list(labels)}
     for col in columns:
         if col not in df.columns:
             raise InvalidParameterError(
-                f"invalid column {col!r}: not in the table (columns: {', '.join(df.columns)})"
+                f"invalid column {col!r}: not in the table (columns: {', '.join(df.columns)})",
+                parameter="column",
             )
         s = df[col]
         if not (s.dtype.is_numeric() or s.dtype == pl.Null):
             raise InvalidParameterError(
-                f"invalid column {col!r}: dtype {s.dtype}, expected numbers"
+                f"invalid column {col!r}: dtype {s.dtype}, expected numbers", parameter="column"
             )
         s = s.cast(pl.Float64).drop_nulls()
         # a Float64 column's mean and std are floats (or None when empty)
@@ -253,7 +258,9 @@ def paper_values(table: str | int, notes: bool = False) -> pl.DataFrame:
     long = _paper_long().filter(pl.col("table") == name)
     if long.height == 0:
         known = ", ".join(f"table{k}" for k in range(2, 14))
-        raise InvalidParameterError(f"invalid table = {table!r}: the paper's tables are {known}")
+        raise InvalidParameterError(
+            f"invalid table = {table!r}: the paper's tables are {known}", parameter="table"
+        )
     if notes:
         return long
     rows = list(dict.fromkeys(long["row"].to_list()))
@@ -269,22 +276,25 @@ def _check_results(results) -> dict[tuple[str, bool], list[dict]]:
     if not isinstance(results, Mapping):
         raise InvalidParameterError(
             f"invalid results = {type(results).__name__}: expected a dict mapping "
-            "(preset, rotations) to a sequence of results"
+            "(preset, rotations) to a sequence of results",
+            parameter="results",
         )
     out = {}
     for key, seq in results.items():
         if not (isinstance(key, tuple) and len(key) == 2):
             raise InvalidParameterError(
-                f"invalid results key {key!r}: expected (preset, rotations)"
+                f"invalid results key {key!r}: expected (preset, rotations)", parameter="results"
             )
         preset, rot = key
         if preset not in PRESET_TABLES:
             raise InvalidParameterError(
-                f"invalid preset {preset!r}: expected one of {', '.join(PRESET_TABLES)}"
+                f"invalid preset {preset!r}: expected one of {', '.join(PRESET_TABLES)}",
+                parameter="preset",
             )
         if not isinstance(rot, bool):
             raise InvalidParameterError(
-                f"invalid rotations {rot!r} for preset {preset}: expected bool"
+                f"invalid rotations {rot!r} for preset {preset}: expected bool",
+                parameter="rotations",
             )
         rows = ensemble_table(seq).to_dicts()
         if rows:  # an empty ensemble is the same as a missing one
@@ -436,7 +446,9 @@ def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
         The files written, csv then md for each table, in the mapping's order.
     """
     if not isinstance(tables, Mapping):
-        raise InvalidParameterError(f"invalid tables = {type(tables).__name__}: expected a dict")
+        raise InvalidParameterError(
+            f"invalid tables = {type(tables).__name__}: expected a dict", parameter="tables"
+        )
     out = Path(out_dir)
     for name, df in tables.items():
         if (
@@ -445,10 +457,12 @@ def write_tables(tables: Mapping[str, pl.DataFrame], out_dir) -> list[Path]:
             or name.startswith(".")
             or any(s in name for s in ("/", "\\", "\0"))
         ):
-            raise InvalidParameterError(f"invalid table name {name!r}: must be a plain file name")
+            raise InvalidParameterError(
+                f"invalid table name {name!r}: must be a plain file name", parameter="table"
+            )
         if not isinstance(df, pl.DataFrame):
             raise InvalidParameterError(
-                f"invalid table {name!r}: {type(df).__name__}, expected polars"
+                f"invalid table {name!r}: {type(df).__name__}, expected polars", parameter="table"
             )
     out.mkdir(parents=True, exist_ok=True)
     written = []

@@ -15,6 +15,12 @@ use std::time::{Duration, Instant};
 /// Most DEM steps of one layer's jamming run (settle_time / dt): 1e4 in the paper;
 /// beyond this bound a scene is refused before any work starts.
 pub const MAX_STEPS_PER_LAYER: Real = 1e8;
+/// Most consecutive failed placements of random sequential addition (`max_attempts`):
+/// a saturated layer tries this many times before it gives up.
+pub const MAX_ATTEMPTS: u64 = 1_000_000_000;
+/// Most layers a pack may take (`max_layers`): a pack that never grows runs this many
+/// jamming runs before it gives up.
+pub const MAX_LAYERS: usize = 1_000_000;
 
 /// Wall time between two calls of the poll of [`Packer::next_layer_polled`].
 const POLL_EVERY: Duration = Duration::from_millis(100);
@@ -166,11 +172,19 @@ where
                 ),
             ));
         }
-        if self.max_attempts == 0 {
-            return Err(Error::invalid("max_attempts", 0, "must be >= 1"));
+        if !(1..=MAX_ATTEMPTS).contains(&self.max_attempts) {
+            return Err(Error::invalid(
+                "max_attempts",
+                self.max_attempts,
+                &format!("must lie in [1, {MAX_ATTEMPTS}]"),
+            ));
         }
-        if self.max_layers == 0 {
-            return Err(Error::invalid("max_layers", 0, "must be >= 1"));
+        if !(1..=MAX_LAYERS).contains(&self.max_layers) {
+            return Err(Error::invalid(
+                "max_layers",
+                self.max_layers,
+                &format!("must lie in [1, {MAX_LAYERS}]"),
+            ));
         }
         if let Some(tol) = self.settle_tol {
             check_range("settle_tol", tol, 0.0, false, f64::INFINITY, false)?;

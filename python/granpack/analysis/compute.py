@@ -133,7 +133,8 @@ def microstructure(
     if not phi > 0.0:
         raise InvalidParameterError(
             f"invalid positions/radii: solid volume {solid:.3g} in a box of {box_volume:.3g} "
-            "gives phi = 0 (underflow); rescale the coordinates and radii"
+            "gives phi = 0 (underflow); rescale the coordinates and radii",
+            parameter="positions",
         )
     if not math.isfinite(phi):
         raise InvalidParameterError(

@@ -25,42 +25,49 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
     else:
         raise InvalidParameterError(
             f"invalid contacts = {type(contacts).__name__}: expected granpack.Contacts or a "
-            "dict of arrays (i, j, normal, and optionally force_normal, force_tangential)"
+            "dict of arrays (i, j, normal, and optionally force_normal, force_tangential)",
+            parameter="contacts",
         )
     for key in ("i", "j", "normal"):
         if key not in cols:
-            raise InvalidParameterError(f"invalid contacts: missing column {key!r}")
+            raise InvalidParameterError(
+                f"invalid contacts: missing column {key!r}", parameter="contacts"
+            )
     try:
         i = np.asarray(cols["i"])
         j = np.asarray(cols["j"])
         normal = np.asarray(cols["normal"], dtype=float)
     except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"invalid contacts: {exc}") from None
+        raise InvalidParameterError(f"invalid contacts: {exc}", parameter="contacts") from None
     m = i.shape[0] if i.ndim == 1 else -1
     if m < 0 or j.shape != (m,) or normal.shape != (m, d):
         raise InvalidParameterError(
             f"invalid contacts: shapes i {i.shape}, j {j.shape}, normal {normal.shape}; "
-            f"expected (M,), (M,), (M, {d})"
+            f"expected (M,), (M,), (M, {d})",
+            parameter="contacts",
         )
     for name, arr in (("i", i), ("j", j)):
         if m and not np.issubdtype(arr.dtype, np.integer):
             raise InvalidParameterError(
-                f"invalid contacts.{name}: dtype {arr.dtype}, expected integers"
+                f"invalid contacts.{name}: dtype {arr.dtype}, expected integers",
+                parameter=f"contacts.{name}",
             )
     i = i.astype(np.int64)
     j = j.astype(np.int64)
     if m and (i.min() < 0 or i.max() >= n):
         raise InvalidParameterError(
-            f"invalid contacts.i: particle indices must lie in [0, {n - 1}]"
+            f"invalid contacts.i: particle indices must lie in [0, {n - 1}]", parameter="contacts.i"
         )
     if m and (j.min() < _MIN_WALL_ID or j.max() >= n):
         raise InvalidParameterError(
-            f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5"
+            f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5",
+            parameter="contacts.j",
         )
     if m and np.any(i == j):
         k = int(np.argmax(i == j))
         raise InvalidParameterError(
-            f"invalid contacts: contact {k} joins particle {int(i[k])} to itself (i == j)"
+            f"invalid contacts: contact {k} joins particle {int(i[k])} to itself (i == j)",
+            parameter="contacts",
         )
     if m:
         # a pair listed twice (as (i, j) or (j, i)) would count twice in Z and the fabric
@@ -70,7 +77,8 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
         if np.any(pairs[1] > 1):
             a, b = pairs[0][int(np.argmax(pairs[1] > 1))]
             raise InvalidParameterError(
-                f"invalid contacts: the pair ({int(a)}, {int(b)}) is listed more than once"
+                f"invalid contacts: the pair ({int(a)}, {int(b)}) is listed more than once",
+                parameter="contacts",
             )
     zeros_d = np.zeros((m, d))
     full = {
@@ -85,18 +93,24 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
     if full["force_normal"].shape != (m,) or full["force_tangential"].shape != (m, d):
         raise InvalidParameterError(
             f"invalid contacts: force_normal {full['force_normal'].shape}, force_tangential "
-            f"{full['force_tangential'].shape}; expected ({m},), ({m}, {d})"
+            f"{full['force_tangential'].shape}; expected ({m},), ({m}, {d})",
+            parameter="contacts",
         )
     for key in ("normal", "force_normal", "force_tangential"):
         if not np.all(np.isfinite(full[key])):
-            raise InvalidParameterError(f"invalid contacts.{key}: non-finite values")
+            raise InvalidParameterError(
+                f"invalid contacts.{key}: non-finite values", parameter=f"contacts.{key}"
+            )
     if m and np.min(full["force_normal"]) < 0.0:
         k = int(np.argmin(full["force_normal"]))
         raise InvalidParameterError(
-            f"invalid contacts.force_normal[{k}] = {full['force_normal'][k]}: must be >= 0 (N)"
+            f"invalid contacts.force_normal[{k}] = {full['force_normal'][k]}: must be >= 0 (N)",
+            parameter=f"contacts.force_normal[{k}]",
         )
     if m and np.any(np.linalg.norm(normal, axis=1) == 0.0):
-        raise InvalidParameterError("invalid contacts.normal: a row has zero length")
+        raise InvalidParameterError(
+            "invalid contacts.normal: a row has zero length", parameter="contacts.normal"
+        )
     return Contacts.from_dict(full)
 
 
@@ -107,17 +121,20 @@ def _as_box(box, d: int):
         hi = np.asarray(hi, dtype=float).ravel()
     except (TypeError, ValueError):
         raise InvalidParameterError(
-            f"invalid box = {box!r}: expected (lo, hi), each a sequence of {d} lengths (m)"
+            f"invalid box = {box!r}: expected (lo, hi), each a sequence of {d} lengths (m)",
+            parameter="box",
         ) from None
     if lo.shape != (d,) or hi.shape[0] not in (d - 1, d):
         raise InvalidParameterError(
             f"invalid box: lo has {lo.shape[0]} values and hi {hi.shape[0]}; expected {d} and "
-            f"{d} (hi's vertical value is ignored: the top is H_top) or {d - 1}"
+            f"{d} (hi's vertical value is ignored: the top is H_top) or {d - 1}",
+            parameter="box",
         )
     hi = hi[: d - 1]
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo[:-1])):
         raise InvalidParameterError(
-            f"invalid box: lo = {lo.tolist()}, hi = {hi.tolist()}; need finite hi > lo (m)"
+            f"invalid box: lo = {lo.tolist()}, hi = {hi.tolist()}; need finite hi > lo (m)",
+            parameter="box",
         )
     return lo, hi
 
@@ -127,17 +144,23 @@ def _as_particles(positions, radii):
         x = np.asarray(positions, dtype=float)
         r = np.asarray(radii, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"invalid positions/radii: {exc}") from None
+        raise InvalidParameterError(
+            f"invalid positions/radii: {exc}", parameter="positions"
+        ) from None
     if x.ndim != 2 or x.shape[1] not in (2, 3):
         raise InvalidParameterError(
-            f"invalid positions: shape {x.shape}, expected (N, 2) or (N, 3)"
+            f"invalid positions: shape {x.shape}, expected (N, 2) or (N, 3)", parameter="positions"
         )
     if x.shape[0] == 0:
-        raise InvalidParameterError("invalid positions: no particles (N = 0)")
+        raise InvalidParameterError(
+            "invalid positions: no particles (N = 0)", parameter="positions"
+        )
     if r.shape != (x.shape[0],):
-        raise InvalidParameterError(f"invalid radii: shape {r.shape}, expected ({x.shape[0]},)")
+        raise InvalidParameterError(
+            f"invalid radii: shape {r.shape}, expected ({x.shape[0]},)", parameter="radii"
+        )
     if not np.all(np.isfinite(x)):
-        raise InvalidParameterError("invalid positions: non-finite values")
+        raise InvalidParameterError("invalid positions: non-finite values", parameter="positions")
     if np.max(np.abs(x)) > MAX_COORDINATE:
         k = int(np.argmax(np.max(np.abs(x), axis=1)))
         raise InvalidParameterError(
@@ -147,7 +170,9 @@ def _as_particles(positions, radii):
         )
     if not (np.all(np.isfinite(r)) and np.all(r > 0)):
         k = int(np.argmin(np.where(np.isfinite(r), r, -np.inf)))
-        raise InvalidParameterError(f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)")
+        raise InvalidParameterError(
+            f"invalid radii[{k}] = {r[k]}: must be finite and > 0 (m)", parameter=f"radii[{k}]"
+        )
     return np.ascontiguousarray(x), np.ascontiguousarray(r)
 
 
@@ -163,7 +188,8 @@ def _check_overlaps(pairs: Contacts, r: np.ndarray) -> None:
         raise InvalidParameterError(
             f"invalid positions: particles {i} and {j} overlap by {pairs.overlap[k]:.4g} m, "
             f"more than the smaller radius {min(r[i], r[j]):.4g} m (overlap ratio "
-            f"{ratio[k]:.3g}; at most 1): not a valid pack"
+            f"{ratio[k]:.3g}; at most 1): not a valid pack",
+            parameter="positions",
         )
 
 

@@ -169,7 +169,8 @@ def _prepare(
         except AttributeError:
             raise InvalidParameterError(
                 f"invalid pack = {type(pack).__name__}: expected a granpack.Pack or the "
-                "result of granpack.read_particles"
+                "result of granpack.read_particles",
+                parameter="pack",
             ) from None
     elif positions is None or radii is None:
         raise GranpackError("give a pack, or positions and radii")
@@ -188,10 +189,13 @@ def _prepare(
         raise InvalidParameterError(
             f"invalid radii[{k}] = {r[k]}: the particle volume is {vol[k]:.3g} and the total "
             f"{solid:.3g}; volumes must be finite and > 0 (radii within about 1e-100 to "
-            "1e100 m)"
+            "1e100 m)",
+            parameter=f"radii[{k}]",
         )
     if not math.isfinite(h_top):
-        raise InvalidParameterError("invalid positions: the pack's top max(z + r) overflows")
+        raise InvalidParameterError(
+            "invalid positions: the pack's top max(z + r) overflows", parameter="positions"
+        )
     walls_known = box is not None
     if box is None and kind == "cylinder":
         # no box given: the cylinder stands on the lowest particle, its axis through the
@@ -214,7 +218,8 @@ def _prepare(
         lo, hi_h = _as_box(box, d)
         if h_top <= lo[-1]:
             raise InvalidParameterError(
-                f"invalid box: floor at {lo[-1]} m is at or above the top of the pack {h_top} m"
+                f"invalid box: floor at {lo[-1]} m is at or above the top of the pack {h_top} m",
+                parameter="box",
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     hi = np.array([*hi_h, h_top])
@@ -233,7 +238,8 @@ def _prepare(
     if not (math.isfinite(box_volume) and box_volume > 0.0):
         raise InvalidParameterError(
             f"invalid positions: the box from {lo.tolist()} to {hi.tolist()} m has volume "
-            f"{box_volume:.3g}; coordinates must span a finite box of volume > 0"
+            f"{box_volume:.3g}; coordinates must span a finite box of volume > 0",
+            parameter="positions",
         )
 
     if contacts is None:

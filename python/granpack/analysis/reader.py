@@ -41,7 +41,7 @@ def read_xyzr(path, dim: int | None = None) -> tuple[np.ndarray, np.ndarray, int
     """
     path = Path(path)
     if dim is not None and dim not in (2, 3):
-        raise InvalidParameterError(f"invalid dim = {dim!r}: must be None, 2 or 3")
+        raise InvalidParameterError(f"invalid dim = {dim!r}: must be None, 2 or 3", parameter="dim")
     try:
         text = path.read_text(encoding="utf-8-sig")  # Excel writes a byte-order mark
     except FileNotFoundError:

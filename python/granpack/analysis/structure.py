@@ -23,7 +23,9 @@ __all__ = ["rdf", "steinhardt"]
 def _pack_or_arrays(first, radii):
     if hasattr(first, "positions") and hasattr(first, "radii"):
         if radii is not None:
-            raise InvalidParameterError("give either a pack or positions and radii, not both")
+            raise InvalidParameterError(
+                "give either a pack or positions and radii, not both", parameter="radii"
+            )
         return first, None, None
     return None, first, radii
 

@@ -49,14 +49,20 @@ DEFAULT_N_BINS = {2: 36, 3: 10}
 def _unit_rows(name: str, normals) -> np.ndarray:
     n = np.asarray(normals, dtype=float)
     if n.ndim != 2 or n.shape[1] not in (2, 3):
-        raise InvalidParameterError(f"invalid {name}: shape {n.shape}, expected (M, 2) or (M, 3)")
+        raise InvalidParameterError(
+            f"invalid {name}: shape {n.shape}, expected (M, 2) or (M, 3)", parameter=name
+        )
     if n.shape[0] == 0:
-        raise InvalidParameterError(f"invalid {name}: no contacts (M = 0); the tensor is undefined")
+        raise InvalidParameterError(
+            f"invalid {name}: no contacts (M = 0); the tensor is undefined", parameter=name
+        )
     if not np.all(np.isfinite(n)):
-        raise InvalidParameterError(f"invalid {name}: non-finite values")
+        raise InvalidParameterError(f"invalid {name}: non-finite values", parameter=name)
     norm = np.linalg.norm(n, axis=1)
     if np.any(norm == 0.0):
-        raise InvalidParameterError(f"invalid {name}: row {int(np.argmin(norm))} has zero length")
+        raise InvalidParameterError(
+            f"invalid {name}: row {int(np.argmin(norm))} has zero length", parameter=name
+        )
     return n / norm[:, None]
 
 
@@ -94,11 +100,15 @@ def anisotropy_tensor(tensor) -> np.ndarray:
     """
     t = np.asarray(tensor, dtype=float)
     if t.ndim != 2 or t.shape[0] != t.shape[1] or t.shape[0] not in (2, 3):
-        raise InvalidParameterError(f"invalid tensor: shape {t.shape}, expected (2, 2) or (3, 3)")
+        raise InvalidParameterError(
+            f"invalid tensor: shape {t.shape}, expected (2, 2) or (3, 3)", parameter="tensor"
+        )
     d = t.shape[0]
     tr = np.trace(t)
     if not np.isfinite(tr) or tr == 0.0:
-        raise InvalidParameterError(f"invalid tensor: trace {tr}, must be finite and non-zero")
+        raise InvalidParameterError(
+            f"invalid tensor: trace {tr}, must be finite and non-zero", parameter="tensor"
+        )
     return ANISOTROPY_FACTOR[d] * (t / tr - np.eye(d) / d)
 
 
@@ -218,19 +228,25 @@ def _force_columns(normals, force_normal, force_tangential):
     fn = np.asarray(force_normal, dtype=float)
     ft = np.asarray(force_tangential, dtype=float)
     if fn.shape != (m,):
-        raise InvalidParameterError(f"invalid force_normal: shape {fn.shape}, expected ({m},)")
+        raise InvalidParameterError(
+            f"invalid force_normal: shape {fn.shape}, expected ({m},)", parameter="force_normal"
+        )
     if ft.shape != (m, d):
         raise InvalidParameterError(
-            f"invalid force_tangential: shape {ft.shape}, expected ({m}, {d})"
+            f"invalid force_tangential: shape {ft.shape}, expected ({m}, {d})",
+            parameter="force_tangential",
         )
     if not (np.all(np.isfinite(fn)) and np.all(np.isfinite(ft))):
-        raise InvalidParameterError("invalid forces: non-finite values")
+        raise InvalidParameterError("invalid forces: non-finite values", parameter="forces")
     if np.any(fn < 0.0):
         k = int(np.argmin(fn))
-        raise InvalidParameterError(f"invalid force_normal[{k}] = {fn[k]}: must be >= 0 (N)")
+        raise InvalidParameterError(
+            f"invalid force_normal[{k}] = {fn[k]}: must be >= 0 (N)", parameter=f"force_normal[{k}]"
+        )
     if not np.any(fn > 0.0):
         raise InvalidParameterError(
-            "invalid force_normal: all zero, so f0 = 0 and a^n, a^t are undefined"
+            "invalid force_normal: all zero, so f0 = 0 and a^n, a^t are undefined",
+            parameter="force_normal",
         )
     # Only the part in the tangent plane is a tangential force; dropping a stray normal
     # component also keeps tr F^t = 0 exactly.
@@ -413,5 +429,7 @@ def force_tensors_binned(normals, force_normal, force_tangential, n_bins=None) -
     fn_tensor = np.einsum("g,gij->ij", fbar, second[full]) / total
     ft_tensor = np.einsum("gi,gj->ij", ftbar, first[full]) / total
     if f0 <= 0.0:
-        raise InvalidParameterError("invalid force_normal: f0 = 0, a^n and a^t are undefined")
+        raise InvalidParameterError(
+            "invalid force_normal: f0 = 0, a^n and a^t are undefined", parameter="force_normal"
+        )
     return _finish(f0, fn_tensor, ft_tensor, d)

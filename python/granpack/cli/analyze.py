@@ -222,12 +222,15 @@ def _load_for_analysis(args, console: Console):
         if len(args.box) != 2 * dim:
             raise InvalidParameterError(
                 f"invalid --box: {len(args.box)} values, expected {2 * dim} "
-                f"(lo hi for each of the {dim} axes)"
+                f"(lo hi for each of the {dim} axes)",
+                parameter="--box",
             )
         v = np.asarray(args.box, dtype=np.float64)
         box = (v[0::2], v[1::2])
         if np.any(box[1] <= box[0]):
-            raise InvalidParameterError("invalid --box: every axis needs lo < hi")
+            raise InvalidParameterError(
+                "invalid --box: every axis needs lo < hi", parameter="--box"
+            )
     if "container" not in where and particles.container is not None:
         # --box replaces the file's box, not its container
         where["container"] = particles.container
