@@ -362,6 +362,8 @@ macro_rules! with_world {
     };
 }
 
+mod consolidate;
+
 /// The DEM engine (see `granpack.Simulation` for the documented Python API).
 #[pyclass(module = "granpack._core")]
 struct Simulation {
@@ -1227,5 +1229,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(radius_law_summary, m)?)?;
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
+    consolidate::register(m)?;
     Ok(())
 }
