@@ -8,6 +8,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
 from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
+from .consolidation import ConsolidationError, consolidate
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -31,6 +32,7 @@ __all__ = [
     "BlowUpError",
     "SaturationError",
     "FileFormatError",
+    "ConsolidationError",
     "Contacts",
     "Material",
     "Simulation",
@@ -40,6 +42,7 @@ __all__ = [
     "generate",
     "load_pack",
     "tile",
+    "consolidate",
     "read_particles",
     "ParticleFile",
     "read_contacts",

@@ -217,8 +217,14 @@ def _prepare(
                 f"invalid box: floor at {lo[-1]} m is at or above the top of the pack {h_top} m"
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
+    # a consolidated pack's sample ends at its lid, not at the top of its highest sphere
+    record = getattr(pack, "consolidation", None) if pack is not None else None
+    if record is not None:
+        h_top = float(lo[-1]) + float(record["height"])
+        if walls is not None:
+            walls = (walls[0], [*walls[1][:-1], h_top])
     hi = np.array([*hi_h, h_top])
-    cont = make_container(kind, lo, hi, periodic, cylinder_radius)
+    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=record is not None)
     if until_container:
         return cont, walls_known
     x_given = x  # as given: the contact check counts their printed digits
