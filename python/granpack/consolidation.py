@@ -451,7 +451,7 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
     elif sc.container == "cylinder" and "cylinder" in targets:
         radius = pos["cylinder"]
         shift[:2] = radius - sc.base[0] / 2.0
-        scene = sc.replace(base=(2.0 * radius, 2.0 * radius))
+        scene = sc.replace(base=(2.0 * radius, 2.0 * radius), cylinder_radius=radius)
     x = x + shift
     lid = pos["lid"] - pos["floor"]
     vol_solid = float(np.sum(_volumes(pack.radii, dim)))
