@@ -26,6 +26,10 @@ use crate::error::{check_range, Error, Result};
 use crate::math::{Dim, Real, Spatial};
 use crate::pipeline::world::{ForceBalance, WallLoad, World};
 
+/// Steps of wall travel at full speed that the walls' near-lists reach beyond them (a
+/// wider reach costs one distance test per extra particle near a wall, per step).
+const WALL_STEPS: Real = 100.0;
+
 /// One controlled wall and its target.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ServoTarget {
@@ -188,9 +192,10 @@ where
             "at least one particle to consolidate",
         ));
     }
-    // A wall moves at most max_wall_speed dt per step: the near-lists reach ten steps
-    // of that further, so a rebuild for the walls' sake comes every ten steps at most.
-    world.set_wall_margin(10.0 * cfg.max_wall_speed * world.config().dt)?;
+    // A wall moves at most max_wall_speed dt per step: the near-lists reach WALL_STEPS
+    // steps of that further, so a rebuild for the walls' sake comes every WALL_STEPS
+    // steps at most (at every 10, the rebuilds cost a fifth of the stage).
+    world.set_wall_margin(WALL_STEPS * cfg.max_wall_speed * world.config().dt)?;
     world.set_local_damping(cfg.local_damping)?;
     world.refresh_forces()?;
     let n_walls = world.wall_count();
