@@ -29,6 +29,7 @@ from .errors import (
 if TYPE_CHECKING:
     from .analysis import microstructure, radial_profiles, rdf, steinhardt
     from .analysis.profiles import profiles
+    from .consolidation import ConsolidationError, consolidate
     from .contacts import Contacts
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
@@ -44,6 +45,8 @@ _LAZY = {
     "radial_profiles": "analysis",
     "rdf": "analysis",
     "steinhardt": "analysis",
+    "ConsolidationError": "consolidation",
+    "consolidate": "consolidation",
     "Contacts": "contacts",
     "Material": "simulation",
     "Simulation": "simulation",
@@ -65,8 +68,8 @@ _LAZY = {
 #: The modules that ``import granpack`` loaded before the API was loaded on first use, still
 #: reachable as attributes of the package (``granpack.analysis``) without their own import.
 _SUBMODULES = frozenset(
-    ("analysis", "contacts", "grading", "io", "pack", "scene", "simulation", "tile")
-    + ("container_tag", "dem_input", "_validate")
+    ("analysis", "consolidation", "contacts", "grading", "io", "pack", "scene", "simulation")
+    + ("tile", "container_tag", "dem_input", "_validate")
 )
 
 
@@ -106,6 +109,7 @@ __all__ = [
     "BlowUpError",
     "SaturationError",
     "FileFormatError",
+    "ConsolidationError",
     "Contacts",
     "Material",
     "Simulation",
@@ -115,6 +119,7 @@ __all__ = [
     "generate",
     "load_pack",
     "tile",
+    "consolidate",
     "read_particles",
     "ParticleFile",
     "read_contacts",

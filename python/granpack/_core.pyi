@@ -30,6 +30,10 @@ __all__ = [
     "radius_law_summary",
     "number_fractions",
     "sample_radii",
+    "sim_add_lid",
+    "sim_walls",
+    "sim_force_balance",
+    "sim_consolidate",
 ]
 
 __version__: str
@@ -314,3 +318,59 @@ def cpu_level() -> CpuLevel:
 
 def cpu_levels() -> list[CpuLevel]:
     """The levels this CPU runs, lowest first."""
+
+class _Walls(TypedDict):
+    position: npt.NDArray[np.float64]
+    area: npt.NDArray[np.float64]
+    force: npt.NDArray[np.float64]
+    stiffness: npt.NDArray[np.float64]
+    contacts: npt.NDArray[np.int64]
+    lid: bool
+
+class _Balance(TypedDict):
+    mean_net: float
+    max_net: float
+    mean_contact: float
+    contacts: int
+    unbalanced: float
+    max_ratio: float
+
+class _ServoHistory(TypedDict):
+    step: npt.NDArray[np.int64]
+    stress_error: npt.NDArray[np.float64]
+    unbalanced: npt.NDArray[np.float64]
+    max_ratio: npt.NDArray[np.float64]
+    stress: npt.NDArray[np.float64]
+
+class _ServoReport(TypedDict):
+    converged: bool
+    steps: int
+    max_speed: float
+    history: _ServoHistory
+
+def sim_add_lid(sim: Simulation, z: float) -> int:
+    """Adds the lid, a plane facing down at height z (m), after the container's walls;
+    returns its index in the wall list."""
+
+def sim_walls(sim: Simulation) -> _Walls:
+    """Each wall's position (m), area (m^2; NaN for a side wall before the lid), the force
+    the particles put on it along its outward normal (N), its contacts' stiffness (N/m)
+    and count."""
+
+def sim_force_balance(sim: Simulation) -> _Balance:
+    """The balance of forces: YADE's unbalanced ratio and PFC's maximum ratio."""
+
+def sim_consolidate(
+    sim: Simulation,
+    targets: list[tuple[int, float]],
+    *,
+    stress_tol: float,
+    unbalanced_tol: float,
+    hold: int,
+    check_every: int,
+    max_steps: int,
+    max_wall_speed: float,
+    gain: float,
+    local_damping: float,
+) -> _ServoReport:
+    """The consolidation stage on (wall index, target stress) pairs; GIL released."""

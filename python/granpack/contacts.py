@@ -8,10 +8,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Contacts", "WALL_IDS"]
+__all__ = ["Contacts", "WALL_IDS", "LID_ID"]
 
 #: Wall identifiers used in column `j`: floor, then the low and high side walls.
-WALL_IDS = {-1: "floor", -2: "x = lo", -3: "x = hi", -4: "y = lo", -5: "y = hi"}
+#: The wall id of the lid of a consolidated pack, in every container.
+LID_ID = -6
+
+WALL_IDS = {-1: "floor", -2: "x = lo", -3: "x = hi", -4: "y = lo", -5: "y = hi", -6: "lid"}
 
 
 @dataclass(frozen=True)

@@ -110,6 +110,16 @@ class Pack:
         above H_d), ``top`` (the final H_top after the relax, m, <= H_d), ``phi_hd``
         (solid fraction of the container up to H_d), ``steps`` (relax steps). None for
         a pack made without it.
+    consolidation : dict or None
+        What `granpack.consolidate` did, for a consolidated pack (None for a deposit):
+        ``mode``, ``targets`` and the tolerances and settings it ran with (``dt``,
+        ``max_wall_speed``, ``gain``, ``local_damping``, ``gravity``), ``walls`` (each
+        wall's position, m: ``floor``, the side walls or ``cylinder`` (its radius),
+        ``lid``), ``wall_stress`` (force over area on each wall, Pa),
+        ``love_weber`` and ``boundary_stress`` (D x D, Pa), ``k0``, ``phi`` and
+        ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
+        ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
+        pack's ``height`` is then the lid's height.
     tiled : dict or None
         What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
         horizontal axis), ``particles`` (N of the original), ``base`` (the original's
@@ -129,6 +139,7 @@ class Pack:
     wall_time: float = 0.0
     trim: dict | None = None
     tiled: dict | None = None
+    consolidation: dict | None = None
 
     @property
     def dim(self) -> int:
@@ -181,6 +192,8 @@ class Pack:
             meta["trim"] = self.trim
         if self.tiled is not None:
             meta["tiled"] = self.tiled
+        if self.consolidation is not None:
+            meta["consolidation"] = self.consolidation
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
@@ -405,6 +418,7 @@ def load_pack(path: str | Path) -> Pack:
             wall_time=float(meta["wall_time"]),
             trim=_trim_record(meta.get("trim")),
             tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
+            consolidation=_consolidation_record(meta.get("consolidation")),
         )
     except (
         KeyError,
@@ -446,6 +460,18 @@ def _trim_record(value) -> dict | None:
         "phi_hd": float(value["phi_hd"]),
         "steps": int(value["steps"]),
     }
+
+
+def _consolidation_record(value) -> dict | None:
+    """The consolidation record of a pack file (absent in deposits and older files)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or not isinstance(value.get("walls"), dict):
+        raise ValueError("consolidation record: expected a table with the walls")
+    for key in ("phi", "k0", "height"):
+        if not math.isfinite(float(value[key])):
+            raise ValueError(f"consolidation record: {key} is not finite")
+    return value
 
 
 def _tiled_record(value, dim: int, n: int) -> dict | None:
@@ -518,7 +544,7 @@ def _check_arrays(data: dict, dim: int, contacts: Contacts) -> None:
         if not np.all(np.isfinite(a)):
             raise ValueError(f"'contacts.{key}' holds non-finite values")
     i, j = contacts.i, contacts.j
-    if m and (i.min() < 0 or i.max() >= n or j.min() < -5 or j.max() >= n):
+    if m and (i.min() < 0 or i.max() >= n or j.min() < -6 or j.max() >= n):
         raise ValueError(f"'contacts.i' or 'contacts.j' names a particle outside [0, {n - 1}]")
     if np.any(i == j):
         k = int(np.argmax(i == j))

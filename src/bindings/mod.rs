@@ -364,6 +364,8 @@ macro_rules! with_world {
     };
 }
 
+mod consolidate;
+
 /// The DEM engine (see `granpack.Simulation` for the documented Python API).
 #[pyclass(module = "granpack._core")]
 struct Simulation {
@@ -1229,5 +1231,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
     scene::register(m)?;
+    consolidate::register(m)?;
     Ok(())
 }

@@ -44,6 +44,8 @@ class Container:
         Per horizontal axis (D - 1 values): True where the axis repeats.
     radius : float or None
         Cylinder radius R (m); None for the box and the periodic cell.
+    lid : bool
+        Whether a lid closes the top at ``hi[-1]`` (a consolidated pack; wall id -6).
     """
 
     kind: str
@@ -51,6 +53,7 @@ class Container:
     hi: np.ndarray
     periodic: tuple[bool, ...]
     radius: float | None = None
+    lid: bool = False
 
     @property
     def dim(self) -> int:
@@ -118,17 +121,23 @@ class Container:
         """The wall ids (j < 0) of this container's contact table: -1 the floor; in the
         box -2/-3 x-lo/x-hi and -4/-5 y-lo/y-hi; in the cylinder -2 its wall; a periodic
         cell only the floor (and the side walls of a non-periodic axis, as in the box)."""
+        lid = (-6,) if self.lid else ()
         if self.radius is not None:
-            return (-1, -2)
+            return (-1, -2, *lid)
         ids = [-1]
         for k in range(self.dim - 1):
             if not self.periodic[k]:
                 ids += [-2 - 2 * k, -3 - 2 * k]
-        return tuple(ids)
+        return (*ids, *lid)
 
 
 def make_container(
-    kind: str, lo, hi, periodic: tuple[bool, ...] | None, radius: float | None
+    kind: str,
+    lo,
+    hi,
+    periodic: tuple[bool, ...] | None,
+    radius: float | None,
+    lid: bool = False,
 ) -> Container:
     """Checks and builds a Container (``lo``, ``hi`` (D,) with hi[-1] = H_top)."""
     lo = np.asarray(lo, dtype=float)
@@ -150,7 +159,7 @@ def make_container(
                 f"invalid cylinder_radius = {radius!r}: must be finite and > 0 (m)",
                 parameter="cylinder_radius",
             )
-        return Container("cylinder", lo, hi, (False,) * (d - 1), float(radius))
+        return Container("cylinder", lo, hi, (False,) * (d - 1), float(radius), lid)
     if radius is not None:
         raise InvalidParameterError(
             f"invalid cylinder_radius = {radius!r}: only a cylinder has one (container is "
@@ -165,4 +174,4 @@ def make_container(
         )
     if kind == "periodic" and not any(per):
         per = (True,) * (d - 1)
-    return Container("periodic" if any(per) else "box", lo, hi, per, None)
+    return Container("periodic" if any(per) else "box", lo, hi, per, None, lid)

@@ -8,13 +8,13 @@ import numpy as np
 
 from .. import _core
 from .._validate import FileFormatError, GranpackError, InvalidParameterError
-from ..contacts import WALL_IDS, Contacts
+from ..contacts import LID_ID, WALL_IDS, Contacts
 
 #: Largest coordinate the analysis takes (m): the cube of a span of 2e100 m is still a
 #: finite volume.
 MAX_COORDINATE = 1e100
 #: Wall ids of the contact table (j < 0).
-_MIN_WALL_ID = -5
+_MIN_WALL_ID = -6
 
 
 def _as_contacts(contacts, n: int, d: int) -> Contacts:
@@ -60,7 +60,7 @@ def _as_contacts(contacts, n: int, d: int) -> Contacts:
         )
     if m and (j.min() < _MIN_WALL_ID or j.max() >= n):
         raise InvalidParameterError(
-            f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-5",
+            f"invalid contacts.j: must lie in [0, {n - 1}] or be a wall id -1..-6",
             parameter="contacts.j",
         )
     if m and np.any(i == j):
@@ -410,6 +410,10 @@ def check_contacts_touch(
         floor = w == -1
         to_wall[floor] = xq[floor, -1] - lo[-1]
         res_w[floor] = res_x[q[floor], -1] + res_b[d - 1]
+        if container.lid:
+            top = w == LID_ID
+            to_wall[top] = hi[-1] - xq[top, -1]
+            res_w[top] = res_x[q[top], -1] + res_b[d - 1]
         if container.radius is not None:
             cyl = w == -2
             off = xq[cyl, :2] - container.axis

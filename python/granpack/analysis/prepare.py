@@ -49,6 +49,9 @@ class Prepared:
     h_top: float
     volume: float
     container_source: str = "argument"
+    #: (N, D) body force on each particle (N): its weight where the pack says (a
+    #: granpack Pack: the scene's gravity and material), None where nothing does
+    body: np.ndarray | None = None
 
     def branches(self) -> np.ndarray:
         """(M, D) branch vectors of every contact: x_j - x_i by minimum image for a pair,
@@ -222,8 +225,14 @@ def _prepare(
                 parameter="box",
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
+    # a consolidated pack's sample ends at its lid, not at the top of its highest sphere
+    record = getattr(pack, "consolidation", None) if pack is not None else None
+    if record is not None:
+        h_top = float(lo[-1]) + float(record["height"])
+        if walls is not None:
+            walls = (walls[0], [*walls[1][:-1], h_top])
     hi = np.array([*hi_h, h_top])
-    cont = make_container(kind, lo, hi, periodic, cylinder_radius)
+    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=record is not None)
     if until_container:
         return cont, walls_known
     x_given = x  # as given: the contact check counts their printed digits
@@ -269,8 +278,58 @@ def _prepare(
         geometric = _find_contacts(x, r, None)
     _check_overlaps(geometric.particle_pairs(), r)
     return Prepared(
-        x, r, n, d, lo, hi, cont, c, contacts_given, solid, vol, h_top, box_volume, source
+        x,
+        r,
+        n,
+        d,
+        lo,
+        hi,
+        cont,
+        c,
+        contacts_given,
+        solid,
+        vol,
+        h_top,
+        box_volume,
+        source,
+        _body_forces(pack, r, d),
     )
+
+
+def _body_forces(pack, r: np.ndarray, d: int) -> np.ndarray | None:
+    """(N, D) weight of each particle of a granpack Pack (N): the scene's gravity on the
+    scene's material, as the engine had it (sphere or disc mass in 2D; none where a
+    consolidation ran without gravity). None for anything else (another code's file
+    says nothing of its masses or gravity)."""
+    scene = getattr(pack, "scene", None) if pack is not None else None
+    if scene is None:
+        return None
+    record = getattr(pack, "consolidation", None)
+    g = 0.0 if record is not None and not record.get("gravity", True) else float(scene.gravity)
+    disc = d == 2 and getattr(scene, "inertia_2d", "sphere") == "disc"
+    vol = np.pi * r * r if disc else 4.0 / 3.0 * np.pi * r**3
+    body = np.zeros((r.shape[0], d))
+    body[:, -1] = -scene.material.density * vol * g
+    return body
+
+
+def force_balance(prep: Prepared, forces: np.ndarray) -> tuple[float, float]:
+    """(YADE's unbalanced ratio, PFC's maximum ratio) of the contact forces `forces`
+    (M, D; on the second body) and the body forces: mean and largest |net force| over
+    particles, each over the mean |contact force| (-). NaN without body forces or
+    contacts."""
+    c = prep.contacts
+    if prep.body is None or len(c) == 0:
+        return math.nan, math.nan
+    net = prep.body.copy()
+    np.add.at(net, c.i, -forces)
+    pair = c.j >= 0
+    np.add.at(net, c.j[pair], forces[pair])
+    mean_c = float(np.mean(np.linalg.norm(forces, axis=1)))
+    if not mean_c > 0.0:
+        return math.nan, math.nan
+    mag = np.linalg.norm(net, axis=1)
+    return float(np.mean(mag)) / mean_c, float(np.max(mag)) / mean_c
 
 
 def analysis_container(pack) -> tuple[Container, bool]:
@@ -339,10 +398,18 @@ def _beyond_the_paper(prep: Prepared, values: dict, n_slices: int, has_forces: b
         branches = prep.branches()
         sigma = love_weber(forces, branches, prep.volume)
         prof = stress_slices(prep, edges, forces, branches)[:, d - 1, d - 1]
+        unbalanced, max_ratio = force_balance(prep, forces)
     else:
         sigma = nan_t
         prof = np.full(n_slices, np.nan)
-    out.update(stress=sigma, k0=k0(sigma), stress_profile=(edges, prof))
+        unbalanced = max_ratio = math.nan
+    out.update(
+        stress=sigma,
+        k0=k0(sigma),
+        stress_profile=(edges, prof),
+        unbalanced=unbalanced,
+        unbalanced_max=max_ratio,
+    )
     # -- strong and weak networks ---------------------------------------------------------
     if has_forces and n_c > 0:
         fn = pp.force_normal

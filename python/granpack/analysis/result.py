@@ -195,6 +195,15 @@ class Microstructure:
     k0: float
     """K0 = mean horizontal over vertical stress (-): (sigma_xx + sigma_yy)/(2 sigma_zz) in 3D,
     sigma_xx/sigma_yy in 2D. NaN without forces."""
+    unbalanced: float
+    """YADE's unbalanced-force ratio (-): the mean over particles of |net force| (the
+    contact forces and the weight) over the mean |contact force|, wall contacts included.
+    A pack at rest has it near 0; a deposit made with the paper's 1 s of jamming per layer
+    is not quite at rest. NaN without forces, or where the weights are unknown (another
+    code's file)."""
+    unbalanced_max: float
+    """PFC's maximum unbalanced-force ratio (-): the largest |net force| over the mean
+    |contact force|. NaN as ``unbalanced``."""
     stress_profile: tuple[np.ndarray, np.ndarray]
     """(edges (S + 1,), sigma_zz (S,)): the vertical stress of S horizontal slices from the
     floor to H_top (Pa), each contact given to the slice of its contact point (the midpoint of
@@ -256,6 +265,7 @@ class Microstructure:
         paper: container_volume, coordination_p0 .. coordination_p14 and
         coordination_p15plus (P[k]), z_std, n_rattlers_iterative, z_mech_iterative,
         n_rattlers_frictional, z_mech_frictional, stress_* (upper components), k0,
+        unbalanced, unbalanced_max,
         force_normal_mean, n_strong, strong_fraction, fabric_strong_*, fabric_weak_*,
         a_r_strong_mag, a_r_weak_mag, q6_mean, q6_global, crystal_fraction; the grading
         d10_mass, d30_mass, d50_mass, d60_mass, d90_mass, cu_mass, cc_mass and the same
@@ -325,6 +335,8 @@ class Microstructure:
         out["z_mech_frictional"] = float(v["z_mech_frictional"])
         sym("stress", v["stress"])
         out["k0"] = float(v["k0"])
+        out["unbalanced"] = float(v["unbalanced"])
+        out["unbalanced_max"] = float(v["unbalanced_max"])
         out["force_normal_mean"] = float(v["force_normal_mean"])
         out["n_strong"] = int(v["n_strong"])
         out["strong_fraction"] = float(v["strong_fraction"])

@@ -9,6 +9,7 @@
     granpack analyze DIR/packs/pack_000.npz          # or a dump, data, text, CSV file
     granpack export DIR/packs/pack_000.npz --format vtk   # vtk | lammps | csv | parquet
     granpack tile DIR/packs/pack_000.npz 4 4 --out big.npz  # a periodic pack, 4 x 4 copies
+    granpack consolidate DIR/packs/pack_000.npz --stress 1e5 --mode oedometric
 
 Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``, on a
 Dask cluster; the results are the same for the same master seed. Every finished pack is
@@ -37,7 +38,7 @@ __all__ = ["main", "build_parser"]
 
 #: The commands, in the order of ``granpack --help``; each is the module of that name in
 #: this package, with HELP, DESCRIPTION, ``add_arguments(parser)`` and ``run(args, console)``.
-COMMANDS = ("generate", "paper", "analyze", "export", "tile")
+COMMANDS = ("generate", "paper", "analyze", "export", "tile", "consolidate")
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

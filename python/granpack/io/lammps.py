@@ -402,8 +402,9 @@ def input_text(pack: Pack, data_name: str, code: str) -> str:
 def write_lammps(pack: Pack, path: str | Path) -> Path:
     """Writes a LAMMPS/LIGGGHTS data file for ``atom_style sphere`` (SI units; read it
     with ``units si``, ``atom_style sphere`` and ``read_data``; 2D needs
-    ``dimension 2`` and ``boundary f f p``). Returns the path. `export` also writes the
-    input ``in.granpack`` beside it (`input_text`)."""
+    ``dimension 2`` and ``boundary f f p``). The box's vertical bounds are the floor and
+    the pack's height, the lid's height for a consolidated pack. Returns the path.
+    `export` also writes the input ``in.granpack`` beside it (`input_text`)."""
     path = Path(path)
     s = pack.scene
     n = len(pack)
@@ -413,11 +414,17 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     v = _pad3(pack.velocities)
     w = _pad3(pack.spins)
     kind, radius = container_of(pack)
+    top = pack.height
+    rec = getattr(pack, "consolidation", None)
+    if rec is not None:
+        # a consolidated pack: the box is the walls' (the sides at 0 and base, where the
+        # consolidation left them), closed at the lid
+        top = float(rec["walls"]["lid"])
     if s.dim == 3:
-        bounds = [(0.0, s.base[0]), (0.0, s.base[1]), (0.0, pack.height)]
+        bounds = [(0.0, s.base[0]), (0.0, s.base[1]), (0.0, top)]
     else:
         half = float(np.max(pack.radii)) if n else float(s.r_max or 0.0)
-        bounds = [(0.0, s.base[0]), (0.0, pack.height), (-half, half)]
+        bounds = [(0.0, s.base[0]), (0.0, top), (-half, half)]
     mass = ""
     if s.dim == 2:
         mass = f", mass convention {s.inertia_2d}" + (

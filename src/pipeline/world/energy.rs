@@ -19,10 +19,13 @@ where
         let g = self.cfg.gravity.norm();
         let Some(e_ref) = self.energy_ref else {
             self.energy_ref = Some(e);
+            self.wall_work = 0.0;
             return Ok(());
         };
         let lift: Real = self.p.m.iter().zip(&self.p.r).map(|(m, r)| m * g * r).sum();
         let tol = lift + 0.01 * e_ref.abs() + 1e-300;
+        // moving walls are a second source: the work they did (zero otherwise)
+        let e_ref = e_ref + self.wall_work;
         if e > e_ref + tol {
             let fastest = (0..self.len())
                 .max_by(|&a, &b| {

@@ -251,6 +251,8 @@ where
             j_start,
             j_inc,
             walls: &self.walls,
+            wall_rate: &self.wall_rate,
+            local_damping: self.local_damping,
             params: PairParams {
                 r_eff: 0.0,
                 m_eff: 0.0,
@@ -757,6 +759,10 @@ where
     j_start: &'a [u32],
     j_inc: &'a [u32],
     walls: &'a [Wall],
+    /// Each wall's speed along its outward normal (m/s).
+    wall_rate: &'a [Real],
+    /// Local non-viscous damping coefficient (-), 0: off.
+    local_damping: Real,
     /// The wall law's material (the radius and mass are set per particle).
     params: PairParams,
     gravity: Vector<D>,
@@ -911,8 +917,13 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
         }
         let n = wall.normal(x);
         let arm = r - 0.5 * d;
-        // wall at rest: relative velocity of the wall w.r.t. the particle
+        // relative velocity of the wall w.r.t. the particle; a moving wall's surface
+        // moves along its normal (a wall at rest adds nothing, not even a signed zero)
         let mut vrel = -*v;
+        let rate = c.wall_rate[wi];
+        if rate != 0.0 {
+            vrel += n * rate;
+        }
         if c.rot {
             vrel -= <Dim<D>>::cross_wv(*w, &(n * arm));
         }
@@ -936,7 +947,11 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
         *out.t.0.add(q) = tq;
     }
     if KICK && !frozen_q {
-        *v += fq * (inv_m * c.half);
+        if c.local_damping > 0.0 {
+            *v += local_damped(fq, v, c.local_damping) * (inv_m * c.half);
+        } else {
+            *v += fq * (inv_m * c.half);
+        }
         // written so that NaN also trips it
         let v2 = v.norm_squared();
         acc.suspicious |= v2.is_nan() || v2 > r * r * c.guard;
@@ -945,4 +960,25 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             *w += tq * (inv_i * c.half);
         }
     }
+}
+
+/// Local non-viscous damping (Cundall's, as in PFC and YADE's `NewtonIntegrator`):
+/// each component of the force loses `alpha` times its magnitude against the
+/// velocity's sign, f_k - alpha |f_k| sign(v_k). It removes kinetic energy in
+/// proportion to the unbalanced force, so it vanishes at equilibrium and does not
+/// change the static state a quasi-static stage converges to.
+#[inline(always)]
+pub(super) fn local_damped<const D: usize>(f: Vector<D>, v: &Vector<D>, alpha: Real) -> Vector<D> {
+    let mut out = f;
+    for k in 0..D {
+        let s = if v[k] > 0.0 {
+            1.0
+        } else if v[k] < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        out[k] -= alpha * f[k].abs() * s;
+    }
+    out
 }

@@ -17,6 +17,7 @@ where
     ) -> bool {
         let dt = self.cfg.dt;
         let half = 0.5 * dt;
+        let ld = self.local_damping;
         let p = &mut self.p;
         let len = p.x.len();
         let (xs, vs, ws) = (
@@ -64,6 +65,7 @@ where
                     ii,
                     dt,
                     half,
+                    ld,
                 )
             },
             |a, b| a | b,
@@ -95,6 +97,7 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
     ii: &[Real],
     dt: Real,
     half: Real,
+    ld: Real,
 ) -> bool where [Dim<D>: Spatial<D>] [D, TORQUE, FROZEN] {
     let mut moved = false;
     // Every chunk slice cut to one length: the loop then runs without bounds checks.
@@ -106,7 +109,11 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
         if FROZEN && fz[k] {
             continue;
         }
-        v[k] += f[k] * (im[k] * half);
+        if ld > 0.0 {
+            v[k] += super::forces::local_damped(f[k], &v[k], ld) * (im[k] * half);
+        } else {
+            v[k] += f[k] * (im[k] * half);
+        }
         x[k] += v[k] * dt;
         // written so that NaN also trips it
         let d2 = (x[k] - xr[k]).norm_squared();

@@ -15,6 +15,7 @@
 //! - `particles.rs`: the particle arrays, and adding particles;
 //! - `pair_list.rs`: the Verlet list, its per-pair state and its rebuild (step 2);
 //! - `boundary.rs`: the container's walls;
+//! - `moving_walls.rs`: the lid, walls that move, and the loads on them;
 //! - `integrate.rs`: the half kick and drift (step 1);
 //! - `forces.rs`: the pair pass and the gather (steps 3-5);
 //! - `freeze.rs`: freezing of settled particles;
@@ -48,6 +49,7 @@ mod energy;
 mod forces;
 mod freeze;
 mod integrate;
+mod moving_walls;
 mod pair_list;
 mod particles;
 mod remove;
@@ -60,6 +62,7 @@ pub use boundary::{Container, Period};
 pub use config::{Inertia2D, SimConfig};
 pub use contacts::{geometric_contacts, Contacts};
 pub use freeze::{FreezeConfig, FREEZE_INTERVAL};
+pub use moving_walls::{ForceBalance, WallLoad};
 use pair_list::Pairs;
 use particles::Particles;
 use team::{Disjoint, Team};
@@ -96,8 +99,9 @@ const TEAM_BLOCKS: usize = 2;
 pub const SKIN_STEPS: Real = 80.0;
 /// Smallest adaptive skin, as a fraction of the largest ([`SimConfig::skin_ratio`]).
 pub const SKIN_FLOOR: Real = 0.25;
-/// Most walls a box has: the floor and two per horizontal axis.
-pub const MAX_WALLS: usize = 5;
+/// Most walls a world has: the box's floor and two per horizontal axis, and a lid
+/// (see [`World::add_lid`]).
+pub const MAX_WALLS: usize = 6;
 
 /// The DEM world in `D` dimensions.
 #[derive(Clone, Debug)]
@@ -133,6 +137,19 @@ where
     /// The pair pass's scratch block, one per team slot (see `team`), kept between
     /// steps: 15 KB each in 3D.
     scratch: Vec<Box<Geometry<D>>>,
+    /// Speed of each wall along its outward normal (m/s), seen by the contact law:
+    /// zero for walls at rest (see `moving_walls`).
+    wall_rate: Vec<Real>,
+    /// Extra reach (m) of the walls' near-lists while walls move, and the largest
+    /// distance a wall has moved since the last rebuild (m): beyond the margin the
+    /// pair list is rebuilt (see `moving_walls`).
+    wall_margin: Real,
+    wall_travel: Real,
+    /// Work done on the particles by moving walls since the energy reference was set
+    /// (J): the energy guard's budget grows by it.
+    wall_work: Real,
+    /// Local non-viscous damping coefficient (-), 0 (off) unless a stage sets it.
+    local_damping: Real,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -170,6 +187,11 @@ where
             energy_ref: None,
             sweep_min_bytes: forces::SWEEP_MIN_BYTES,
             scratch: Vec::new(),
+            wall_rate: vec![0.0; MAX_WALLS],
+            wall_margin: 0.0,
+            wall_travel: 0.0,
+            wall_work: 0.0,
+            local_damping: 0.0,
         })
     }
 

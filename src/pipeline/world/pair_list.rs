@@ -242,7 +242,10 @@ where
         // No particle moves more than its h before the next rebuild, so only walls
         // within r + h can be touched meanwhile (r + 2h for margin): the gather skips
         // the others.
-        let (p, walls) = (&mut self.p, &self.walls);
+        // While walls move, their reach grows by `wall_margin`, and a wall that has
+        // moved that far since this rebuild asks for the next one (`moving_walls`).
+        let (p, walls, margin) = (&mut self.p, &self.walls, self.wall_margin);
+        self.wall_travel = 0.0;
         p.wall_near
             .par_iter_mut()
             .zip(p.x.par_iter())
@@ -251,7 +254,12 @@ where
             .for_each(|((near, x), (r, h))| {
                 *near = 0;
                 for (wi, wall) in walls.iter().enumerate() {
-                    if wall.gap(x) < r + 2.0 * h {
+                    let reach = if margin > 0.0 {
+                        r + 2.0 * h + margin
+                    } else {
+                        r + 2.0 * h
+                    };
+                    if wall.gap(x) < reach {
                         *near |= 1 << wi;
                     }
                 }

@@ -1,0 +1,525 @@
+"""Consolidation: a generated pack driven by servo-controlled walls to a target stress and
+held there until it is in static equilibrium (a sample ready for an element test).
+
+`consolidate` closes the container with a lid on the pack's top, and moves the controlled
+walls with the engine's servo (``granpack._core.sim_consolidate``; the law and its
+reasons are in docs/consolidation.md) until, for `hold` consecutive checks, every
+controlled stress is within `stress_tol` of its target and YADE's unbalanced-force ratio
+is at most `unbalanced_tol`. It returns a new `Pack` whose `consolidation` record holds
+the walls, the targets, the stress state and the equilibrium reached.
+
+Modes:
+- ``"oedometric"`` (K0): the lid controls sigma_zz; the side walls stay where they are,
+  or the horizontal axes stay periodic. Box, cylinder and periodic cell, 2D and 3D.
+- ``"isotropic"``: the lid and every side wall (the box's four, or the cylinder's
+  radius) target `stress`.
+- ``"anisotropic"``: the lid targets `stress` (sigma_zz); the side walls target
+  `lateral`: one value for all, or (sigma_xx, sigma_yy) in a 3D box.
+
+Isotropic and anisotropic modes need lateral walls: a periodic cell has none.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from numbers import Real
+
+import numpy as np
+
+from . import _core
+from ._validate import as_int, as_real, short_repr
+from .analysis.stress import contact_forces, love_weber
+from .contacts import LID_ID, Contacts
+from .errors import GranpackError, InvalidParameterError
+from .pack import Pack
+from .simulation import Simulation
+
+__all__ = ["consolidate", "ConsolidationError", "MODES", "stage_time_step"]
+
+#: The consolidation modes.
+MODES = ("oedometric", "isotropic", "anisotropic")
+
+#: Gravity is off by default when the target exceeds this many times the weight stress
+#: at the floor (the pack's weight over its base).
+GRAVITY_OFF_ABOVE = 100.0
+
+#: The quasi-static inertial number the default wall speed keeps to: I = (v / H) d
+#: sqrt(rho / sigma) (GDR MiDi 2004: I < 1e-3 is the quasi-static regime).
+INERTIAL_NUMBER = 1e-3
+
+#: The largest wall speed, as a fraction of r_min per step: a wall never moves more than
+#: this share of the smallest radius in one step, whatever the stress asks.
+OVERRUN_FRACTION = 0.05
+
+#: The stage's step is this fraction of sqrt(m / k) for the stiffest contact it expects
+#: (see `stage_time_step`).
+STEP_FRACTION = 0.2
+
+
+class ConsolidationError(GranpackError):
+    """The stage used its step budget (`max_steps`) without reaching equilibrium.
+
+    Attributes:
+        steps: the steps taken.
+        stress: each controlled wall's stress at the end (Pa; N/m in 2D), by wall name.
+        stress_error: the largest relative stress error at the end (-).
+        unbalanced: YADE's unbalanced-force ratio at the end (-).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        steps: int,
+        stress: dict[str, float],
+        stress_error: float,
+        unbalanced: float,
+    ) -> None:
+        super().__init__(message)
+        self.steps = steps
+        self.stress = stress
+        self.stress_error = stress_error
+        self.unbalanced = unbalanced
+
+
+def _wall_names(kind: str, dim: int) -> list[str]:
+    """The walls of a container in the engine's order, the lid last."""
+    if kind == "cylinder":
+        return ["floor", "cylinder", "lid"]
+    if kind == "periodic":
+        return ["floor", "lid"]
+    sides = ["x_lo", "x_hi"] + (["y_lo", "y_hi"] if dim == 3 else [])
+    return ["floor", *sides, "lid"]
+
+
+def _volumes(r: np.ndarray, dim: int) -> np.ndarray:
+    return np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+
+
+def hertz_overlap(force: float, r_eff: float, e_star: float) -> float:
+    """The overlap (m) at which a Hertz contact of effective radius `r_eff` carries
+    `force`: F = 4/3 E* sqrt(R*) d^(3/2)."""
+    return (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
+
+
+def stage_time_step(pack: Pack, stress: float) -> float:
+    """The consolidation stage's time step (s): the scene's dt, or less where the
+    contacts at the target are stiffer than the deposit's.
+
+    Under a confining stress the Hertz contacts stiffen (k_n = 2 E* sqrt(R* d) grows
+    with the overlap), and the Rayleigh step, a wave-speed estimate that ignores the
+    overlap, no longer bounds the step: at 100 kPa with E = 1e8 Pa the scene's 1e-4 s
+    leaves the stiffest modes at the edge of the velocity-Verlet limit (omega dt = 2),
+    where they ring at every step and the pack never comes to rest. The stage takes
+    STEP_FRACTION sqrt(m_min / k) for a contact of the largest particles carrying four
+    times the mean force sigma (2 r_max)^2 (contact forces spread about four times
+    their mean), at the smallest particle's mass: 5.3e-5 s for example 4.3 at 100 kPa,
+    close to YADE's 0.8 of its P-wave step (5.1e-5 s) on the same pack.
+    """
+    sc = pack.scene
+    mat = sc.material
+    e_star = mat.young / (2.0 * (1.0 - mat.poisson**2))
+    r_max = float(np.max(pack.radii))
+    r_min = float(np.min(pack.radii))
+    force = 4.0 * stress * (2.0 * r_max) ** 2
+    if pack.dim == 2:
+        force = 4.0 * stress * 2.0 * r_max  # N per m of thickness over a disc's width
+    d = hertz_overlap(force, 0.5 * r_max, e_star)
+    k = 2.0 * e_star * math.sqrt(0.5 * r_max * d)
+    m_min = mat.density * (
+        math.pi * r_min**2
+        if pack.dim == 2 and sc.inertia_2d == "disc"
+        else 4.0 / 3.0 * math.pi * r_min**3
+    )
+    return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / k))
+
+
+def _targets(mode: str, kind: str, dim: int, stress: float, lateral) -> dict[str, float]:
+    names = _wall_names(kind, dim)
+    if mode == "oedometric":
+        if lateral is not None:
+            raise InvalidParameterError(
+                "invalid lateral: an oedometric stage controls the lid alone (the side "
+                "walls stay where they are); give mode='anisotropic' for a lateral target",
+                parameter="lateral",
+            )
+        return {"lid": stress}
+    if kind == "periodic":
+        raise InvalidParameterError(
+            f"invalid mode = {mode!r}: a periodic cell has no lateral walls to control; "
+            "use mode='oedometric'",
+            parameter="mode",
+            value=mode,
+            expected="oedometric (in a periodic cell)",
+        )
+    sides = [n for n in names if n not in ("floor", "lid")]
+    if mode == "isotropic":
+        if lateral is not None:
+            raise InvalidParameterError(
+                "invalid lateral: an isotropic stage gives every wall the same stress; "
+                "give mode='anisotropic' for a separate lateral target",
+                parameter="lateral",
+            )
+        return {"lid": stress, **{n: stress for n in sides}}
+    if lateral is None:
+        raise InvalidParameterError(
+            "invalid lateral = None: an anisotropic stage needs the lateral target stress "
+            "(Pa): one value, or (sigma_xx, sigma_yy) in a 3D box",
+            parameter="lateral",
+        )
+    if isinstance(lateral, Real | np.floating | np.integer) and not isinstance(lateral, bool):
+        values = [as_real("lateral", lateral, 0, 1e12, lo_open=True, unit="Pa")] * (dim - 1)
+    else:
+        try:
+            values = [as_real("lateral", v, 0, 1e12, lo_open=True, unit="Pa") for v in lateral]
+        except TypeError:
+            raise InvalidParameterError(
+                f"invalid lateral = {short_repr(lateral)}: expected a stress (Pa) or "
+                "(sigma_xx, sigma_yy)",
+                parameter="lateral",
+            ) from None
+        if kind == "cylinder" and len(values) != 1:
+            raise InvalidParameterError(
+                f"invalid lateral = {short_repr(lateral)}: a cylinder has one lateral "
+                "stress, sigma_rr",
+                parameter="lateral",
+            )
+        if kind == "box" and len(values) != dim - 1:
+            raise InvalidParameterError(
+                f"invalid lateral = {short_repr(lateral)}: a {dim}D box takes "
+                f"{dim - 1} lateral stresses",
+                parameter="lateral",
+            )
+    out = {"lid": stress}
+    for n in sides:
+        out[n] = values[0] if (kind == "cylinder" or n.startswith("x")) else values[-1]
+    return out
+
+
+def consolidate(
+    pack: Pack,
+    stress: float,
+    mode: str = "oedometric",
+    *,
+    lateral=None,
+    gravity: bool | None = None,
+    stress_tol: float = 1e-3,
+    unbalanced_tol: float = 1e-4,
+    hold: int = 5,
+    check_every: int = 100,
+    max_steps: int = 2_000_000,
+    max_wall_speed: float | None = None,
+    gain: float = 0.5,
+    local_damping: float = 0.4,
+    dt: float | None = None,
+) -> Pack:
+    """Consolidates `pack` to a target stress with servo-controlled walls, until it is
+    in static equilibrium; returns a new Pack (the input is not changed).
+
+    Parameters
+    ----------
+    pack : Pack
+        A generated pack (`granpack.generate`, `granpack.load_pack`), with at least one
+        particle.
+    stress : float
+        Target normal stress on the lid, sigma_zz (Pa; N/m in 2D), in (0, 1e12].
+    mode : {"oedometric", "isotropic", "anisotropic"}
+        Which walls the servo moves (see the module's notes). Default "oedometric".
+    lateral : float or (float, float), optional
+        The side walls' target (Pa) in the anisotropic mode: one value (sigma_rr in a
+        cylinder), or (sigma_xx, sigma_yy) in a 3D box.
+    gravity : bool, optional
+        Gravity (the scene's) during the stage. Default: on, unless `stress` exceeds
+        GRAVITY_OFF_ABOVE (100) times the weight stress at the floor; then the weight's
+        share of the stress is below 1 % and the sample is uniform in depth.
+    stress_tol : float
+        Largest |sigma - sigma*| / sigma* at equilibrium, in [1e-9, 1). Default 1e-3.
+    unbalanced_tol : float
+        Largest unbalanced-force ratio (mean |net force| over mean |contact force|) at
+        equilibrium, in [1e-9, 1). Default 1e-4.
+    hold : int
+        Consecutive checks that must meet both tolerances, in [1, 1000]. Default 5.
+    check_every : int
+        Steps between checks, in [1, 1e6]. Default 100.
+    max_steps : int
+        Step budget, in [1, 1e10]. Default 2e6. Reaching it raises ConsolidationError.
+    max_wall_speed : float, optional
+        Largest wall speed (m/s), the loading rate; the sample depends on it. Default:
+        the speed that keeps the inertial number I = (v/H) d_mean sqrt(rho/sigma) at
+        1e-3, and never above 0.05 r_min per step.
+    gain : float
+        Servo gain, the share of the stress error corrected per step, in (0, 1].
+        Default 0.5.
+    local_damping : float
+        Local non-viscous damping during the stage, in [0, 1). Default 0.4 (YADE's
+        usual value for quasi-static loading).
+    dt : float, optional
+        Time step (s). Default `stage_time_step(pack, stress)`.
+
+    Raises
+    ------
+    InvalidParameterError
+        A parameter out of range, a mode the container cannot do, an empty pack, or a
+        target whose estimated overlap exceeds the scene's `max_overlap_ratio`.
+    ConsolidationError
+        `max_steps` reached before equilibrium; it says how far the stage got.
+    """
+    if not isinstance(pack, Pack):
+        raise InvalidParameterError(
+            f"invalid pack = {short_repr(pack)}: expected a granpack.Pack",
+            parameter="pack",
+        )
+    if len(pack) == 0:
+        raise InvalidParameterError(
+            "invalid pack: it holds no particle; there is nothing to consolidate",
+            parameter="pack",
+        )
+    if pack.consolidation is not None:
+        raise InvalidParameterError(
+            "invalid pack: it is consolidated already (its lid is in its record); "
+            "consolidate the deposit it came from",
+            parameter="pack",
+        )
+    stress = as_real("stress", stress, 0, 1e12, lo_open=True, unit="Pa")
+    if not isinstance(mode, str) or mode not in MODES:
+        raise InvalidParameterError(
+            f"invalid mode = {short_repr(mode)}: must be one of {', '.join(MODES)}",
+            parameter="mode",
+        )
+    sc = pack.scene
+    dim = pack.dim
+    kind = sc.container
+    targets = _targets(mode, kind, dim, stress, lateral)
+    stress_tol = as_real("stress_tol", stress_tol, 1e-9, 1, hi_open=True)
+    unbalanced_tol = as_real("unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True)
+    hold = as_int("hold", hold, 1, 1000)
+    check_every = as_int("check_every", check_every, 1, 1_000_000)
+    max_steps = as_int("max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL))
+    gain = as_real("gain", gain, 0, 1, lo_open=True)
+    local_damping = as_real("local_damping", local_damping, 0, 1, hi_open=True)
+
+    mat = sc.material
+    e_star = mat.young / (2.0 * (1.0 - mat.poisson**2))
+    r = pack.radii
+    r_mean, r_min = float(np.mean(r)), float(np.min(r))
+    # the overlap the target needs, for a mean contact of mean spheres
+    top = max(targets.values())
+    f_mean = top * (2.0 * r_mean) ** (dim - 1)
+    est = hertz_overlap(f_mean, 0.5 * r_mean, e_star) / r_mean
+    if est > sc.max_overlap_ratio:
+        raise InvalidParameterError(
+            f"invalid stress = {top:g} Pa: with E = {mat.young:g} Pa it needs overlaps of "
+            f"about {est:.2f} of the radius, beyond max_overlap_ratio = "
+            f"{sc.max_overlap_ratio:g}; the Hertz law does not hold there. Lower the "
+            "stress or stiffen the material",
+            parameter="stress",
+            value=top,
+            expected=f"an overlap below max_overlap_ratio = {sc.max_overlap_ratio:g}",
+        )
+    step = stage_time_step(pack, top) if dt is None else as_real("dt", dt, 0, lo_open=True)
+
+    masses = mat.density * (
+        np.pi * r**2 if dim == 2 and sc.inertia_2d == "disc" else 4.0 / 3.0 * np.pi * r**3
+    )
+    base_area = float(sc.base_area)
+    weight_stress = float(np.sum(masses)) * float(sc.gravity) / base_area
+    if gravity is None:
+        gravity = bool(stress <= GRAVITY_OFF_ABOVE * weight_stress)
+    elif not isinstance(gravity, bool | np.bool_):
+        raise InvalidParameterError(
+            f"invalid gravity = {short_repr(gravity)}: must be true or false",
+            parameter="gravity",
+        )
+    gravity = bool(gravity)
+
+    height = float(np.max(pack.positions[:, -1] + r))
+    if max_wall_speed is None:
+        d_mean = 2.0 * r_mean
+        quasi_static = INERTIAL_NUMBER * height * math.sqrt(stress / mat.density) / d_mean
+        max_wall_speed = min(quasi_static, OVERRUN_FRACTION * r_min / step)
+    else:
+        max_wall_speed = as_real(
+            "max_wall_speed",
+            max_wall_speed,
+            0,
+            OVERRUN_FRACTION * r_min / step,
+            lo_open=True,
+            unit="m/s",
+        )
+
+    g = [0.0] * dim
+    if gravity:
+        g[-1] = -float(sc.gravity)
+    lo = [0.0] * dim
+    hi = [*sc.base, math.inf]
+    radius = sc.base[0] / 2.0 if kind == "cylinder" else None
+    sim = Simulation(
+        dim,
+        mat,
+        step,
+        gravity=g,
+        drag=0.0,
+        box=(lo, hi),
+        rotations=sc.rotations,
+        skin_ratio=sc.skin_ratio,
+        max_overlap_ratio=sc.max_overlap_ratio,
+        inertia_2d=sc.inertia_2d,
+        container=kind,
+        cylinder_radius=radius,
+    )
+    sim.add_particles(pack.positions, r, pack.velocities, pack.spins)
+    lid = _core.sim_add_lid(sim._sim, height)
+    names = _wall_names(kind, dim)
+    assert lid == len(names) - 1
+    index = {n: k for k, n in enumerate(names)}
+    order = list(targets)
+    start = time.perf_counter()
+    rep = _core.sim_consolidate(
+        sim._sim,
+        [(index[n], targets[n]) for n in order],
+        stress_tol=stress_tol,
+        unbalanced_tol=unbalanced_tol,
+        hold=hold,
+        check_every=check_every,
+        max_steps=max_steps,
+        max_wall_speed=max_wall_speed,
+        gain=gain,
+        local_damping=local_damping,
+    )
+    seconds = time.perf_counter() - start
+    hist = rep["history"]
+    last = {n: float(hist["stress"][-1, k]) for k, n in enumerate(order)}
+    if not rep["converged"]:
+        raise ConsolidationError(
+            f"consolidation did not reach equilibrium in max_steps = {max_steps} steps: "
+            f"stresses {', '.join(f'{n} {v:.6g} Pa' for n, v in last.items())} "
+            f"(largest error {hist['stress_error'][-1]:.2e}, stress_tol {stress_tol:g}), "
+            f"unbalanced ratio {hist['unbalanced'][-1]:.2e} (unbalanced_tol "
+            f"{unbalanced_tol:g}); give more max_steps, or looser tolerances",
+            steps=int(rep["steps"]),
+            stress=last,
+            stress_error=float(hist["stress_error"][-1]),
+            unbalanced=float(hist["unbalanced"][-1]),
+        )
+    return _consolidated_pack(
+        pack,
+        sim,
+        names,
+        targets,
+        rep,
+        seconds,
+        settings={
+            "mode": mode,
+            "gravity": gravity,
+            "stress_tol": stress_tol,
+            "unbalanced_tol": unbalanced_tol,
+            "hold": hold,
+            "check_every": check_every,
+            "max_steps": max_steps,
+            "max_wall_speed": max_wall_speed,
+            "gain": gain,
+            "local_damping": local_damping,
+            "dt": step,
+        },
+    )
+
+
+def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pack:
+    """The new Pack and its record: walls moved to the origin's corner, the stresses."""
+    dim = pack.dim
+    sc = pack.scene
+    walls = _core.sim_walls(sim._sim)
+    pos = {n: float(walls["position"][k]) for k, n in enumerate(names)}
+    wall_stress = {n: float(walls["force"][k] / walls["area"][k]) for k, n in enumerate(names)}
+    # in the cell: the engine wraps periodic axes
+    x = np.array(sim.positions, dtype=np.float64)
+    contacts = sim.contacts()
+    # the lid's id is the same in every container (granpack.contacts.LID_ID)
+    j = contacts.j.copy()
+    j[j == -len(names)] = LID_ID
+    # Side walls that moved: the box becomes the space between them, its corner at the
+    # origin again (the cylinder: its new radius, its axis at (R, R)).
+    shift = np.zeros(dim)
+    scene = sc
+    if sc.container == "box" and any(n in targets for n in ("x_lo", "x_hi", "y_lo", "y_hi")):
+        axes = ["x", "y"][: dim - 1]
+        shift[: dim - 1] = [-pos[f"{a}_lo"] for a in axes]
+        base = tuple(pos[f"{a}_hi"] - pos[f"{a}_lo"] for a in axes)
+        scene = sc.replace(base=base)
+    elif sc.container == "cylinder" and "cylinder" in targets:
+        radius = pos["cylinder"]
+        shift[:2] = radius - sc.base[0] / 2.0
+        scene = sc.replace(base=(2.0 * radius, 2.0 * radius), cylinder_radius=radius)
+    x = x + shift
+    lid = pos["lid"] - pos["floor"]
+    vol_solid = float(np.sum(_volumes(pack.radii, dim)))
+    volume = float(scene.base_area) * lid
+    phi = vol_solid / volume
+    forces = contact_forces(contacts.normal, contacts.force_normal, contacts.force_tangential)
+    lw = love_weber(forces, contacts.branch, volume)
+    wall = contacts.j < 0
+    points = x[contacts.i[wall]] + contacts.branch[wall]
+    boundary = np.einsum("ma,mb->ab", points, forces[wall]) / volume
+    if settings["gravity"]:
+        g = np.zeros(dim)
+        g[-1] = -float(sc.gravity)
+        boundary -= np.einsum("n,na,b->ab", sim.masses, x, g) / volume
+    boundary = 0.5 * (boundary + boundary.T)
+    vertical = wall_stress["lid"]
+    if sc.container == "periodic":
+        lateral = float(np.trace(lw[:-1, :-1]) / (dim - 1))
+        lateral_source = "love_weber"
+    else:
+        sides = [n for n in names if n not in ("floor", "lid")]
+        lateral = float(np.mean([wall_stress[n] for n in sides]))
+        lateral_source = "walls"
+    balance = _core.sim_force_balance(sim._sim)
+    hist = rep["history"]
+    record = {
+        **settings,
+        "targets": dict(targets),
+        "walls": {n: pos[n] + _wall_shift(n, shift) for n in names},
+        "wall_stress": wall_stress,
+        "wall_contacts": {n: int(walls["contacts"][k]) for k, n in enumerate(names)},
+        "love_weber": lw.tolist(),
+        "boundary_stress": boundary.tolist(),
+        "k0": lateral / vertical,
+        "k0_from": lateral_source,
+        "phi": phi,
+        "void_ratio": 1.0 / phi - 1.0,
+        "height": lid,
+        "unbalanced": float(balance["unbalanced"]),
+        "max_ratio": float(balance["max_ratio"]),
+        "steps": int(rep["steps"]),
+        "seconds": seconds,
+        "max_speed": float(rep["max_speed"]),
+        "shift": shift.tolist(),
+        "history": {
+            "step": hist["step"].tolist(),
+            "stress": {n: hist["stress"][:, k].tolist() for k, n in enumerate(targets)},
+            "stress_error": hist["stress_error"].tolist(),
+            "unbalanced": hist["unbalanced"].tolist(),
+            "max_ratio": hist["max_ratio"].tolist(),
+        },
+    }
+    return dataclasses.replace(
+        pack,
+        scene=scene,
+        positions=x,
+        velocities=np.array(sim.velocities),
+        spins=np.array(sim.spins),
+        contacts=Contacts.from_dict({**contacts.to_dict(), "j": j}),
+        height=lid,
+        consolidation=record,
+    )
+
+
+def _wall_shift(name: str, shift: np.ndarray) -> float:
+    """How far the translation of a consolidated pack moves wall `name` (m)."""
+    if name.startswith("x_"):
+        return float(shift[0])
+    if name.startswith("y_"):
+        return float(shift[1])
+    return 0.0
