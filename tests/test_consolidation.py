@@ -80,6 +80,9 @@ def test_stage_reaches_its_target_in_equilibrium(deposits, name):
     assert np.any(pack.contacts.j == -6)
     m = gp.microstructure(pack, core_margin=0.02)
     assert m.phi == pytest.approx(rec["phi"], rel=1e-12)
+    # the analysis' force balance, from the contact table, is the engine's
+    assert m.unbalanced == pytest.approx(rec["unbalanced"], rel=1e-9)
+    assert m.unbalanced_max == pytest.approx(rec["max_ratio"], rel=1e-9)
     # Love-Weber (particles, wall contacts included) equals the walls' boundary stress
     # up to the virial of the residual net forces: an identity of static equilibrium
     lw = np.array(rec["love_weber"])
@@ -304,3 +307,35 @@ def test_command_line(deposits, tmp_path):
     # never over its own input
     same = subprocess.run([*cmd, "--out", str(src)], capture_output=True, text=True)
     assert same.returncode == 2
+
+
+def test_scene_table_consolidates_each_generated_pack():
+    sc = SMALL["box"].replace(consolidate={"stress": 1e4, "gravity": False}).fast()
+    assert gp.PackScene.from_toml_string(sc.to_toml()) == sc
+    pack = gp.generate(sc)
+    rec = pack.consolidation
+    assert rec["targets"] == {"lid": 1e4} and rec["gravity"] is False
+    assert rec["wall_stress"]["lid"] == pytest.approx(1e4, rel=1e-3)
+    # the same as consolidating the deposit afterwards, bit for bit
+    again = gp.consolidate(gp.generate(sc.replace(consolidate=None)), 1e4, gravity=False)
+    np.testing.assert_array_equal(pack.positions, again.positions)
+
+
+@pytest.mark.parametrize(
+    ("table", "parameter"),
+    [
+        ({"mode": "isotropic"}, "consolidate.stress"),
+        ({"stress": 0}, "consolidate.stress"),
+        ({"stress": 1e4, "hold": 0}, "consolidate.hold"),
+        ({"stress": 1e4, "speed": 1.0}, "consolidate.speed"),
+        ({"stress": 1e4, "mode": "isotropic", "lateral": 1e3}, "consolidate.lateral"),
+        ("1e4", "consolidate"),
+    ],
+)
+def test_scene_table_is_checked_by_key(table, parameter):
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["box"].replace(consolidate=table)
+    assert err.value.parameter == parameter
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["periodic"].replace(consolidate={"stress": 1e4, "mode": "isotropic"})
+    assert err.value.parameter == "consolidate.mode"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import lzma
@@ -729,4 +730,9 @@ def generate(
     issue = settling_issue(pack)
     if issue is not None:
         warnings.warn(issue, UnsettledPackWarning, stacklevel=2)
+    if scene.consolidate is not None:
+        from .consolidation import consolidate
+
+        done = consolidate(pack, **scene.consolidate)
+        return dataclasses.replace(done, wall_time=time.perf_counter() - t0)
     return pack

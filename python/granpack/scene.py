@@ -271,6 +271,7 @@ class PackScene:
     freeze_speed: float = 1e-3
     freeze_force: float = 0.1
     trim: bool = False
+    consolidate: dict | None = None
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -464,6 +465,10 @@ class PackScene:
                         value=value,
                         expected=" | ".join(choices),
                     )
+            elif kind == "consolidate?":
+                from .consolidation import check_table
+
+                s(self, key, check_table(value, self.dim, self.container))
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):
                     s(self, key, _material_table(dict(value)))
@@ -709,6 +714,8 @@ class PackScene:
                 v = v.to_dict()
             elif isinstance(v, tuple):
                 v = list(v)
+            elif isinstance(v, dict):
+                v = {k: list(x) if isinstance(x, tuple) else x for k, x in v.items()}
             d[f.name] = v
         return d
 
@@ -787,8 +794,9 @@ _KEY_TYPES: dict[str, str] = {
     "freeze_speed": "real",
     "freeze_force": "real",
     "trim": "bool",
+    "consolidate": "consolidate?",
 }
-_OPTIONAL_KINDS = ("real?", "reals?")
+_OPTIONAL_KINDS = ("real?", "reals?", "consolidate?")
 _UNITS = {
     "base": "m",
     "cylinder_radius": "m",
