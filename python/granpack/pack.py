@@ -733,6 +733,6 @@ def generate(
     if scene.consolidate is not None:
         from .consolidation import consolidate
 
-        done = consolidate(pack, **scene.consolidate)
-        return dataclasses.replace(done, wall_time=time.perf_counter() - t0)
+        sample = consolidate(pack, **scene.consolidate)
+        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
     return pack
