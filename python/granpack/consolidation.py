@@ -33,7 +33,7 @@ from ._validate import as_int, as_real, short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
 from .engine import Simulation
-from .errors import GranpackError, InvalidParameterError
+from .errors import ConsolidationError, InvalidParameterError
 from .pack import Pack
 
 __all__ = ["consolidate", "ConsolidationError", "MODES", "stage_time_step"]
@@ -56,32 +56,6 @@ OVERRUN_FRACTION = 0.05
 #: The stage's step is this fraction of sqrt(m / k) for the stiffest contact it expects
 #: (see `stage_time_step`).
 STEP_FRACTION = 0.2
-
-
-class ConsolidationError(GranpackError):
-    """The stage used its step budget (`max_steps`) without reaching equilibrium.
-
-    Attributes:
-        steps: the steps taken.
-        stress: each controlled wall's stress at the end (Pa; N/m in 2D), by wall name.
-        stress_error: the largest relative stress error at the end (-).
-        unbalanced: YADE's unbalanced-force ratio at the end (-).
-    """
-
-    def __init__(
-        self,
-        message: str,
-        *,
-        steps: int,
-        stress: dict[str, float],
-        stress_error: float,
-        unbalanced: float,
-    ) -> None:
-        super().__init__(message)
-        self.steps = steps
-        self.stress = stress
-        self.stress_error = stress_error
-        self.unbalanced = unbalanced
 
 
 def _wall_names(kind: str, dim: int) -> list[str]:
