@@ -198,7 +198,7 @@ for mode in ("oedometric", "isotropic"):
 
 
 @pytest.mark.parametrize("name", ["box", "periodic", "2d"])
-def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
+def test_bit_identical_on_any_thread_count_and_cpu_level(deposits, tmp_path, name):
     path = tmp_path / "dep.npz"
     deposits[name].save(path)
     script = (
@@ -207,8 +207,11 @@ def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
         else _DIGEST.replace('("oedometric", "isotropic")', '("oedometric",)')
     )
     outs = []
-    for threads in ("1", "2"):
-        env = {**os.environ, "RAYON_NUM_THREADS": threads}
+    # one and two threads at the CPU's own level, and one thread at every level it runs
+    runs = [{"RAYON_NUM_THREADS": "1"}, {"RAYON_NUM_THREADS": "2"}]
+    runs += [{"RAYON_NUM_THREADS": "1", "GRANPACK_CPU_LEVEL": lv} for lv in gp.cpu_levels()]
+    for extra in runs:
+        env = {**os.environ, **extra}
         outs.append(
             subprocess.run(
                 [sys.executable, "-c", script, str(path)],
@@ -218,7 +221,7 @@ def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
                 check=True,
             ).stdout
         )
-    assert outs[0] == outs[1] and outs[0]
+    assert outs[0] and all(o == outs[0] for o in outs), outs
 
 
 def test_step_budget_reached_is_a_typed_error(deposits):
@@ -339,3 +342,36 @@ def test_scene_table_is_checked_by_key(table, parameter):
     with pytest.raises(gp.InvalidParameterError) as err:
         SMALL["periodic"].replace(consolidate={"stress": 1e4, "mode": "isotropic"})
     assert err.value.parameter == "consolidate.mode"
+
+
+def test_settle_brings_a_deposit_to_rest(deposits):
+    dep = deposits["box"]
+    before = gp.microstructure(dep, core_margin=0.02)
+    rested = gp.settle(dep, 1e-4)
+    rec = rested.rest
+    assert rec["unbalanced"] <= 1e-4 and rec["steps"] % 100 == 0
+    after = gp.microstructure(rested, core_margin=0.02)
+    # the analysis counts no drag; at rest the drag is nothing
+    assert after.unbalanced == pytest.approx(rec["unbalanced"], rel=0.05)
+    assert after.unbalanced < before.unbalanced
+    # the deposit's structure barely moves (a fast() deposit of 272 spheres, whose top
+    # particles still settle: phi to H_top moves by their settling)
+    assert abs(after.phi - before.phi) < 1e-2
+    assert after.z == pytest.approx(before.z, abs=0.2)
+    with pytest.raises(gp.InvalidParameterError) as err:
+        gp.settle(dep, 0.0)
+    assert err.value.parameter == "unbalanced_tol"
+    with pytest.raises(gp.InvalidParameterError) as err:
+        gp.settle(gp.consolidate(dep, 1e4, gravity=False))
+    assert err.value.parameter == "pack"
+
+
+def test_scene_rest_tol_settles_each_generated_pack(tmp_path):
+    sc = SMALL["box"].replace(rest_tol=1e-4).fast()
+    pack = gp.generate(sc)
+    assert pack.rest is not None and pack.rest["unbalanced"] <= 1e-4
+    pack.save(tmp_path / "p.npz")
+    assert gp.load_pack(tmp_path / "p.npz").rest == pack.rest
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["box"].replace(rest_tol=0.0)
+    assert err.value.parameter == "rest_tol"

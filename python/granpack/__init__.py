@@ -8,7 +8,7 @@ The engine (spatial grid, DEM, random sequential addition, layer loop) is Rust
 from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
 from .analysis import microstructure, profiles, radial_profiles, rdf, steinhardt
-from .consolidation import ConsolidationError, consolidate
+from .consolidation import ConsolidationError, consolidate, settle
 from .contacts import Contacts
 from .engine import Material, Simulation
 from .errors import (
@@ -43,6 +43,7 @@ __all__ = [
     "load_pack",
     "tile",
     "consolidate",
+    "settle",
     "read_particles",
     "ParticleFile",
     "read_contacts",

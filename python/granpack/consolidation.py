@@ -36,7 +36,7 @@ from .engine import Simulation
 from .errors import ConsolidationError, InvalidParameterError
 from .pack import Pack
 
-__all__ = ["consolidate", "ConsolidationError", "MODES", "stage_time_step"]
+__all__ = ["consolidate", "settle", "ConsolidationError", "MODES", "stage_time_step"]
 
 #: The consolidation modes.
 MODES = ("oedometric", "isotropic", "anisotropic")
@@ -453,27 +453,7 @@ def consolidate(
             unit="m/s",
         )
 
-    g = [0.0] * dim
-    if gravity:
-        g[-1] = -float(sc.gravity)
-    lo = [0.0] * dim
-    hi = [*sc.base, math.inf]
-    radius = sc.base[0] / 2.0 if kind == "cylinder" else None
-    sim = Simulation(
-        dim,
-        mat,
-        step,
-        gravity=g,
-        drag=0.0,
-        box=(lo, hi),
-        rotations=sc.rotations,
-        skin_ratio=sc.skin_ratio,
-        max_overlap_ratio=sc.max_overlap_ratio,
-        inertia_2d=sc.inertia_2d,
-        container=kind,
-        cylinder_radius=radius,
-    )
-    sim.add_particles(pack.positions, r, pack.velocities, pack.spins)
+    sim = _simulation(pack, step, gravity, drag=0.0)
     lid = _core.sim_add_lid(sim._sim, height)
     names = _wall_names(kind, dim)
     assert lid == len(names) - 1
@@ -527,6 +507,125 @@ def consolidate(
             "local_damping": local_damping,
             "dt": step,
         },
+    )
+
+
+def _simulation(pack: Pack, dt: float, gravity: bool, drag: float) -> Simulation:
+    """The engine with the pack's particles in its container (walls at the scene's
+    corners), its material and settings, at step `dt`; gravity the scene's or none."""
+    sc = pack.scene
+    dim = pack.dim
+    g = [0.0] * dim
+    if gravity:
+        g[-1] = -float(sc.gravity)
+    radius = sc.base[0] / 2.0 if sc.container == "cylinder" else None
+    sim = Simulation(
+        dim,
+        sc.material,
+        dt,
+        gravity=g,
+        drag=drag,
+        box=([0.0] * dim, [*sc.base, math.inf]),
+        rotations=sc.rotations,
+        skin_ratio=sc.skin_ratio,
+        max_overlap_ratio=sc.max_overlap_ratio,
+        inertia_2d=sc.inertia_2d,
+        container=sc.container,
+        cylinder_radius=radius,
+    )
+    sim.add_particles(pack.positions, pack.radii, pack.velocities, pack.spins)
+    return sim
+
+
+def settle(
+    pack: Pack,
+    unbalanced_tol: float = 1e-4,
+    *,
+    hold: int = 5,
+    check_every: int = 100,
+    max_steps: int = 2_000_000,
+    local_damping: float = 0.4,
+) -> Pack:
+    """Runs a deposit on, under its own weight, until it is at rest: YADE's
+    unbalanced-force ratio at most `unbalanced_tol` for `hold` checks `check_every` steps
+    apart. Returns a new Pack whose `rest` record says how far it went (the input is not
+    changed). The scene's dt, gravity and drag; `local_damping` (in [0, 1), default 0.4)
+    is the same quasi-static aid as consolidation's. The scene's `rest_tol` runs it at the
+    end of `generate`.
+
+    Raises ConsolidationError when `max_steps` runs out first."""
+    if not isinstance(pack, Pack):
+        raise InvalidParameterError(
+            f"invalid pack = {short_repr(pack)}: expected a granpack.Pack", parameter="pack"
+        )
+    if len(pack) == 0:
+        raise InvalidParameterError(
+            "invalid pack: it holds no particle; there is nothing to settle", parameter="pack"
+        )
+    if pack.consolidation is not None:
+        raise InvalidParameterError(
+            "invalid pack: it is consolidated, and so at rest under its lid already",
+            parameter="pack",
+        )
+    unbalanced_tol = as_real("unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True)
+    hold = as_int("hold", hold, 1, 1000)
+    check_every = as_int("check_every", check_every, 1, 1_000_000)
+    max_steps = as_int("max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL))
+    local_damping = as_real("local_damping", local_damping, 0, 1, hi_open=True)
+    sc = pack.scene
+    sim = _simulation(pack, float(sc.dt), True, float(sc.drag))
+    start = time.perf_counter()
+    rep = _core.sim_consolidate(
+        sim._sim,
+        [],
+        stress_tol=1e-3,
+        unbalanced_tol=unbalanced_tol,
+        hold=hold,
+        check_every=check_every,
+        max_steps=max_steps,
+        max_wall_speed=1.0,
+        gain=0.5,
+        local_damping=local_damping,
+    )
+    seconds = time.perf_counter() - start
+    hist = rep["history"]
+    if not rep["converged"]:
+        raise ConsolidationError(
+            f"the deposit did not come to rest in max_steps = {max_steps} steps: the "
+            f"unbalanced ratio is {hist['unbalanced'][-1]:.2e} (unbalanced_tol "
+            f"{unbalanced_tol:g}); give more max_steps, or a looser unbalanced_tol",
+            steps=int(rep["steps"]),
+            stress={},
+            stress_error=0.0,
+            unbalanced=float(hist["unbalanced"][-1]),
+        )
+    contacts = sim.contacts()
+    x = np.array(sim.positions, dtype=np.float64)
+    r = pack.radii
+    balance = _core.sim_force_balance(sim._sim)
+    record = {
+        "unbalanced_tol": unbalanced_tol,
+        "hold": hold,
+        "check_every": check_every,
+        "local_damping": local_damping,
+        "unbalanced": float(balance["unbalanced"]),
+        "max_ratio": float(balance["max_ratio"]),
+        "steps": int(rep["steps"]),
+        "seconds": seconds,
+        "history": {
+            "step": hist["step"].tolist(),
+            "unbalanced": hist["unbalanced"].tolist(),
+            "max_ratio": hist["max_ratio"].tolist(),
+        },
+    }
+    return dataclasses.replace(
+        pack,
+        positions=x,
+        velocities=np.array(sim.velocities),
+        spins=np.array(sim.spins),
+        contacts=contacts,
+        height=float(np.max(x[:, -1] + r)),
+        rest=record,
     )
 
 

@@ -231,6 +231,14 @@ class PackScene:
         top z + r lies above H_d (``height``), then relax the rest as the final relax
         does (0.1 s, at most settle_time, every particle thawed). The pack then ends
         at or below H_d; ``Pack.trim`` records what was removed and phi up to H_d.
+    consolidate : dict or None
+        A ``[consolidate]`` table: `granpack.consolidate`'s keyword arguments (``stress``
+        needed), run on every generated pack. None (default): the pack is a deposit.
+    rest_tol : float or None
+        A final phase: after the last layer (and the flat top), run the deposit on under
+        its own weight until its unbalanced-force ratio is at most rest_tol, in
+        [1e-9, 1) (`granpack.settle`). None (default): the paper's recipe ends with the
+        last layer's jamming run.
     """
 
     dim: int = 2
@@ -272,6 +280,7 @@ class PackScene:
     freeze_force: float = 0.1
     trim: bool = False
     consolidate: dict | None = None
+    rest_tol: float | None = None
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -371,6 +380,8 @@ class PackScene:
         # never grows runs max_layers jamming runs before it gives up.
         s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, MAX_ATTEMPTS))
         s(self, "max_layers", as_int("max_layers", self.max_layers, 1, MAX_LAYERS))
+        if self.rest_tol is not None:
+            s(self, "rest_tol", as_real("rest_tol", self.rest_tol, 1e-9, 1, hi_open=True))
         if self.settle_tol is not None:
             s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
         if self.settle_dt is not None:
@@ -795,6 +806,7 @@ _KEY_TYPES: dict[str, str] = {
     "freeze_force": "real",
     "trim": "bool",
     "consolidate": "consolidate?",
+    "rest_tol": "real?",
 }
 _OPTIONAL_KINDS = ("real?", "reals?", "consolidate?")
 _UNITS = {
