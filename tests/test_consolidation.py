@@ -80,6 +80,9 @@ def test_stage_reaches_its_target_in_equilibrium(deposits, name):
     assert np.any(pack.contacts.j == -6)
     m = gp.microstructure(pack, core_margin=0.02)
     assert m.phi == pytest.approx(rec["phi"], rel=1e-12)
+    # the analysis' force balance, from the contact table, is the engine's
+    assert m.unbalanced == pytest.approx(rec["unbalanced"], rel=1e-9)
+    assert m.unbalanced_max == pytest.approx(rec["max_ratio"], rel=1e-9)
     # Love-Weber (particles, wall contacts included) equals the walls' boundary stress
     # up to the virial of the residual net forces: an identity of static equilibrium
     lw = np.array(rec["love_weber"])
@@ -195,7 +198,7 @@ for mode in ("oedometric", "isotropic"):
 
 
 @pytest.mark.parametrize("name", ["box", "periodic", "2d"])
-def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
+def test_bit_identical_on_any_thread_count_and_cpu_level(deposits, tmp_path, name):
     path = tmp_path / "dep.npz"
     deposits[name].save(path)
     script = (
@@ -204,8 +207,11 @@ def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
         else _DIGEST.replace('("oedometric", "isotropic")', '("oedometric",)')
     )
     outs = []
-    for threads in ("1", "2"):
-        env = {**os.environ, "RAYON_NUM_THREADS": threads}
+    # one and two threads at the CPU's own level, and one thread at every level it runs
+    runs = [{"RAYON_NUM_THREADS": "1"}, {"RAYON_NUM_THREADS": "2"}]
+    runs += [{"RAYON_NUM_THREADS": "1", "GRANPACK_CPU_LEVEL": lv} for lv in gp.cpu_levels()]
+    for extra in runs:
+        env = {**os.environ, **extra}
         outs.append(
             subprocess.run(
                 [sys.executable, "-c", script, str(path)],
@@ -215,7 +221,7 @@ def test_bit_identical_on_one_and_two_threads(deposits, tmp_path, name):
                 check=True,
             ).stdout
         )
-    assert outs[0] == outs[1] and outs[0]
+    assert outs[0] and all(o == outs[0] for o in outs), outs
 
 
 def test_step_budget_reached_is_a_typed_error(deposits):
@@ -304,3 +310,68 @@ def test_command_line(deposits, tmp_path):
     # never over its own input
     same = subprocess.run([*cmd, "--out", str(src)], capture_output=True, text=True)
     assert same.returncode == 2
+
+
+def test_scene_table_consolidates_each_generated_pack():
+    sc = SMALL["box"].replace(consolidate={"stress": 1e4, "gravity": False}).fast()
+    assert gp.PackScene.from_toml_string(sc.to_toml()) == sc
+    pack = gp.generate(sc)
+    rec = pack.consolidation
+    assert rec["targets"] == {"lid": 1e4} and rec["gravity"] is False
+    assert rec["wall_stress"]["lid"] == pytest.approx(1e4, rel=1e-3)
+    # the same as consolidating the deposit afterwards, bit for bit
+    again = gp.consolidate(gp.generate(sc.replace(consolidate=None)), 1e4, gravity=False)
+    np.testing.assert_array_equal(pack.positions, again.positions)
+
+
+@pytest.mark.parametrize(
+    ("table", "parameter"),
+    [
+        ({"mode": "isotropic"}, "consolidate.stress"),
+        ({"stress": 0}, "consolidate.stress"),
+        ({"stress": 1e4, "hold": 0}, "consolidate.hold"),
+        ({"stress": 1e4, "speed": 1.0}, "consolidate.speed"),
+        ({"stress": 1e4, "mode": "isotropic", "lateral": 1e3}, "consolidate.lateral"),
+        ("1e4", "consolidate"),
+    ],
+)
+def test_scene_table_is_checked_by_key(table, parameter):
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["box"].replace(consolidate=table)
+    assert err.value.parameter == parameter
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["periodic"].replace(consolidate={"stress": 1e4, "mode": "isotropic"})
+    assert err.value.parameter == "consolidate.mode"
+
+
+def test_settle_brings_a_deposit_to_rest(deposits):
+    dep = deposits["box"]
+    before = gp.microstructure(dep, core_margin=0.02)
+    rested = gp.settle(dep, 1e-4)
+    rec = rested.rest
+    assert rec["unbalanced"] <= 1e-4 and rec["steps"] % 100 == 0
+    after = gp.microstructure(rested, core_margin=0.02)
+    # the analysis counts no drag; at rest the drag is nothing
+    assert after.unbalanced == pytest.approx(rec["unbalanced"], rel=0.05)
+    assert after.unbalanced < before.unbalanced
+    # the deposit's structure barely moves (a fast() deposit of 272 spheres, whose top
+    # particles still settle: phi to H_top moves by their settling)
+    assert abs(after.phi - before.phi) < 1e-2
+    assert after.z == pytest.approx(before.z, abs=0.2)
+    with pytest.raises(gp.InvalidParameterError) as err:
+        gp.settle(dep, 0.0)
+    assert err.value.parameter == "unbalanced_tol"
+    with pytest.raises(gp.InvalidParameterError) as err:
+        gp.settle(gp.consolidate(dep, 1e4, gravity=False))
+    assert err.value.parameter == "pack"
+
+
+def test_scene_rest_tol_settles_each_generated_pack(tmp_path):
+    sc = SMALL["box"].replace(rest_tol=1e-4).fast()
+    pack = gp.generate(sc)
+    assert pack.rest is not None and pack.rest["unbalanced"] <= 1e-4
+    pack.save(tmp_path / "p.npz")
+    assert gp.load_pack(tmp_path / "p.npz").rest == pack.rest
+    with pytest.raises(gp.InvalidParameterError) as err:
+        SMALL["box"].replace(rest_tol=0.0)
+    assert err.value.parameter == "rest_tol"

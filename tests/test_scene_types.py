@@ -64,6 +64,8 @@ def wrong_values(kind: str) -> st.SearchStrategy:
             st.lists(bad_item, min_size=1, max_size=3),
             st.lists(st.floats(0.01, 1), max_size=1).map(lambda a: [*a, "0.1"]),
         ) | (st.none() if kind == "reals" else st.nothing())
+    if kind == "consolidate?":
+        return st.one_of(st.floats(), _text, st.lists(st.floats(), max_size=2), st.booleans())
     assert kind == "material"
     return st.one_of(st.floats(), _text, st.lists(st.floats(), max_size=2), st.booleans())
 
@@ -118,6 +120,7 @@ TOML_WRONG = {
     "text": [1, 1.5, True, ["box"], {"a": "b"}],
     "reals": ["1.0", 1.0, [True], ["0.1"], {"a": 1.0}],
     "material": [1.0, "steel", [1.0], {"young": "1e7"}],
+    "consolidate": [1e5, "1e5", [1e5], {"stress": "1e5"}, {"stress": 1e5, "hold": 1.5}],
 }
 
 
@@ -136,8 +139,9 @@ def _fields(scene: gp.PackScene) -> dict:
     return {f.name: getattr(scene, f.name) for f in dataclasses.fields(scene)}
 
 
-#: Scene keys the engine reads by attribute (LayerPacker, validate_scene).
-ENGINE_KEYS = [k for k in KEYS if k not in ("trim",)]
+#: Scene keys the engine reads by attribute (LayerPacker, validate_scene); the Python
+#: layer runs the trim, the settling at rest and the consolidation stage.
+ENGINE_KEYS = [k for k in KEYS if k not in ("trim", "rest_tol", "consolidate")]
 
 
 @pytest.mark.parametrize("key", ENGINE_KEYS)

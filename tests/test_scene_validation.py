@@ -110,9 +110,9 @@ def _toml(preset: str, changes: dict) -> str:
 def test_a_bad_scene_gets_one_typed_error_from_every_door(
     preset, changes, cls, parameter, tmp_path, capsys
 ):
+    from granpack._console import Console
     from granpack.cli import build_parser
     from granpack.cli import generate as generate_command
-    from granpack.cli._console import Console
 
     fields = {**vars(gp.PackScene.preset(preset)), **changes}
     with pytest.raises(cls) as built:

@@ -19,6 +19,7 @@ from ._core import __version__ as __version__
 from ._core import cpu_level, cpu_levels
 from .errors import (
     BlowUpError,
+    ConsolidationError,
     FileFormatError,
     GranpackError,
     InvalidParameterError,
@@ -29,7 +30,7 @@ from .errors import (
 if TYPE_CHECKING:
     from .analysis import microstructure, radial_profiles, rdf, steinhardt
     from .analysis.profiles import profiles
-    from .consolidation import ConsolidationError, consolidate
+    from .consolidation import consolidate, settle
     from .contacts import Contacts
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
@@ -45,8 +46,8 @@ _LAZY = {
     "radial_profiles": "analysis",
     "rdf": "analysis",
     "steinhardt": "analysis",
-    "ConsolidationError": "consolidation",
     "consolidate": "consolidation",
+    "settle": "consolidation",
     "Contacts": "contacts",
     "Material": "simulation",
     "Simulation": "simulation",
@@ -120,6 +121,7 @@ __all__ = [
     "load_pack",
     "tile",
     "consolidate",
+    "settle",
     "read_particles",
     "ParticleFile",
     "read_contacts",

@@ -177,6 +177,14 @@ def micro_record(pack, m, k: int) -> dict:
         rec.update(
             trim_removed=pack.trim["removed"], trim_top=pack.trim["top"], phi_hd=pack.trim["phi_hd"]
         )
+    if pack.consolidation is not None:
+        c = pack.consolidation
+        rec.update(
+            consolidation_mode=c["mode"],
+            lid_stress=c["wall_stress"]["lid"],
+            consolidation_k0=c["k0"],
+            consolidation_steps=c["steps"],
+        )
     rec.update(jsonable(m.to_dict()))
     return rec
 

@@ -32,11 +32,11 @@ from . import _core
 from ._validate import as_int, as_real, short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
-from .errors import GranpackError, InvalidParameterError
+from .errors import ConsolidationError, InvalidParameterError
 from .pack import Pack
 from .simulation import Simulation
 
-__all__ = ["consolidate", "ConsolidationError", "MODES", "stage_time_step"]
+__all__ = ["consolidate", "settle", "ConsolidationError", "MODES", "stage_time_step"]
 
 #: The consolidation modes.
 MODES = ("oedometric", "isotropic", "anisotropic")
@@ -56,32 +56,6 @@ OVERRUN_FRACTION = 0.05
 #: The stage's step is this fraction of sqrt(m / k) for the stiffest contact it expects
 #: (see `stage_time_step`).
 STEP_FRACTION = 0.2
-
-
-class ConsolidationError(GranpackError):
-    """The stage used its step budget (`max_steps`) without reaching equilibrium.
-
-    Attributes:
-        steps: the steps taken.
-        stress: each controlled wall's stress at the end (Pa; N/m in 2D), by wall name.
-        stress_error: the largest relative stress error at the end (-).
-        unbalanced: YADE's unbalanced-force ratio at the end (-).
-    """
-
-    def __init__(
-        self,
-        message: str,
-        *,
-        steps: int,
-        stress: dict[str, float],
-        stress_error: float,
-        unbalanced: float,
-    ) -> None:
-        super().__init__(message)
-        self.steps = steps
-        self.stress = stress
-        self.stress_error = stress_error
-        self.unbalanced = unbalanced
 
 
 def _wall_names(kind: str, dim: int) -> list[str]:
@@ -136,21 +110,23 @@ def stage_time_step(pack: Pack, stress: float) -> float:
     return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / k))
 
 
-def _targets(mode: str, kind: str, dim: int, stress: float, lateral) -> dict[str, float]:
+def _targets(
+    mode: str, kind: str, dim: int, stress: float, lateral, prefix: str = ""
+) -> dict[str, float]:
     names = _wall_names(kind, dim)
     if mode == "oedometric":
         if lateral is not None:
             raise InvalidParameterError(
-                "invalid lateral: an oedometric stage controls the lid alone (the side "
+                f"invalid {prefix}lateral: an oedometric stage controls the lid alone (the side "
                 "walls stay where they are); give mode='anisotropic' for a lateral target",
-                parameter="lateral",
+                parameter=prefix + "lateral",
             )
         return {"lid": stress}
     if kind == "periodic":
         raise InvalidParameterError(
-            f"invalid mode = {mode!r}: a periodic cell has no lateral walls to control; "
+            f"invalid {prefix}mode = {mode!r}: a periodic cell has no lateral walls to control; "
             "use mode='oedometric'",
-            parameter="mode",
+            parameter=prefix + "mode",
             value=mode,
             expected="oedometric (in a periodic cell)",
         )
@@ -158,43 +134,170 @@ def _targets(mode: str, kind: str, dim: int, stress: float, lateral) -> dict[str
     if mode == "isotropic":
         if lateral is not None:
             raise InvalidParameterError(
-                "invalid lateral: an isotropic stage gives every wall the same stress; "
+                f"invalid {prefix}lateral: an isotropic stage gives every wall the same stress; "
                 "give mode='anisotropic' for a separate lateral target",
-                parameter="lateral",
+                parameter=prefix + "lateral",
             )
         return {"lid": stress, **{n: stress for n in sides}}
     if lateral is None:
         raise InvalidParameterError(
-            "invalid lateral = None: an anisotropic stage needs the lateral target stress "
+            f"invalid {prefix}lateral = None: an anisotropic stage needs the lateral target stress "
             "(Pa): one value, or (sigma_xx, sigma_yy) in a 3D box",
-            parameter="lateral",
+            parameter=prefix + "lateral",
         )
     if isinstance(lateral, Real | np.floating | np.integer) and not isinstance(lateral, bool):
-        values = [as_real("lateral", lateral, 0, 1e12, lo_open=True, unit="Pa")] * (dim - 1)
+        values = [as_real(prefix + "lateral", lateral, 0, 1e12, lo_open=True, unit="Pa")] * (
+            dim - 1
+        )
     else:
         try:
-            values = [as_real("lateral", v, 0, 1e12, lo_open=True, unit="Pa") for v in lateral]
+            values = [
+                as_real(prefix + "lateral", v, 0, 1e12, lo_open=True, unit="Pa") for v in lateral
+            ]
         except TypeError:
             raise InvalidParameterError(
-                f"invalid lateral = {short_repr(lateral)}: expected a stress (Pa) or "
+                f"invalid {prefix}lateral = {short_repr(lateral)}: expected a stress (Pa) or "
                 "(sigma_xx, sigma_yy)",
-                parameter="lateral",
+                parameter=prefix + "lateral",
             ) from None
         if kind == "cylinder" and len(values) != 1:
             raise InvalidParameterError(
-                f"invalid lateral = {short_repr(lateral)}: a cylinder has one lateral "
+                f"invalid {prefix}lateral = {short_repr(lateral)}: a cylinder has one lateral "
                 "stress, sigma_rr",
-                parameter="lateral",
+                parameter=prefix + "lateral",
             )
         if kind == "box" and len(values) != dim - 1:
             raise InvalidParameterError(
-                f"invalid lateral = {short_repr(lateral)}: a {dim}D box takes "
+                f"invalid {prefix}lateral = {short_repr(lateral)}: a {dim}D box takes "
                 f"{dim - 1} lateral stresses",
-                parameter="lateral",
+                parameter=prefix + "lateral",
             )
     out = {"lid": stress}
     for n in sides:
         out[n] = values[0] if (kind == "cylinder" or n.startswith("x")) else values[-1]
+    return out
+
+
+#: The keys of a scene's [consolidate] table: `consolidate`'s keyword arguments.
+TABLE_KEYS = (
+    "stress",
+    "mode",
+    "lateral",
+    "gravity",
+    "stress_tol",
+    "unbalanced_tol",
+    "hold",
+    "check_every",
+    "max_steps",
+    "max_wall_speed",
+    "gain",
+    "local_damping",
+    "dt",
+)
+
+
+def _settings(
+    prefix: str,
+    stress,
+    mode,
+    lateral,
+    gravity,
+    stress_tol,
+    unbalanced_tol,
+    hold,
+    check_every,
+    max_steps,
+    max_wall_speed,
+    gain,
+    local_damping,
+    dt,
+) -> dict:
+    """Every setting typed and in its range (errors name `prefix` + the key); what
+    depends on the pack (the overlap at the target, the wall speed's cap) is checked by
+    `consolidate`."""
+    stress = as_real(prefix + "stress", stress, 0, 1e12, lo_open=True, unit="Pa")
+    if not isinstance(mode, str) or mode not in MODES:
+        raise InvalidParameterError(
+            f"invalid {prefix}mode = {short_repr(mode)}: must be one of {', '.join(MODES)}",
+            parameter=prefix + "mode",
+        )
+    if gravity is not None and not isinstance(gravity, bool | np.bool_):
+        raise InvalidParameterError(
+            f"invalid {prefix}gravity = {short_repr(gravity)}: must be true or false",
+            parameter=prefix + "gravity",
+        )
+    if lateral is not None and not (
+        isinstance(lateral, Real | np.floating | np.integer) and not isinstance(lateral, bool)
+    ):
+        try:
+            lateral = tuple(lateral)
+        except TypeError:
+            raise InvalidParameterError(
+                f"invalid {prefix}lateral = {short_repr(lateral)}: expected a stress (Pa) "
+                "or (sigma_xx, sigma_yy)",
+                parameter=prefix + "lateral",
+            ) from None
+    return {
+        "stress": stress,
+        "mode": mode,
+        "lateral": lateral,
+        "gravity": None if gravity is None else bool(gravity),
+        "stress_tol": as_real(prefix + "stress_tol", stress_tol, 1e-9, 1, hi_open=True),
+        "unbalanced_tol": as_real(prefix + "unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True),
+        "hold": as_int(prefix + "hold", hold, 1, 1000),
+        "check_every": as_int(prefix + "check_every", check_every, 1, 1_000_000),
+        "max_steps": as_int(prefix + "max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL)),
+        "max_wall_speed": None
+        if max_wall_speed is None
+        else as_real(prefix + "max_wall_speed", max_wall_speed, 0, lo_open=True, unit="m/s"),
+        "gain": as_real(prefix + "gain", gain, 0, 1, lo_open=True),
+        "local_damping": as_real(prefix + "local_damping", local_damping, 0, 1, hi_open=True),
+        "dt": None if dt is None else as_real(prefix + "dt", dt, 0, lo_open=True, unit="s"),
+    }
+
+
+_DEFAULTS = {
+    "mode": "oedometric",
+    "lateral": None,
+    "gravity": None,
+    "stress_tol": 1e-3,
+    "unbalanced_tol": 1e-4,
+    "hold": 5,
+    "check_every": 100,
+    "max_steps": 2_000_000,
+    "max_wall_speed": None,
+    "gain": 0.5,
+    "local_damping": 0.4,
+    "dt": None,
+}
+
+
+def check_table(table, dim: int, container: str) -> dict:
+    """A scene's [consolidate] table checked (keys, types, ranges, the mode against the
+    container); returns it with the keys given, as numbers (what `generate` passes to
+    `consolidate`). Errors name the key as ``consolidate.KEY``."""
+    if not isinstance(table, dict):
+        raise InvalidParameterError(
+            f"invalid consolidate = {short_repr(table)}: expected a table of consolidation "
+            f"settings ({', '.join(TABLE_KEYS)})",
+            parameter="consolidate",
+        )
+    unknown = sorted(set(table) - set(TABLE_KEYS))
+    if unknown:
+        raise InvalidParameterError(
+            f"invalid consolidate: unknown key {unknown[0]!r}; known: {', '.join(TABLE_KEYS)}",
+            parameter=f"consolidate.{unknown[0]}",
+        )
+    if "stress" not in table:
+        raise InvalidParameterError(
+            "invalid consolidate: the table needs its target stress (Pa)",
+            parameter="consolidate.stress",
+        )
+    s = _settings("consolidate.", **{**_DEFAULTS, **table})
+    _targets(s["mode"], container, dim, s["stress"], s["lateral"], prefix="consolidate.")
+    out = {k: s[k] for k in table}
+    if isinstance(out.get("lateral"), tuple):
+        out["lateral"] = list(out["lateral"])
     return out
 
 
@@ -282,23 +385,30 @@ def consolidate(
             "consolidate the deposit it came from",
             parameter="pack",
         )
-    stress = as_real("stress", stress, 0, 1e12, lo_open=True, unit="Pa")
-    if not isinstance(mode, str) or mode not in MODES:
-        raise InvalidParameterError(
-            f"invalid mode = {short_repr(mode)}: must be one of {', '.join(MODES)}",
-            parameter="mode",
-        )
+    s = _settings(
+        "",
+        stress,
+        mode,
+        lateral,
+        gravity,
+        stress_tol,
+        unbalanced_tol,
+        hold,
+        check_every,
+        max_steps,
+        max_wall_speed,
+        gain,
+        local_damping,
+        dt,
+    )
+    stress, mode, lateral, gravity = s["stress"], s["mode"], s["lateral"], s["gravity"]
+    stress_tol, unbalanced_tol, hold = s["stress_tol"], s["unbalanced_tol"], s["hold"]
+    check_every, max_steps, gain = s["check_every"], s["max_steps"], s["gain"]
+    local_damping, dt = s["local_damping"], s["dt"]
     sc = pack.scene
     dim = pack.dim
     kind = sc.container
     targets = _targets(mode, kind, dim, stress, lateral)
-    stress_tol = as_real("stress_tol", stress_tol, 1e-9, 1, hi_open=True)
-    unbalanced_tol = as_real("unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True)
-    hold = as_int("hold", hold, 1, 1000)
-    check_every = as_int("check_every", check_every, 1, 1_000_000)
-    max_steps = as_int("max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL))
-    gain = as_real("gain", gain, 0, 1, lo_open=True)
-    local_damping = as_real("local_damping", local_damping, 0, 1, hi_open=True)
 
     mat = sc.material
     e_star = mat.young / (2.0 * (1.0 - mat.poisson**2))
@@ -318,7 +428,7 @@ def consolidate(
             value=top,
             expected=f"an overlap below max_overlap_ratio = {sc.max_overlap_ratio:g}",
         )
-    step = stage_time_step(pack, top) if dt is None else as_real("dt", dt, 0, lo_open=True)
+    step = stage_time_step(pack, top) if dt is None else dt
 
     masses = mat.density * (
         np.pi * r**2 if dim == 2 and sc.inertia_2d == "disc" else 4.0 / 3.0 * np.pi * r**3
@@ -327,12 +437,6 @@ def consolidate(
     weight_stress = float(np.sum(masses)) * float(sc.gravity) / base_area
     if gravity is None:
         gravity = bool(stress <= GRAVITY_OFF_ABOVE * weight_stress)
-    elif not isinstance(gravity, bool | np.bool_):
-        raise InvalidParameterError(
-            f"invalid gravity = {short_repr(gravity)}: must be true or false",
-            parameter="gravity",
-        )
-    gravity = bool(gravity)
 
     height = float(np.max(pack.positions[:, -1] + r))
     if max_wall_speed is None:
@@ -349,27 +453,7 @@ def consolidate(
             unit="m/s",
         )
 
-    g = [0.0] * dim
-    if gravity:
-        g[-1] = -float(sc.gravity)
-    lo = [0.0] * dim
-    hi = [*sc.base, math.inf]
-    radius = sc.base[0] / 2.0 if kind == "cylinder" else None
-    sim = Simulation(
-        dim,
-        mat,
-        step,
-        gravity=g,
-        drag=0.0,
-        box=(lo, hi),
-        rotations=sc.rotations,
-        skin_ratio=sc.skin_ratio,
-        max_overlap_ratio=sc.max_overlap_ratio,
-        inertia_2d=sc.inertia_2d,
-        container=kind,
-        cylinder_radius=radius,
-    )
-    sim.add_particles(pack.positions, r, pack.velocities, pack.spins)
+    sim = _simulation(pack, step, gravity, drag=0.0)
     lid = _core.sim_add_lid(sim._sim, height)
     names = _wall_names(kind, dim)
     assert lid == len(names) - 1
@@ -423,6 +507,125 @@ def consolidate(
             "local_damping": local_damping,
             "dt": step,
         },
+    )
+
+
+def _simulation(pack: Pack, dt: float, gravity: bool, drag: float) -> Simulation:
+    """The engine with the pack's particles in its container (walls at the scene's
+    corners), its material and settings, at step `dt`; gravity the scene's or none."""
+    sc = pack.scene
+    dim = pack.dim
+    g = [0.0] * dim
+    if gravity:
+        g[-1] = -float(sc.gravity)
+    radius = sc.base[0] / 2.0 if sc.container == "cylinder" else None
+    sim = Simulation(
+        dim,
+        sc.material,
+        dt,
+        gravity=g,
+        drag=drag,
+        box=([0.0] * dim, [*sc.base, math.inf]),
+        rotations=sc.rotations,
+        skin_ratio=sc.skin_ratio,
+        max_overlap_ratio=sc.max_overlap_ratio,
+        inertia_2d=sc.inertia_2d,
+        container=sc.container,
+        cylinder_radius=radius,
+    )
+    sim.add_particles(pack.positions, pack.radii, pack.velocities, pack.spins)
+    return sim
+
+
+def settle(
+    pack: Pack,
+    unbalanced_tol: float = 1e-4,
+    *,
+    hold: int = 5,
+    check_every: int = 100,
+    max_steps: int = 2_000_000,
+    local_damping: float = 0.4,
+) -> Pack:
+    """Runs a deposit on, under its own weight, until it is at rest: YADE's
+    unbalanced-force ratio at most `unbalanced_tol` for `hold` checks `check_every` steps
+    apart. Returns a new Pack whose `rest` record says how far it went (the input is not
+    changed). The scene's dt, gravity and drag; `local_damping` (in [0, 1), default 0.4)
+    is the same quasi-static aid as consolidation's. The scene's `rest_tol` runs it at the
+    end of `generate`.
+
+    Raises ConsolidationError when `max_steps` runs out first."""
+    if not isinstance(pack, Pack):
+        raise InvalidParameterError(
+            f"invalid pack = {short_repr(pack)}: expected a granpack.Pack", parameter="pack"
+        )
+    if len(pack) == 0:
+        raise InvalidParameterError(
+            "invalid pack: it holds no particle; there is nothing to settle", parameter="pack"
+        )
+    if pack.consolidation is not None:
+        raise InvalidParameterError(
+            "invalid pack: it is consolidated, and so at rest under its lid already",
+            parameter="pack",
+        )
+    unbalanced_tol = as_real("unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True)
+    hold = as_int("hold", hold, 1, 1000)
+    check_every = as_int("check_every", check_every, 1, 1_000_000)
+    max_steps = as_int("max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL))
+    local_damping = as_real("local_damping", local_damping, 0, 1, hi_open=True)
+    sc = pack.scene
+    sim = _simulation(pack, float(sc.dt), True, float(sc.drag))
+    start = time.perf_counter()
+    rep = _core.sim_consolidate(
+        sim._sim,
+        [],
+        stress_tol=1e-3,
+        unbalanced_tol=unbalanced_tol,
+        hold=hold,
+        check_every=check_every,
+        max_steps=max_steps,
+        max_wall_speed=1.0,
+        gain=0.5,
+        local_damping=local_damping,
+    )
+    seconds = time.perf_counter() - start
+    hist = rep["history"]
+    if not rep["converged"]:
+        raise ConsolidationError(
+            f"the deposit did not come to rest in max_steps = {max_steps} steps: the "
+            f"unbalanced ratio is {hist['unbalanced'][-1]:.2e} (unbalanced_tol "
+            f"{unbalanced_tol:g}); give more max_steps, or a looser unbalanced_tol",
+            steps=int(rep["steps"]),
+            stress={},
+            stress_error=0.0,
+            unbalanced=float(hist["unbalanced"][-1]),
+        )
+    contacts = sim.contacts()
+    x = np.array(sim.positions, dtype=np.float64)
+    r = pack.radii
+    balance = _core.sim_force_balance(sim._sim)
+    record = {
+        "unbalanced_tol": unbalanced_tol,
+        "hold": hold,
+        "check_every": check_every,
+        "local_damping": local_damping,
+        "unbalanced": float(balance["unbalanced"]),
+        "max_ratio": float(balance["max_ratio"]),
+        "steps": int(rep["steps"]),
+        "seconds": seconds,
+        "history": {
+            "step": hist["step"].tolist(),
+            "unbalanced": hist["unbalanced"].tolist(),
+            "max_ratio": hist["max_ratio"].tolist(),
+        },
+    }
+    return dataclasses.replace(
+        pack,
+        positions=x,
+        velocities=np.array(sim.velocities),
+        spins=np.array(sim.spins),
+        contacts=contacts,
+        height=float(np.max(x[:, -1] + r)),
+        rest=record,
     )
 
 
@@ -496,6 +699,9 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         "seconds": seconds,
         "max_speed": float(rep["max_speed"]),
         "shift": shift.tolist(),
+        # the deposit's container, which the scene describes no more where side walls
+        # moved: generating again from the pack's scene needs it back
+        "deposit_base": list(sc.base),
         "history": {
             "step": hist["step"].tolist(),
             "stress": {n: hist["stress"][:, k].tolist() for k, n in enumerate(targets)},

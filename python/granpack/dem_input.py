@@ -26,14 +26,15 @@ walls at their consolidated positions and the lid a wall of the same material (L
 ``fix wall/gran ... zplane NULL z_lid``, LIGGGHTS ``fix wall/gran ... primitive zplane
 z_lid``), held fixed; gravity and drag as in the stage (no drag; gravity as its record
 says) and the stage's time step. The thermo output adds ``v_lid_force``, the particles'
-normal force on the lid (N; N per m in 2D), granpack's `lid_force` at the export. A
+normal force on the lid (N), granpack's `lid_force` at the export. A
 comment block gives the commands that hold the lid at the target stress with a servo
 instead (LAMMPS: a plane region moved by a variable that a loop corrects from the lid
 force; LIGGGHTS: ``fix mesh/surface/stress/servo`` on a lid mesh the input writes).
 
 LAMMPS 29Sep2021's ``fix wall/gran ... hertz/material`` takes E/(2 (1 - nu)) for a wall,
-(1 + nu) times the pair's E* = E/(2 (1 - nu^2)), and its Mindlin NULL stiffness
-4 (2 - nu)(1 + nu) / E is the inverse of 8 G*: the consolidated input gives its walls the
+(1 + nu) times the pair's E* = E/(2 (1 - nu^2)), and its ``mindlin NULL`` tangential
+stiffness is (2 - nu)(1 + nu) E a / 4 instead of 8 G* a = 2 E a / ((2 - nu)(1 + nu))
+(a = sqrt(r d); 0.60 of it at nu = 0.25): the consolidated input gives its walls the
 stiffnesses themselves (``hertz`` k_n = 4/3 E*, ``mindlin`` k_t = 8 G*), granpack's wall
 law, so that the lid force is granpack's. A deposit's input keeps ``hertz/material``.
 """
@@ -96,8 +97,8 @@ def lid_area(pack: Pack) -> float:
 
 
 def lid_force(pack: Pack) -> float:
-    """The particles' normal force on the lid of a consolidated pack (N; N per m in 2D):
-    the record's lid stress times `lid_area`. ``v_lid_force`` in the thermo output of
+    """The particles' normal force on the lid of a consolidated pack (N): the record's lid
+    stress times `lid_area` (in 2D, N/m times m). ``v_lid_force`` in the thermo output of
     ``in.granpack`` is the same force as the other code computes it."""
     area = lid_area(pack)  # refuses a deposit
     rec = _record(pack)
@@ -192,7 +193,7 @@ def _consolidated_notes(pack: Pack, code: str) -> list[str]:
     assert rec is not None
     w = rec["walls"]
     v = "z" if pack.dim == 3 else "y"
-    unit, area_unit = ("N", "m^2") if pack.dim == 3 else ("N per m", "m")
+    unit, area_unit = "N", ("m^2" if pack.dim == 3 else "m")
     targets = ", ".join(f"{n} {float(t):g}" for n, t in rec["targets"].items())
     walls = [f"floor {v} = {_g(w['floor'])}", f"lid {v} = {_g(w['lid'])}"]
     if "cylinder" in w:
@@ -201,11 +202,12 @@ def _consolidated_notes(pack: Pack, code: str) -> list[str]:
         if f"{ax}_lo" in w:
             walls.append(f"{ax} = {_g(w[f'{ax}_lo'])} .. {_g(w[f'{ax}_hi'])}")
     gravity = "on" if rec.get("gravity") else "off"
+    stress = "Pa" if pack.dim == 3 else "N/m"
     return [
-        f"# Consolidated sample ({rec.get('mode', 'oedometric')}; targets {targets} Pa): the",
-        "# walls where the consolidation left them, of the same material (m):",
+        f"# Consolidated sample: {rec.get('mode', 'oedometric')}, targets {targets} {stress}.",
+        "# The walls where the consolidation left them, of the same material (m):",
         f"#   {', '.join(walls)}",
-        f"# granpack's lid force: {float(rec['wall_stress']['lid']):.10g} Pa over "
+        f"# granpack's lid force: {float(rec['wall_stress']['lid']):.10g} {stress} over "
         f"{lid_area(pack):.10g} {area_unit} = {lid_force(pack):.10g} {unit}; v_lid_force in the",
         f"# thermo output is that force as {code} computes it (its normal force on the lid).",
         f"# As in the consolidation stage: gravity {gravity}, no drag, the stage's dt. The walls",
@@ -283,8 +285,9 @@ def lammps_input(pack: Pack, data_name: str) -> str:
     if rec is not None:
         out += _consolidated_notes(pack, "LAMMPS")
         out += [
-            "# fix wall/gran's hertz/material makes a wall (1 + nu) stiffer than the pair",
-            "# law: the walls take granpack's stiffnesses, k_n = 4/3 E*, k_t = 8 G*",
+            "# fix wall/gran's hertz/material gives a wall (1 + nu) times the pair law's normal",
+            "# stiffness and another Mindlin one: the walls take granpack's, k_n = 4/3 E* and",
+            "# k_t = 8 G* (times sqrt(r d))",
         ]
     w = rec["walls"] if rec is not None else {}
     lo_floor = _g(w["floor"]) if rec is not None else "0.0"

@@ -26,6 +26,7 @@ __all__ = [
     "BlowUpError",
     "SaturationError",
     "FileFormatError",
+    "ConsolidationError",
     "BLOWUP_KINDS",
 ]
 
@@ -158,3 +159,29 @@ class FileFormatError(GranpackError):
         super().__init__(message)
         self.path = path
         self.reason = reason if reason is not None else message
+
+
+class ConsolidationError(GranpackError):
+    """The stage used its step budget (`max_steps`) without reaching equilibrium.
+
+    Attributes:
+        steps: the steps taken.
+        stress: each controlled wall's stress at the end (Pa; N/m in 2D), by wall name.
+        stress_error: the largest relative stress error at the end (-).
+        unbalanced: YADE's unbalanced-force ratio at the end (-).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        steps: int,
+        stress: dict[str, float],
+        stress_error: float,
+        unbalanced: float,
+    ) -> None:
+        super().__init__(message)
+        self.steps = steps
+        self.stress = stress
+        self.stress_error = stress_error
+        self.unbalanced = unbalanced

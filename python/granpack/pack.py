@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import lzma
@@ -120,6 +121,10 @@ class Pack:
         ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
         ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
         pack's ``height`` is then the lid's height.
+    rest : dict or None
+        What `granpack.settle` (the scene's ``rest_tol``) did: ``unbalanced`` and
+        ``max_ratio`` at the end, ``unbalanced_tol``, ``local_damping``, ``steps``,
+        ``seconds`` and the ``history``. None for a pack not settled so.
     tiled : dict or None
         What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
         horizontal axis), ``particles`` (N of the original), ``base`` (the original's
@@ -140,6 +145,7 @@ class Pack:
     trim: dict | None = None
     tiled: dict | None = None
     consolidation: dict | None = None
+    rest: dict | None = None
 
     @property
     def dim(self) -> int:
@@ -194,6 +200,8 @@ class Pack:
             meta["tiled"] = self.tiled
         if self.consolidation is not None:
             meta["consolidation"] = self.consolidation
+        if self.rest is not None:
+            meta["rest"] = self.rest
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
@@ -419,6 +427,7 @@ def load_pack(path: str | Path) -> Pack:
             trim=_trim_record(meta.get("trim")),
             tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
             consolidation=_consolidation_record(meta.get("consolidation")),
+            rest=_rest_record(meta.get("rest")),
         )
     except (
         KeyError,
@@ -471,6 +480,15 @@ def _consolidation_record(value) -> dict | None:
     for key in ("phi", "k0", "height"):
         if not math.isfinite(float(value[key])):
             raise ValueError(f"consolidation record: {key} is not finite")
+    return value
+
+
+def _rest_record(value) -> dict | None:
+    """The settling record of a pack file (absent unless `settle` ran)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or not math.isfinite(float(value["unbalanced"])):
+        raise ValueError("rest record: expected a table with a finite unbalanced ratio")
     return value
 
 
@@ -734,4 +752,13 @@ def generate(
     issue = settling_issue(pack)
     if issue is not None:
         warnings.warn(issue, UnsettledPackWarning, stacklevel=2)
+    if scene.rest_tol is not None:
+        from .consolidation import settle
+
+        pack = settle(pack, scene.rest_tol)
+    if scene.consolidate is not None:
+        from .consolidation import consolidate
+
+        sample = consolidate(pack, **scene.consolidate)
+        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
     return pack

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import importlib
+import math
 import os
 import platform
 from collections.abc import Mapping, Sequence
@@ -119,15 +120,16 @@ def ensemble_report(
         "",
         *_trim_lines(records, scene),
         *_grading_lines(scene, records),
-        "| pack | N | layers | H_top (m) | phi | Z | Z_m | seconds | file |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| pack | N | layers | H_top (m) | phi | Z | Z_m | unbalanced | seconds | file |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for rec in records:
         k = rec["pack"]
         lines.append(
             f"| {k} | {rec['n_particles']} | {rec.get('n_layers', '')} "
             f"| {rec['height']:.4f} | {rec['phi']:.4f} | {_fmt(rec.get('z'))} "
-            f"| {_fmt(rec.get('z_mech'))} | {rec.get('wall_time', float('nan')):.1f} "
+            f"| {_fmt(rec.get('z_mech'))} | {_fmt_ratio(rec.get('unbalanced'))} "
+            f"| {rec.get('wall_time', float('nan')):.1f} "
             f"| [pack_{k:03d}.npz](packs/pack_{k:03d}.npz) |"
         )
     lines += ["", "## Tables", ""]
@@ -179,6 +181,13 @@ def _grading_lines(scene, records: Sequence[Mapping]) -> list[str]:
         "| target | " + " | ".join(f"{target[k]:.4f}" for k in keys) + " |",
         "",
     ]
+
+
+def _fmt_ratio(value) -> str:
+    """An unbalanced-force ratio, or a blank where the analysis had none."""
+    if value is None or not math.isfinite(float(value)):
+        return ""
+    return f"{float(value):.1e}"
 
 
 def _fmt(v) -> str:

@@ -238,6 +238,14 @@ class PackScene:
         top z + r lies above H_d (``height``), then relax the rest as the final relax
         does (0.1 s, at most settle_time, every particle thawed). The pack then ends
         at or below H_d; ``Pack.trim`` records what was removed and phi up to H_d.
+    consolidate : dict or None
+        A ``[consolidate]`` table: `granpack.consolidate`'s keyword arguments (``stress``
+        needed), run on every generated pack. None (default): the pack is a deposit.
+    rest_tol : float or None
+        A final phase: after the last layer (and the flat top), run the deposit on under
+        its own weight until its unbalanced-force ratio is at most rest_tol, in
+        [1e-9, 1) (`granpack.settle`). None (default): the paper's recipe ends with the
+        last layer's jamming run.
     """
 
     dim: int = 2
@@ -276,6 +284,8 @@ class PackScene:
     freeze_speed: float = 1e-3
     freeze_force: float = 0.1
     trim: bool = False
+    consolidate: dict | None = None
+    rest_tol: float | None = None
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -382,6 +392,8 @@ class PackScene:
         # never grows runs max_layers jamming runs before it gives up.
         s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, MAX_ATTEMPTS))
         s(self, "max_layers", as_int("max_layers", self.max_layers, 1, MAX_LAYERS))
+        if self.rest_tol is not None:
+            s(self, "rest_tol", as_real("rest_tol", self.rest_tol, 1e-9, 1, hi_open=True))
         if self.settle_tol is not None:
             s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
         if self.settle_dt is not None:
@@ -478,6 +490,10 @@ class PackScene:
                         value=value,
                         expected=" | ".join(choices),
                     )
+            elif kind == "consolidate?":
+                from .consolidation import check_table
+
+                s(self, key, check_table(value, self.dim, self.container))
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):
                     s(self, key, _material_table(dict(value)))
@@ -741,6 +757,8 @@ class PackScene:
                 v = v.to_dict()
             elif isinstance(v, tuple):
                 v = list(v)
+            elif isinstance(v, dict):
+                v = {k: list(x) if isinstance(x, tuple) else x for k, x in v.items()}
             d[f.name] = v
         return d
 
@@ -819,8 +837,10 @@ _KEY_TYPES: dict[str, str] = {
     "freeze_speed": "real",
     "freeze_force": "real",
     "trim": "bool",
+    "consolidate": "consolidate?",
+    "rest_tol": "real?",
 }
-_OPTIONAL_KINDS = ("real?", "reals?")
+_OPTIONAL_KINDS = ("real?", "reals?", "consolidate?")
 _UNITS = {
     "base": "m",
     "cylinder_radius": "m",

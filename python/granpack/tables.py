@@ -100,6 +100,7 @@ EXTRA_COLUMNS = (
     "stress_yy",
     "stress_zz",
     "k0",
+    "unbalanced",
     "force_normal_mean",
     "strong_fraction",
     "a_r_strong_mag",

@@ -101,9 +101,6 @@ fn sim_consolidate<'py>(
     gain: f64,
     local_damping: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if targets.is_empty() {
-        return Err(bad("targets", "[]: at least one controlled wall"));
-    }
     let cfg = ConsolidateConfig {
         targets: targets
             .iter()

@@ -42,7 +42,8 @@ pub struct ServoTarget {
 /// The stage's settings. SI units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConsolidateConfig {
-    /// The controlled walls and their target stresses.
+    /// The controlled walls and their target stresses (none: the walls stay, and the
+    /// stage runs until the balance of forces is met).
     pub targets: Vec<ServoTarget>,
     /// Largest relative stress error |sigma - sigma*| / sigma* at equilibrium (-).
     /// Default 1e-3.
@@ -96,13 +97,6 @@ impl ConsolidateConfig {
     where
         Dim<D>: Spatial<D>,
     {
-        if self.targets.is_empty() {
-            return Err(Error::invalid(
-                "targets",
-                "[]",
-                "at least one controlled wall",
-            ));
-        }
         for t in &self.targets {
             if t.wall >= world.wall_count() {
                 return Err(Error::invalid(
@@ -173,7 +167,9 @@ pub fn servo_rate(
     -inward.clamp(-max_speed, max_speed)
 }
 
-/// Runs the stage on `world` (which must have its lid, see [`World::add_lid`]).
+/// Runs the stage on `world` (which must have its lid, see [`World::add_lid`], if a
+/// target needs a wall's area). With no target the walls stay where they are and the
+/// stage runs until the balance of forces is met: a deposit settled to rest.
 /// `poll` runs after each check; returning false stops the stage there (not
 /// converged). The walls stop when the stage ends.
 pub fn consolidate<const D: usize>(

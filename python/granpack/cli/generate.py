@@ -68,6 +68,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a flat top: after the last layer remove every particle above the desired "
         "height and relax the rest (default: the scene's, off)",
     )
+    g.add_argument(
+        "--consolidate",
+        type=_args.positive_float,
+        default=None,
+        metavar="STRESS",
+        help="consolidate every pack to this stress on the lid (Pa) with servo walls, "
+        "until it is at rest (the scene's [consolidate] table, with --consolidate-mode)",
+    )
+    g.add_argument(
+        "--consolidate-mode",
+        choices=["oedometric", "isotropic"],
+        default="oedometric",
+        help="with --consolidate: the lid alone (K0), or every wall (default: oedometric)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _args.add_run_options(g)
@@ -96,6 +110,10 @@ def run(args: argparse.Namespace, console: Console) -> int:
             changes["cylinder_radius"] = None
     if args.trim:
         changes["trim"] = True
+    if args.consolidate is not None:
+        table = dict(scene.consolidate or {})
+        table.update(stress=args.consolidate, mode=args.consolidate_mode)
+        changes["consolidate"] = table
     if changes:
         scene = scene.replace(**changes)
     dev = dev_changes(scene, args.settle_time, args.scale)

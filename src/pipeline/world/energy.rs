@@ -8,7 +8,8 @@ impl<const D: usize> World<D>
 where
     Dim<D>: Spatial<D>,
 {
-    /// Gravity is the only source of energy (contacts, drag and walls dissipate), so
+    /// Gravity and moving walls are the only sources of energy (contacts, drag and walls
+    /// at rest dissipate; a moving wall's work is counted in `wall_work`), so
     /// kinetic plus potential energy may exceed its value at the last user-set state
     /// only by the elastic energy the contacts can release. That is bounded here,
     /// generously, by the work of lifting every particle by its radius (sum m |g| r)
@@ -42,7 +43,8 @@ where
                 kind: BlowupKind::Energy,
                 what: format!(
                     "kinetic + potential + elastic energy grew from {e_ref:e} J to {e:e} J \
-                     with gravity the only source (fastest particle shown); reduce dt"
+                     beyond the work of gravity and of moving walls (fastest particle \
+                     shown); reduce dt"
                 ),
             });
         }
