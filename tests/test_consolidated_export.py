@@ -14,11 +14,11 @@ left them, and the peer programs find the same lid force.
 from __future__ import annotations
 
 import re
-import subprocess
 import warnings
 
 import pytest
 from scenes import small_scene
+from test_peer_programs import run  # the peers' runner: log, or the failure's output
 
 import granpack as gp
 from granpack import export
@@ -58,15 +58,8 @@ def lid_force_in(program: str, run_dir, steps: int) -> float:
 
 
 def _lid_printed(program: str, run_dir, script: str) -> float:
-    done = subprocess.run(
-        [program, "-in", script, "-log", "log.test"],
-        cwd=run_dir,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    log = (run_dir / "log.test").read_text() if (run_dir / "log.test").exists() else ""
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    """Runs the input file `script` in `run_dir`; the last lid force it printed (N)."""
+    log = run(program, run_dir, (run_dir / script).read_text())
     return float(re.findall(r"^LID (\S+)", log, re.MULTILINE)[-1])
 
 

@@ -188,8 +188,9 @@ def test_gravity_default_follows_the_weight_stress(deposits):
 _DIGEST = """
 import hashlib, sys, granpack as gp
 dep = gp.load_pack(sys.argv[1])
-for mode in ("oedometric", "isotropic"):
-    p = gp.consolidate(dep, 1e4, mode, gravity=False)
+for mode in ("oedometric", "isotropic", "anisotropic"):
+    lateral = 5e3 if mode == "anisotropic" else None
+    p = gp.consolidate(dep, 1e4, mode, lateral=lateral, gravity=False)
     h = hashlib.sha256()
     for a in (p.positions, p.velocities, p.spins, p.contacts.force_normal):
         h.update(a.tobytes())
@@ -204,7 +205,7 @@ def test_bit_identical_on_any_thread_count_and_cpu_level(deposits, tmp_path, nam
     script = (
         _DIGEST
         if name == "box"
-        else _DIGEST.replace('("oedometric", "isotropic")', '("oedometric",)')
+        else _DIGEST.replace('("oedometric", "isotropic", "anisotropic")', '("oedometric",)')
     )
     outs = []
     # one and two threads at the CPU's own level, and one thread at every level it runs

@@ -196,25 +196,12 @@ TABLE_KEYS = (
 )
 
 
-def _settings(
-    prefix: str,
-    stress,
-    mode,
-    lateral,
-    gravity,
-    stress_tol,
-    unbalanced_tol,
-    hold,
-    check_every,
-    max_steps,
-    max_wall_speed,
-    gain,
-    local_damping,
-    dt,
-) -> dict:
+def _settings(prefix: str, table: dict) -> dict:
     """Every setting typed and in its range (errors name `prefix` + the key); what
     depends on the pack (the overlap at the target, the wall speed's cap) is checked by
     `consolidate`."""
+    stress, mode, lateral, gravity = (table[k] for k in ("stress", "mode", "lateral", "gravity"))
+    max_wall_speed, dt = table["max_wall_speed"], table["dt"]
     stress = as_real(prefix + "stress", stress, 0, 1e12, lo_open=True, unit="Pa")
     if not isinstance(mode, str) or mode not in MODES:
         raise InvalidParameterError(
@@ -242,17 +229,27 @@ def _settings(
         "mode": mode,
         "lateral": lateral,
         "gravity": None if gravity is None else bool(gravity),
-        "stress_tol": as_real(prefix + "stress_tol", stress_tol, 1e-9, 1, hi_open=True),
-        "unbalanced_tol": as_real(prefix + "unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True),
-        "hold": as_int(prefix + "hold", hold, 1, 1000),
-        "check_every": as_int(prefix + "check_every", check_every, 1, 1_000_000),
-        "max_steps": as_int(prefix + "max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL)),
+        "stress_tol": as_real(prefix + "stress_tol", table["stress_tol"], 1e-9, 1, hi_open=True),
+        "unbalanced_tol": as_real(
+            prefix + "unbalanced_tol", table["unbalanced_tol"], 1e-9, 1, hi_open=True
+        ),
+        "hold": as_int(prefix + "hold", table["hold"], 1, 1000),
+        "check_every": as_int(prefix + "check_every", table["check_every"], 1, 1_000_000),
+        "max_steps": as_int(
+            prefix + "max_steps", table["max_steps"], 1, int(_core.MAX_STEPS_PER_CALL)
+        ),
         "max_wall_speed": None
         if max_wall_speed is None
-        else as_real(prefix + "max_wall_speed", max_wall_speed, 0, lo_open=True, unit="m/s"),
-        "gain": as_real(prefix + "gain", gain, 0, 1, lo_open=True),
-        "local_damping": as_real(prefix + "local_damping", local_damping, 0, 1, hi_open=True),
-        "dt": None if dt is None else as_real(prefix + "dt", dt, 0, lo_open=True, unit="s"),
+        else as_real(
+            prefix + "max_wall_speed", table["max_wall_speed"], 0, lo_open=True, unit="m/s"
+        ),
+        "gain": as_real(prefix + "gain", table["gain"], 0, 1, lo_open=True),
+        "local_damping": as_real(
+            prefix + "local_damping", table["local_damping"], 0, 1, hi_open=True
+        ),
+        "dt": None
+        if dt is None
+        else as_real(prefix + "dt", table["dt"], 0, lo_open=True, unit="s"),
     }
 
 
@@ -293,7 +290,7 @@ def check_table(table, dim: int, container: str) -> dict:
             "invalid consolidate: the table needs its target stress (Pa)",
             parameter="consolidate.stress",
         )
-    s = _settings("consolidate.", **{**_DEFAULTS, **table})
+    s = _settings("consolidate.", {**_DEFAULTS, **table})
     _targets(s["mode"], container, dim, s["stress"], s["lateral"], prefix="consolidate.")
     out = {k: s[k] for k in table}
     if isinstance(out.get("lateral"), tuple):
@@ -369,6 +366,7 @@ def consolidate(
     ConsolidationError
         `max_steps` reached before equilibrium; it says how far the stage got.
     """
+    given = dict(locals())  # the arguments, checked below as a scene's table is
     if not isinstance(pack, Pack):
         raise InvalidParameterError(
             f"invalid pack = {short_repr(pack)}: expected a granpack.Pack",
@@ -385,22 +383,7 @@ def consolidate(
             "consolidate the deposit it came from",
             parameter="pack",
         )
-    s = _settings(
-        "",
-        stress,
-        mode,
-        lateral,
-        gravity,
-        stress_tol,
-        unbalanced_tol,
-        hold,
-        check_every,
-        max_steps,
-        max_wall_speed,
-        gain,
-        local_damping,
-        dt,
-    )
+    s = _settings("", {k: v for k, v in given.items() if k in TABLE_KEYS})
     stress, mode, lateral, gravity = s["stress"], s["mode"], s["lateral"], s["gravity"]
     stress_tol, unbalanced_tol, hold = s["stress_tol"], s["unbalanced_tol"], s["hold"]
     check_every, max_steps, gain = s["check_every"], s["max_steps"], s["gain"]
