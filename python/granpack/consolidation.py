@@ -72,6 +72,13 @@ def _volumes(r: np.ndarray, dim: int) -> np.ndarray:
     return np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
 
 
+def _masses(scene, r: np.ndarray) -> np.ndarray:
+    """Masses (kg) of spheres of radii `r` of the scene's material, as the engine gives
+    them: a disc's per metre of thickness in 2D with inertia_2d = "disc"."""
+    disc = scene.dim == 2 and scene.inertia_2d == "disc"
+    return scene.material.density * (np.pi * r**2 if disc else 4.0 / 3.0 * np.pi * r**3)
+
+
 def hertz_overlap(force: float, r_eff: float, e_star: float) -> float:
     """The overlap (m) at which a Hertz contact of effective radius `r_eff` carries
     `force`: F = 4/3 E* sqrt(R*) d^(3/2)."""
@@ -93,8 +100,7 @@ def stage_time_step(pack: Pack, stress: float) -> float:
     close to YADE's 0.8 of its P-wave step (5.1e-5 s) on the same pack.
     """
     sc = pack.scene
-    mat = sc.material
-    e_star = mat.young / (2.0 * (1.0 - mat.poisson**2))
+    e_star = sc.material.e_star
     r_max = float(np.max(pack.radii))
     r_min = float(np.min(pack.radii))
     force = 4.0 * stress * (2.0 * r_max) ** 2
@@ -102,11 +108,7 @@ def stage_time_step(pack: Pack, stress: float) -> float:
         force = 4.0 * stress * 2.0 * r_max  # N per m of thickness over a disc's width
     d = hertz_overlap(force, 0.5 * r_max, e_star)
     k = 2.0 * e_star * math.sqrt(0.5 * r_max * d)
-    m_min = mat.density * (
-        math.pi * r_min**2
-        if pack.dim == 2 and sc.inertia_2d == "disc"
-        else 4.0 / 3.0 * math.pi * r_min**3
-    )
+    m_min = float(_masses(sc, np.array([r_min]))[0])
     return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / k))
 
 
@@ -385,16 +387,13 @@ def consolidate(
         )
     s = _settings("", {k: v for k, v in given.items() if k in TABLE_KEYS})
     stress, mode, lateral, gravity = s["stress"], s["mode"], s["lateral"], s["gravity"]
-    stress_tol, unbalanced_tol, hold = s["stress_tol"], s["unbalanced_tol"], s["hold"]
-    check_every, max_steps, gain = s["check_every"], s["max_steps"], s["gain"]
-    local_damping, dt = s["local_damping"], s["dt"]
     sc = pack.scene
     dim = pack.dim
     kind = sc.container
     targets = _targets(mode, kind, dim, stress, lateral)
 
     mat = sc.material
-    e_star = mat.young / (2.0 * (1.0 - mat.poisson**2))
+    e_star = mat.e_star
     r = pack.radii
     r_mean, r_min = float(np.mean(r)), float(np.min(r))
     # the overlap the target needs, for a mean contact of mean spheres
@@ -411,13 +410,9 @@ def consolidate(
             value=top,
             expected=f"an overlap below max_overlap_ratio = {sc.max_overlap_ratio:g}",
         )
-    step = stage_time_step(pack, top) if dt is None else dt
+    step = stage_time_step(pack, top) if s["dt"] is None else s["dt"]
 
-    masses = mat.density * (
-        np.pi * r**2 if dim == 2 and sc.inertia_2d == "disc" else 4.0 / 3.0 * np.pi * r**3
-    )
-    base_area = float(sc.base_area)
-    weight_stress = float(np.sum(masses)) * float(sc.gravity) / base_area
+    weight_stress = float(np.sum(_masses(sc, r))) * float(sc.gravity) / float(sc.base_area)
     if gravity is None:
         gravity = bool(stress <= GRAVITY_OFF_ABOVE * weight_stress)
 
@@ -446,25 +441,25 @@ def consolidate(
     rep = _core.sim_consolidate(
         sim._sim,
         [(index[n], targets[n]) for n in order],
-        stress_tol=stress_tol,
-        unbalanced_tol=unbalanced_tol,
-        hold=hold,
-        check_every=check_every,
-        max_steps=max_steps,
+        stress_tol=s["stress_tol"],
+        unbalanced_tol=s["unbalanced_tol"],
+        hold=s["hold"],
+        check_every=s["check_every"],
+        max_steps=s["max_steps"],
         max_wall_speed=max_wall_speed,
-        gain=gain,
-        local_damping=local_damping,
+        gain=s["gain"],
+        local_damping=s["local_damping"],
     )
     seconds = time.perf_counter() - start
     hist = rep["history"]
     last = {n: float(hist["stress"][-1, k]) for k, n in enumerate(order)}
     if not rep["converged"]:
         raise ConsolidationError(
-            f"consolidation did not reach equilibrium in max_steps = {max_steps} steps: "
+            f"consolidation did not reach equilibrium in max_steps = {s['max_steps']} steps: "
             f"stresses {', '.join(f'{n} {v:.6g} Pa' for n, v in last.items())} "
-            f"(largest error {hist['stress_error'][-1]:.2e}, stress_tol {stress_tol:g}), "
+            f"(largest error {hist['stress_error'][-1]:.2e}, stress_tol {s['stress_tol']:g}), "
             f"unbalanced ratio {hist['unbalanced'][-1]:.2e} (unbalanced_tol "
-            f"{unbalanced_tol:g}); give more max_steps, or looser tolerances",
+            f"{s['unbalanced_tol']:g}); give more max_steps, or looser tolerances",
             steps=int(rep["steps"]),
             stress=last,
             stress_error=float(hist["stress_error"][-1]),
@@ -477,17 +472,11 @@ def consolidate(
         targets,
         rep,
         seconds,
+        # what it ran with: the checked settings, and the defaults it chose
         settings={
-            "mode": mode,
+            **{k: v for k, v in s.items() if k not in ("stress", "lateral")},
             "gravity": gravity,
-            "stress_tol": stress_tol,
-            "unbalanced_tol": unbalanced_tol,
-            "hold": hold,
-            "check_every": check_every,
-            "max_steps": max_steps,
             "max_wall_speed": max_wall_speed,
-            "gain": gain,
-            "local_damping": local_damping,
             "dt": step,
         },
     )

@@ -224,7 +224,7 @@ def _lid_stiffness(pack: Pack) -> float:
     rec = _record(pack)
     assert rec is not None
     m = pack.scene.material
-    e_star = m.young / (2.0 * (1.0 - m.poisson**2))
+    e_star = m.e_star
     top = pack.positions[:, -1] + pack.radii - float(rec["walls"]["lid"])
     d = top[top > 0.0]
     r = pack.radii[top > 0.0]
@@ -252,7 +252,7 @@ def lammps_input(pack: Pack, data_name: str) -> str:
     wall_law = law
     if rec is not None:
         # granpack's wall law, stiffnesses given (see the module notes)
-        e_star = m.young / (2.0 * (1.0 - m.poisson**2))
+        e_star = m.e_star
         g_star = m.young / (4.0 * (2.0 - m.poisson) * (1.0 + m.poisson))
         wall_law = (
             f"hertz {_g(4.0 / 3.0 * e_star)} {_g(e)} tangential mindlin {_g(8.0 * g_star)} "

@@ -59,6 +59,12 @@ class Material:
     def to_dict(self) -> dict[str, float]:
         return asdict(self)
 
+    @property
+    def e_star(self) -> float:
+        """Effective modulus of a contact of two bodies of this material, E* = E / (2 (1 -
+        nu^2)) (Pa), as the engine's Hertz law takes it (walls included)."""
+        return self.young / (2.0 * (1.0 - self.poisson**2))
+
     def critical_time_step(self, r_min: float) -> float:
         """Rayleigh time step pi r_min sqrt(rho/G) / (0.1631 nu + 0.8766) (s)."""
         return _core.rayleigh_time_step(self.density, self.young, self.poisson, float(r_min))

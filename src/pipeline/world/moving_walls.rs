@@ -145,12 +145,10 @@ where
         let Some((lo, hi)) = self.cfg.walls else {
             return Err(Error::invalid("wall", wi, "the world has no container"));
         };
-        // the lateral extent along horizontal axis k, where the walls are now
-        let extent = |k: usize| match (self.cfg.container, self.walls.get(1 + 2 * k)) {
-            (Container::Box, Some(Wall::Plane { pos: a, .. })) => match self.walls[2 + 2 * k] {
-                Wall::Plane { pos: b, .. } => b - a,
-                Wall::Cylinder { .. } => hi[k] - lo[k],
-            },
+        // the lateral extent along horizontal axis k: between the box's side walls where
+        // they are now (walls 1 + 2k and 2 + 2k), the period otherwise
+        let extent = |k: usize| match self.cfg.container {
+            Container::Box => self.wall_position(2 + 2 * k) - self.wall_position(1 + 2 * k),
             _ => hi[k] - lo[k],
         };
         let height = || -> Result<Real> {
@@ -254,31 +252,37 @@ where
         Ok(())
     }
 
+    /// The wall contacts in force at the last evaluation, in particle order, then wall
+    /// order: (particle, wall, overlap). Only walls whose bit is set in the particle's
+    /// mask can touch it (see `forces::gather_one`).
+    fn wall_contacts(&self) -> impl Iterator<Item = (usize, usize, Real)> + '_ {
+        (0..self.len()).flat_map(move |q| {
+            let mask = self.p.wall_mask[q];
+            (0..self.walls.len()).filter_map(move |wi| {
+                if mask & (1 << wi) == 0 {
+                    return None;
+                }
+                let d = self.p.r[q] - self.walls[wi].gap(&self.p.x[q]);
+                (d > 0.0).then_some((q, wi, d))
+            })
+        })
+    }
+
     /// The load on each wall at the last force evaluation, summed over particles in
     /// index order.
     pub fn wall_loads(&self) -> Vec<WallLoad> {
         let mut loads = vec![WallLoad::default(); self.walls.len()];
         let kn = 2.0 * self.e_star;
         let xi = self.cfg.material.damping;
-        for q in 0..self.len() {
-            let mut mask = self.p.wall_mask[q];
-            while mask != 0 {
-                let wi = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let wall = &self.walls[wi];
-                let x = &self.p.x[q];
-                let d = self.p.r[q] - wall.gap(x);
-                if d <= 0.0 {
-                    continue;
-                }
-                let n = wall.normal(x);
-                let l = &mut loads[wi];
-                l.force += self.p.wall_force[q][wi].dot(&n);
-                let k = kn * (wall.r_eff(self.p.r[q]) * d).sqrt();
-                l.stiffness += k;
-                l.viscosity += 2.0 * xi * (self.p.m[q] * k).sqrt();
-                l.contacts += 1;
-            }
+        for (q, wi, d) in self.wall_contacts() {
+            let wall = &self.walls[wi];
+            let n = wall.normal(&self.p.x[q]);
+            let l = &mut loads[wi];
+            l.force += self.p.wall_force[q][wi].dot(&n);
+            let k = kn * (wall.r_eff(self.p.r[q]) * d).sqrt();
+            l.stiffness += k;
+            l.viscosity += 2.0 * xi * (self.p.m[q] * k).sqrt();
+            l.contacts += 1;
         }
         loads
     }
@@ -305,16 +309,9 @@ where
                 fb.contacts += 1;
             }
         }
-        for q in 0..n {
-            let mut mask = self.p.wall_mask[q];
-            while mask != 0 {
-                let wi = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                if self.p.r[q] > self.walls[wi].gap(&self.p.x[q]) {
-                    sum += self.p.wall_force[q][wi].norm();
-                    fb.contacts += 1;
-                }
-            }
+        for (q, wi, _) in self.wall_contacts() {
+            sum += self.p.wall_force[q][wi].norm();
+            fb.contacts += 1;
         }
         if fb.contacts > 0 {
             fb.mean_contact = sum / fb.contacts as Real;
