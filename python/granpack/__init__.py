@@ -20,6 +20,7 @@ from ._core import cpu_level, cpu_levels
 from .errors import (
     BlowUpError,
     ConsolidationError,
+    DensityTargetError,
     FileFormatError,
     GranpackError,
     InvalidParameterError,
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
     from .analysis.profiles import profiles
     from .consolidation import consolidate, settle
     from .contacts import Contacts
+    from .density import VoidRatioLimits, void_ratio_limits
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
     from .pack import Pack, UnsettledPackWarning, generate, load_pack
@@ -49,6 +51,8 @@ _LAZY = {
     "consolidate": "consolidation",
     "settle": "consolidation",
     "Contacts": "contacts",
+    "VoidRatioLimits": "density",
+    "void_ratio_limits": "density",
     "Material": "simulation",
     "Simulation": "simulation",
     "Grading": "grading",
@@ -69,7 +73,17 @@ _LAZY = {
 #: The modules that ``import granpack`` loaded before the API was loaded on first use, still
 #: reachable as attributes of the package (``granpack.analysis``) without their own import.
 _SUBMODULES = frozenset(
-    ("analysis", "consolidation", "contacts", "grading", "io", "pack", "scene", "simulation")
+    (
+        "analysis",
+        "consolidation",
+        "contacts",
+        "density",
+        "grading",
+        "io",
+        "pack",
+        "scene",
+        "simulation",
+    )
     + ("tile", "container_tag", "dem_input", "_validate")
 )
 
@@ -111,6 +125,7 @@ __all__ = [
     "SaturationError",
     "FileFormatError",
     "ConsolidationError",
+    "DensityTargetError",
     "Contacts",
     "Material",
     "Simulation",
@@ -122,6 +137,8 @@ __all__ = [
     "tile",
     "consolidate",
     "settle",
+    "void_ratio_limits",
+    "VoidRatioLimits",
     "read_particles",
     "ParticleFile",
     "read_contacts",

@@ -34,6 +34,8 @@ __all__ = [
     "sim_walls",
     "sim_force_balance",
     "sim_consolidate",
+    "sim_set_friction",
+    "sim_clone",
 ]
 
 __version__: str
@@ -374,3 +376,10 @@ def sim_consolidate(
     local_damping: float,
 ) -> _ServoReport:
     """The consolidation stage on (wall index, target stress) pairs; GIL released."""
+
+def sim_set_friction(sim: Simulation, friction: float) -> None:
+    """Sets the Coulomb friction coefficient (-) of particles and walls from the next step
+    on (finite, >= 0)."""
+
+def sim_clone(sim: Simulation) -> Simulation:
+    """A copy of the engine's whole state: stepping it gives the original's bits."""

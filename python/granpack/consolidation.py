@@ -32,7 +32,7 @@ from . import _core
 from ._validate import as_int, as_real, short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
-from .errors import ConsolidationError, InvalidParameterError
+from .errors import ConsolidationError, DensityTargetError, InvalidParameterError
 from .pack import Pack
 from .simulation import Simulation
 
@@ -52,6 +52,19 @@ INERTIAL_NUMBER = 1e-3
 #: The largest wall speed, as a fraction of r_min per step: a wall never moves more than
 #: this share of the smallest radius in one step, whatever the stress asks.
 OVERRUN_FRACTION = 0.05
+
+#: Lowering friction under the servo (a density target, `target_phi`): each phase
+#: multiplies the friction by at most this factor until two phases give a slope ...
+FRICTION_STEP = 0.5
+#: ... and by at least this one when the slope predicts a larger step.
+FRICTION_STEP_MIN = 0.1
+#: Below this share of the material's friction a phase goes to zero friction.
+FRICTION_FLOOR = 0.01
+#: Most friction phases (each one run to equilibrium) before the stage gives up.
+MAX_FRICTION_PHASES = 16
+#: A phase is accepted when its phi lies within this share of density_tol of the target:
+#: the rest of the tolerance is the margin for restoring the friction afterwards.
+ACCEPT_SHARE = 0.75
 
 #: The stage's step is this fraction of sqrt(m / k) for the stiffest contact it expects
 #: (see `stage_time_step`).
@@ -316,6 +329,8 @@ def consolidate(
     gain: float = 0.5,
     local_damping: float = 0.4,
     dt: float | None = None,
+    target_phi: float | None = None,
+    density_tol: float = 0.002,
 ) -> Pack:
     """Consolidates `pack` to a target stress with servo-controlled walls, until it is
     in static equilibrium; returns a new Pack (the input is not changed).
@@ -359,6 +374,15 @@ def consolidate(
         usual value for quasi-static loading).
     dt : float, optional
         Time step (s). Default `stage_time_step(pack, stress)`.
+    target_phi : float, optional
+        A density target, phi between the floor and the lid, in (0, 1). Once the sample
+        is in equilibrium and looser than the target, the friction is lowered in phases,
+        each run to equilibrium under the servo, until phi lies within density_tol / 2
+        of the target; then the material's friction is restored and equilibrium reached
+        again (docs/density.md). The record's ``density`` holds the phases. Default:
+        none, the stage keeps the material's friction.
+    density_tol : float
+        Largest |phi - target_phi| at the end, in (0, 0.1]. Default 0.002.
 
     Raises
     ------
@@ -367,6 +391,9 @@ def consolidate(
         target whose estimated overlap exceeds the scene's `max_overlap_ratio`.
     ConsolidationError
         `max_steps` reached before equilibrium; it says how far the stage got.
+    DensityTargetError
+        `target_phi` above what zero friction reaches (the window is in the error), or
+        below the sample's phi at the material's friction.
     """
     given = dict(locals())  # the arguments, checked below as a scene's table is
     if not isinstance(pack, Pack):
@@ -386,6 +413,9 @@ def consolidate(
             parameter="pack",
         )
     s = _settings("", {k: v for k, v in given.items() if k in TABLE_KEYS})
+    if target_phi is not None:
+        target_phi = as_real("target_phi", target_phi, 0, 1, lo_open=True, hi_open=True)
+    density_tol = as_real("density_tol", density_tol, 0, 0.1, lo_open=True)
     stress, mode, lateral, gravity = s["stress"], s["mode"], s["lateral"], s["gravity"]
     sc = pack.scene
     dim = pack.dim
@@ -438,19 +468,55 @@ def consolidate(
     index = {n: k for k, n in enumerate(names)}
     order = list(targets)
     start = time.perf_counter()
-    rep = _core.sim_consolidate(
-        sim._sim,
-        [(index[n], targets[n]) for n in order],
-        stress_tol=s["stress_tol"],
-        unbalanced_tol=s["unbalanced_tol"],
-        hold=s["hold"],
-        check_every=s["check_every"],
-        max_steps=s["max_steps"],
-        max_wall_speed=max_wall_speed,
-        gain=s["gain"],
-        local_damping=s["local_damping"],
-    )
+
+    def run() -> dict:
+        out = _core.sim_consolidate(
+            sim._sim,
+            [(index[n], targets[n]) for n in order],
+            stress_tol=s["stress_tol"],
+            unbalanced_tol=s["unbalanced_tol"],
+            hold=s["hold"],
+            check_every=s["check_every"],
+            max_steps=s["max_steps"],
+            max_wall_speed=max_wall_speed,
+            gain=s["gain"],
+            local_damping=s["local_damping"],
+        )
+        _check_converged(out, order, s)
+        return out
+
+    rep = run()
+    density = None
+    if target_phi is not None:
+        solid = float(np.sum(_volumes(r, dim)))
+
+        def phi_now() -> float:
+            return solid / _sample_volume(sim, names, sc)
+
+        rep, density = _lower_friction(sim, run, phi_now, rep, target_phi, density_tol, mat)
     seconds = time.perf_counter() - start
+    record = _consolidated_pack(
+        pack,
+        sim,
+        names,
+        targets,
+        rep,
+        seconds,
+        # what it ran with: the checked settings, and the defaults it chose
+        settings={
+            **{k: v for k, v in s.items() if k not in ("stress", "lateral")},
+            "gravity": gravity,
+            "max_wall_speed": max_wall_speed,
+            "dt": step,
+        },
+    )
+    if density is not None:
+        record.consolidation["density"] = density
+    return record
+
+
+def _check_converged(rep: dict, order: list[str], s: dict) -> None:
+    """Raises ConsolidationError when a servo run ended on its step budget."""
     hist = rep["history"]
     last = {n: float(hist["stress"][-1, k]) for k, n in enumerate(order)}
     if not rep["converged"]:
@@ -465,20 +531,143 @@ def consolidate(
             stress_error=float(hist["stress_error"][-1]),
             unbalanced=float(hist["unbalanced"][-1]),
         )
-    return _consolidated_pack(
-        pack,
-        sim,
-        names,
-        targets,
-        rep,
-        seconds,
-        # what it ran with: the checked settings, and the defaults it chose
-        settings={
-            **{k: v for k, v in s.items() if k not in ("stress", "lateral")},
-            "gravity": gravity,
-            "max_wall_speed": max_wall_speed,
-            "dt": step,
-        },
+
+
+def _sample_volume(sim: Simulation, names: list[str], sc) -> float:
+    """The volume between the floor, the lid and the side walls where they are now (m^3;
+    m^2 in 2D)."""
+    walls = _core.sim_walls(sim._sim)
+    pos = {n: float(walls["position"][k]) for k, n in enumerate(names)}
+    height = pos["lid"] - pos["floor"]
+    if sc.container == "cylinder":
+        return math.pi * pos["cylinder"] ** 2 * height
+    if sc.container == "box":
+        area = 1.0
+        for a in ["x", "y"][: sc.dim - 1]:
+            area *= pos[f"{a}_hi"] - pos[f"{a}_lo"]
+        return area * height
+    return float(sc.base_area) * height
+
+
+def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dict]:
+    """Lowers the friction under the servo, one phase to equilibrium at a time, until
+    phi is within ACCEPT_SHARE * tol of `target`, then restores the material's friction
+    and reaches equilibrium again. A phase that overshoots is undone (the engine's state
+    before it is restored, bit for bit) and a friction between the last two is tried.
+    Returns the last servo report, with the steps of every phase, and the record."""
+    mu0 = float(mat.friction)
+    phi0 = phi_now()
+    steps = int(rep["steps"])
+    phases = [{"friction": mu0, "phi": phi0, "steps": steps, "kept": True}]
+
+    def record(phi: float, status: str) -> dict:
+        return {
+            "target_phi": target,
+            "density_tol": tol,
+            "phi_before": phi0,
+            "phi": phi,
+            "phases": phases,
+            "status": status,
+        }
+
+    if phi0 > target + tol:
+        raise DensityTargetError(
+            f"invalid target_phi = {target:g}: the sample is at phi = {phi0:.4f} with the "
+            f"material's friction {mu0:g} already, denser than the target; lowering the "
+            "friction under the servo only densifies. Reach a looser target by the "
+            "deposition friction (density_method = 'deposition')",
+            parameter="target_phi",
+            value=target,
+            target_phi=target,
+            phi_min=phi0,
+            phi_max=math.nan,
+            realised=phi0,
+        )
+    if abs(phi0 - target) <= ACCEPT_SHARE * tol or mu0 == 0.0:
+        if phi0 < target - tol:
+            raise _beyond_zero_friction(target, phi0, phi0)
+        return rep, record(phi0, "reached at the material's friction")
+    below = [(mu0, phi0)]  # phases kept, all looser than the target
+    above: tuple[float, float] | None = None  # the nearest phase that overshot
+    snapshot = _core.sim_clone(sim._sim)
+    reached = False
+    for _ in range(MAX_FRICTION_PHASES):
+        mu_lo, phi_lo = below[-1]
+        if above is not None:
+            mu_hi, phi_hi = above
+            w = (target - phi_lo) / (phi_hi - phi_lo) if phi_hi > phi_lo else 0.5
+            mu = mu_lo + min(max(w, 0.1), 0.9) * (mu_hi - mu_lo)
+        else:
+            factor = FRICTION_STEP
+            if len(below) >= 2 and phi_lo > below[-2][1]:
+                (mu_a, phi_a), (mu_b, phi_b) = below[-2], below[-1]
+                guess = mu_b + (target - phi_b) * (mu_b - mu_a) / (phi_b - phi_a)
+                factor = min(max(guess / mu_b, FRICTION_STEP_MIN), FRICTION_STEP)
+            mu = mu_lo * factor
+            if mu < FRICTION_FLOOR * mu0:
+                mu = 0.0
+        _core.sim_set_friction(sim._sim, mu)
+        rep = run()
+        steps += int(rep["steps"])
+        phi = phi_now()
+        phases.append({"friction": mu, "phi": phi, "steps": int(rep["steps"]), "kept": True})
+        if abs(phi - target) <= ACCEPT_SHARE * tol:
+            reached = True
+            break
+        if phi < target:
+            if mu == 0.0:
+                raise _beyond_zero_friction(target, phi0, phi)
+            below.append((mu, phi))
+            snapshot = _core.sim_clone(sim._sim)
+        else:
+            # overshot: back to the last kept phase's state, bit for bit
+            phases[-1]["kept"] = False
+            above = (mu, phi)
+            sim._sim = _core.sim_clone(snapshot)
+    if not reached:
+        raise DensityTargetError(
+            f"target_phi = {target:g} not reached in {MAX_FRICTION_PHASES} friction phases "
+            f"under the servo (phi from {phi0:.4f} at friction {mu0:g}; nearest "
+            f"{min(phases, key=lambda p: abs(p['phi'] - target))['phi']:.4f}); give a "
+            "larger density_tol, or density_method = 'deposition'",
+            parameter="target_phi",
+            value=target,
+            target_phi=target,
+            phi_min=phi0,
+            phi_max=math.nan,
+            realised=min((p["phi"] for p in phases), key=lambda v: abs(v - target)),
+        )
+    _core.sim_set_friction(sim._sim, mu0)
+    rep = run()
+    steps += int(rep["steps"])
+    phi = phi_now()
+    phases.append({"friction": mu0, "phi": phi, "steps": int(rep["steps"]), "kept": True})
+    if abs(phi - target) > tol:
+        raise DensityTargetError(
+            f"target_phi = {target:g} reached under lowered friction, but restoring the "
+            f"material's friction {mu0:g} moved phi to {phi:.4f}, beyond density_tol = "
+            f"{tol:g}; give a larger density_tol",
+            parameter="target_phi",
+            value=target,
+            target_phi=target,
+            phi_min=phi0,
+            phi_max=math.nan,
+            realised=phi,
+        )
+    return {**rep, "steps": steps}, record(phi, "reached")
+
+
+def _beyond_zero_friction(target: float, phi0: float, phi_max: float) -> DensityTargetError:
+    return DensityTargetError(
+        f"invalid target_phi = {target:g}: out of reach; under the servo the sample goes "
+        f"from phi = {phi0:.4f} (the material's friction) to {phi_max:.4f} at zero "
+        f"friction, the densest it reaches: the window is [{phi0:.4f}, {phi_max:.4f}]",
+        parameter="target_phi",
+        value=target,
+        target_phi=target,
+        phi_min=phi0,
+        phi_max=phi_max,
+        realised=phi_max,
     )
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "SaturationError",
     "FileFormatError",
     "ConsolidationError",
+    "DensityTargetError",
     "BLOWUP_KINDS",
 ]
 
@@ -185,3 +186,39 @@ class ConsolidationError(GranpackError):
         self.stress = stress
         self.stress_error = stress_error
         self.unbalanced = unbalanced
+
+
+class DensityTargetError(InvalidParameterError):
+    """A density target outside the window this scene can reach, or one the search did
+    not reach within its budget.
+
+    Attributes:
+        parameter: the target's key (`"target_phi"`, `"target_void_ratio"`,
+            `"target_relative_density"`).
+        target_phi: the target as a packing fraction (-).
+        phi_min, phi_max: the window of packing fractions this scene reaches, loosest and
+            densest, as the stage measured them (NaN where it did not measure one end).
+        realised: the packing fraction nearest the target that was reached (-), or NaN.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        parameter: str,
+        value: float,
+        target_phi: float,
+        phi_min: float,
+        phi_max: float,
+        realised: float = float("nan"),
+    ) -> None:
+        super().__init__(
+            message,
+            parameter=parameter,
+            value=value,
+            expected=f"a packing fraction in [{phi_min:.4f}, {phi_max:.4f}]",
+        )
+        self.target_phi = target_phi
+        self.phi_min = phi_min
+        self.phi_max = phi_max
+        self.realised = realised

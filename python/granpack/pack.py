@@ -125,6 +125,14 @@ class Pack:
         What `granpack.settle` (the scene's ``rest_tol``) did: ``unbalanced`` and
         ``max_ratio`` at the end, ``unbalanced_tol``, ``local_damping``, ``steps``,
         ``seconds`` and the ``history``. None for a pack not settled so.
+    density : dict or None
+        How a density target (``PackScene.target_phi``, ``target_void_ratio``,
+        ``target_relative_density``) was reached: ``target`` (key and value),
+        ``target_phi``, ``density_tol``, ``measure`` ("sample": floor to lid;
+        "core": the core window), ``method``, ``friction`` (the deposition friction the
+        layers were jammed with), ``phi``, ``void_ratio``, ``generations``, the search
+        ``history`` and, where known, ``e_min``, ``e_max`` and ``relative_density``.
+        None for a pack made without a target.
     tiled : dict or None
         What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
         horizontal axis), ``particles`` (N of the original), ``base`` (the original's
@@ -146,6 +154,7 @@ class Pack:
     tiled: dict | None = None
     consolidation: dict | None = None
     rest: dict | None = None
+    density: dict | None = None
 
     @property
     def dim(self) -> int:
@@ -202,6 +211,8 @@ class Pack:
             meta["consolidation"] = self.consolidation
         if self.rest is not None:
             meta["rest"] = self.rest
+        if self.density is not None:
+            meta["density"] = self.density
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         buf = io.BytesIO()
@@ -428,6 +439,7 @@ def load_pack(path: str | Path) -> Pack:
             tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
             consolidation=_consolidation_record(meta.get("consolidation")),
             rest=_rest_record(meta.get("rest")),
+            density=_density_record(meta.get("density")),
         )
     except (
         KeyError,
@@ -489,6 +501,15 @@ def _rest_record(value) -> dict | None:
         return None
     if not isinstance(value, dict) or not math.isfinite(float(value["unbalanced"])):
         raise ValueError("rest record: expected a table with a finite unbalanced ratio")
+    return value
+
+
+def _density_record(value) -> dict | None:
+    """The density target's record of a pack file (absent unless the scene had one)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or not math.isfinite(float(value["phi"])):
+        raise ValueError("density record: expected a table with a finite phi")
     return value
 
 
@@ -699,6 +720,10 @@ def generate(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
+    if scene.density_target is not None:
+        from .density import generate_at_density
+
+        return generate_at_density(scene, progress)
     check_memory(scene)
     t0 = time.perf_counter()
     packer = _packer(scene)

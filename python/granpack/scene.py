@@ -246,6 +246,27 @@ class PackScene:
         its own weight until its unbalanced-force ratio is at most rest_tol, in
         [1e-9, 1) (`granpack.settle`). None (default): the paper's recipe ends with the
         last layer's jamming run.
+    target_phi : float or None
+        A density target: the packing fraction, in (0, 1). At most one of the three
+        targets. The pack's phi is taken between the floor and the lid when the scene
+        consolidates, and in the core window (`Microstructure.phi_core`) otherwise
+        (docs/density.md). None (default): the recipe's density.
+    target_void_ratio : float or None
+        A density target: the void ratio e = 1/phi - 1, > 0. None (default).
+    target_relative_density : float or None
+        A density target: Dr = (e_max - e) / (e_max - e_min), in [0, 1], with the
+        model's own e_min and e_max for this scene and seed
+        (`granpack.void_ratio_limits`). None (default).
+    density_tol : float or None
+        Largest |realised - target|, in the target's own quantity, in (0, 0.1]. None
+        (default): 0.002 in phi, and its equivalent in e or Dr.
+    density_method : {"auto", "deposition", "servo"}
+        How a target is reached (docs/density.md): "deposition" jams every layer with
+        a deposition friction found by search and restores the material's friction
+        once the pack is jammed; "servo" lowers the friction while the consolidation's
+        servo holds the stress, then restores it (needs ``consolidate``); "auto"
+        (default) does the servo's when the scene consolidates and the recipe's pack is
+        looser than the target, and the deposition's otherwise.
     """
 
     dim: int = 2
@@ -286,6 +307,11 @@ class PackScene:
     trim: bool = False
     consolidate: dict | None = None
     rest_tol: float | None = None
+    target_phi: float | None = None
+    target_void_ratio: float | None = None
+    target_relative_density: float | None = None
+    density_tol: float | None = None
+    density_method: Literal["auto", "deposition", "servo"] = "auto"
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -394,6 +420,7 @@ class PackScene:
         s(self, "max_layers", as_int("max_layers", self.max_layers, 1, MAX_LAYERS))
         if self.rest_tol is not None:
             s(self, "rest_tol", as_real("rest_tol", self.rest_tol, 1e-9, 1, hi_open=True))
+        self._check_density_target()
         if self.settle_tol is not None:
             s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
         if self.settle_dt is not None:
@@ -657,6 +684,62 @@ class PackScene:
             settle_dt=settle_dt if settle_dt > dt else None,
         )
 
+    #: The density target keys, at most one of which a scene gives.
+    TARGET_KEYS = ("target_phi", "target_void_ratio", "target_relative_density")
+
+    @property
+    def density_target(self) -> tuple[str, float] | None:
+        """The scene's density target as (key, value), or None."""
+        for key in self.TARGET_KEYS:
+            value = getattr(self, key)
+            if value is not None:
+                return key, value
+        return None
+
+    def _check_density_target(self) -> None:
+        s = object.__setattr__
+        given = [k for k in self.TARGET_KEYS if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise InvalidParameterError(
+                f"invalid {given[1]} = {short_repr(getattr(self, given[1]))}: a scene gives at "
+                f"most one density target, and {given[0]} is set too",
+                parameter=given[1],
+                expected="one of target_phi, target_void_ratio, target_relative_density",
+            )
+        if self.target_phi is not None:
+            s(
+                self,
+                "target_phi",
+                as_real("target_phi", self.target_phi, 0, 1, lo_open=True, hi_open=True),
+            )
+        if self.target_void_ratio is not None:
+            s(
+                self,
+                "target_void_ratio",
+                as_real("target_void_ratio", self.target_void_ratio, 0, lo_open=True),
+            )
+        if self.target_relative_density is not None:
+            s(
+                self,
+                "target_relative_density",
+                as_real("target_relative_density", self.target_relative_density, 0, 1),
+            )
+        if self.density_tol is not None:
+            s(self, "density_tol", as_real("density_tol", self.density_tol, 0, 0.1, lo_open=True))
+        if self.density_method not in ("auto", "deposition", "servo"):
+            raise InvalidParameterError(
+                f"invalid density_method = {short_repr(self.density_method)}: must be "
+                "'auto', 'deposition' or 'servo'",
+                parameter="density_method",
+            )
+        if self.density_method == "servo" and given and self.consolidate is None:
+            raise InvalidParameterError(
+                "invalid density_method = 'servo': the servo's friction reduction runs in "
+                "the consolidation stage; give a [consolidate] table, or "
+                "density_method = 'deposition'",
+                parameter="density_method",
+            )
+
     def replace(self, **changes) -> PackScene:
         """A copy with some fields changed (validated again; a change of `seed` and
         `stream` alone checks those two, as they enter no rule that combines keys)."""
@@ -839,6 +922,11 @@ _KEY_TYPES: dict[str, str] = {
     "trim": "bool",
     "consolidate": "consolidate?",
     "rest_tol": "real?",
+    "target_phi": "real?",
+    "target_void_ratio": "real?",
+    "target_relative_density": "real?",
+    "density_tol": "real?",
+    "density_method": "text",
 }
 _OPTIONAL_KINDS = ("real?", "reals?", "consolidate?")
 _UNITS = {
@@ -865,6 +953,7 @@ _TEXT_CHOICES = {
     "radius_law": RADIUS_LAWS,
     "fractions_by": ("number", "mass"),
     "inertia_2d": ("sphere", "disc"),
+    "density_method": ("auto", "deposition", "servo"),
 }
 
 _COMMON = {

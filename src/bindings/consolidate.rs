@@ -158,11 +158,34 @@ fn sim_consolidate<'py>(
     Ok(d)
 }
 
+/// Sets the Coulomb friction coefficient (-) of particles and walls from the next
+/// step on (finite, >= 0).
+#[pyfunction]
+fn sim_set_friction(sim: &mut Simulation, friction: f64) -> PyResult<()> {
+    Ok(with_world!(
+        &mut sim.inner,
+        w,
+        _D,
+        w.set_friction(friction)
+    )?)
+}
+
+/// A copy of the engine's whole state (particles, pair list and tangential history,
+/// walls, clocks): stepping the copy gives the same bits as stepping the original.
+#[pyfunction]
+fn sim_clone(sim: &Simulation) -> Simulation {
+    Simulation {
+        inner: sim.inner.clone(),
+    }
+}
+
 /// Registers this file's functions in `granpack._core`.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sim_add_lid, m)?)?;
     m.add_function(wrap_pyfunction!(sim_walls, m)?)?;
     m.add_function(wrap_pyfunction!(sim_force_balance, m)?)?;
     m.add_function(wrap_pyfunction!(sim_consolidate, m)?)?;
+    m.add_function(wrap_pyfunction!(sim_set_friction, m)?)?;
+    m.add_function(wrap_pyfunction!(sim_clone, m)?)?;
     Ok(())
 }

@@ -336,6 +336,7 @@ where
     })
 }
 
+#[derive(Clone)]
 enum SimInner {
     D2(World<2>),
     D3(World<3>),

@@ -364,6 +364,17 @@ where
         Ok(())
     }
 
+    /// Changes the Coulomb friction coefficient mu (-), particle-particle and
+    /// particle-wall, from the next step on: a density target lowers it under the
+    /// servo and restores it (see `granpack.density`). It must be finite and >= 0.
+    /// Contacts whose tangential spring now lies outside the smaller Coulomb cone slip
+    /// back onto it at the next step, as in any step where the normal force drops.
+    pub fn set_friction(&mut self, mu: Real) -> Result<()> {
+        check_range("friction", mu, 0.0, true, f64::INFINITY, false)?;
+        self.cfg.material.friction = mu;
+        Ok(())
+    }
+
     /// Advances `n` steps (at most [`MAX_STEPS_PER_CALL`]). Stops with an error at the
     /// first sign of blow-up.
     pub fn step_n(&mut self, n: u64) -> Result<()> {
