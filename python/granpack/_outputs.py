@@ -185,6 +185,17 @@ def micro_record(pack, m, k: int) -> dict:
             consolidation_k0=c["k0"],
             consolidation_steps=c["steps"],
         )
+    if pack.density is not None:
+        d = pack.density
+        rec.update(
+            density_target=next(iter(d["target"])),
+            density_target_value=next(iter(d["target"].values())),
+            density_measure=d["measure"],
+            density_phi=d["phi"],
+            density_method=d["method"],
+            density_friction=d["friction"],
+            density_generations=d["generations"],
+        )
     rec.update(jsonable(m.to_dict()))
     return rec
 

@@ -109,6 +109,7 @@ def _at_friction(
     mu_dep: float,
     servo_phi: float | None = None,
     servo_tol: float = DEFAULT_TOL_PHI,
+    progress: bool | Callable[[dict], None] = False,
 ) -> Pack:
     """The scene's pack with every layer jammed at friction `mu_dep`, the material's
     friction restored, settled where needed, and consolidated when the scene asks
@@ -118,7 +119,7 @@ def _at_friction(
     jam = plain
     if mu_dep != mat.friction:
         jam = plain.replace(material=dataclasses.replace(mat, friction=mu_dep))
-    pack = generate(jam)
+    pack = generate(jam, progress)
     pack = dataclasses.replace(pack, scene=plain)
     if mu_dep > mat.friction or scene.rest_tol is not None:
         pack = settle(pack, scene.rest_tol if scene.rest_tol is not None else REST_TOL)
@@ -277,7 +278,8 @@ def generate_at_density(
     progress: bool | Callable[[dict], None] = False,
 ) -> Pack:
     """The scene's pack at its density target (see the module's notes); `generate` calls
-    it for a scene with a target.
+    it for a scene with a target. `progress` is `generate`'s, passed to every pack the
+    search generates.
 
     Raises
     ------
@@ -301,8 +303,17 @@ def generate_at_density(
     def at(mu: float) -> tuple[Pack, float]:
         if mu not in done:
             t = time.perf_counter()
-            pack = _at_friction(scene, mu)
+            pack = _at_friction(scene, mu, progress=progress)
             phi, _ = sample_phi(pack)
+            if not math.isfinite(phi):
+                raise InvalidParameterError(
+                    f"invalid {key} = {value:g}: the pack has no core window to measure "
+                    "phi in (it is lower than twice the analysis' core margin, or "
+                    "narrower); give a taller and wider scene, or a [consolidate] table "
+                    "(phi between the floor and the lid)",
+                    parameter=key,
+                    value=value,
+                )
             done[mu] = (pack, phi)
             history.append(
                 {
@@ -312,7 +323,6 @@ def generate_at_density(
                     "seconds": time.perf_counter() - t,
                 }
             )
-            _report(progress, {"generation": len(history), "friction": mu, "phi": phi})
         return done[mu]
 
     limits = None
@@ -357,7 +367,13 @@ def generate_at_density(
     if method == "servo" and limits is None:
         try:
             t = time.perf_counter()
-            pack = _at_friction(scene, mu0, servo_phi=phi_t, servo_tol=min(hi - phi_t, phi_t - lo))
+            pack = _at_friction(
+                scene,
+                mu0,
+                servo_phi=phi_t,
+                servo_tol=min(hi - phi_t, phi_t - lo),
+                progress=progress,
+            )
             phi, _ = sample_phi(pack)
             history.append(
                 {

@@ -119,6 +119,7 @@ def ensemble_report(
         "(mean ± sample standard deviation).",
         "",
         *_trim_lines(records, scene),
+        *_density_lines(records),
         *_grading_lines(scene, records),
         "| pack | N | layers | H_top (m) | phi | Z | Z_m | unbalanced | seconds | file |",
         "|---|---|---|---|---|---|---|---|---|---|",
@@ -158,6 +159,26 @@ def _trim_lines(records: Sequence[Mapping], scene) -> list[str]:
         f"removed per pack {_mean_sd(_col(records, 'trim_removed'), 1)}, final top "
         f"{_mean_sd(_col(records, 'trim_top'), 4)} m, phi to H_d "
         f"{_mean_sd(_col(records, 'phi_hd'), 4)}.",
+        "",
+    ]
+
+
+def _density_lines(records: Sequence[Mapping]) -> list[str]:
+    """The density target's line of the report (empty for packs made without one)."""
+    if not any("density_phi" in rec for rec in records):
+        return []
+    rec = records[0]
+    where = (
+        "between the floor and the lid"
+        if rec["density_measure"] == "sample"
+        else ("in the core window")
+    )
+    return [
+        f"Density target {rec['density_target']} = {rec['density_target_value']:g}, phi "
+        f"measured {where}: phi {_mean_sd(_col(records, 'density_phi'), 4)}; "
+        f"{rec['density_method']} (deposition friction "
+        f"{_mean_sd(_col(records, 'density_friction'), 3)}), "
+        f"{_mean_sd(_col(records, 'density_generations'), 1)} pack(s) generated per pack.",
         "",
     ]
 

@@ -82,6 +82,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="oedometric",
         help="with --consolidate: the lid alone (K0), or every wall (default: oedometric)",
     )
+    target = g.add_mutually_exclusive_group()
+    target.add_argument(
+        "--target-phi",
+        type=float,
+        default=None,
+        metavar="PHI",
+        help="a density target, the packing fraction (docs/density.md: the sample's with "
+        "--consolidate, the core window's otherwise)",
+    )
+    target.add_argument(
+        "--target-void-ratio", type=float, default=None, metavar="E", help="a target void ratio"
+    )
+    target.add_argument(
+        "--target-relative-density",
+        type=float,
+        default=None,
+        metavar="DR",
+        help="a target relative density, with the model's own e_min and e_max",
+    )
+    g.add_argument(
+        "--density-tol",
+        type=float,
+        default=None,
+        metavar="TOL",
+        help="largest distance from the target, in its own quantity (default: 0.002 in "
+        "phi, and its equivalent)",
+    )
+    g.add_argument(
+        "--density-method",
+        choices=["auto", "deposition", "servo"],
+        default=None,
+        help="how the target is reached (default: the scene's, auto)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _args.add_run_options(g)
@@ -114,6 +147,14 @@ def run(args: argparse.Namespace, console: Console) -> int:
         table = dict(scene.consolidate or {})
         table.update(stress=args.consolidate, mode=args.consolidate_mode)
         changes["consolidate"] = table
+    for key in ("target_phi", "target_void_ratio", "target_relative_density"):
+        if getattr(args, key) is not None:
+            # the option's target replaces the scene's, whichever key that used
+            changes.update({k: None for k in scene.TARGET_KEYS}, **{key: getattr(args, key)})
+    if args.density_tol is not None:
+        changes["density_tol"] = args.density_tol
+    if args.density_method is not None:
+        changes["density_method"] = args.density_method
     if changes:
         scene = scene.replace(**changes)
     dev = dev_changes(scene, args.settle_time, args.scale)
