@@ -205,7 +205,7 @@ def _row(target, d, method, pack, m, phi, secs, t_plain, limits) -> dict:
         "void_ratio": e,
         "relative_density": dr,
         "z": m.z,
-        "a_r": m.a_r,
+        "a_r": m.a_r_mag,
         "k0": pack.consolidation["k0"],
         "generations": d["generations"] if d else 1,
         "friction": d["friction"] if d else pack.scene.material.friction,
