@@ -273,3 +273,49 @@ fn the_seam_changes_nothing() {
     assert!(saw_force, "the pair never carried a tangential force");
     assert!(wrapped, "the second sphere never crossed the seam");
 }
+
+/// A sphere sliding on the floor keeps its speed without friction; once the friction
+/// is set to mu it slows at mu g (Coulomb sliding, before it rolls), and a copy of the
+/// world steps on to the same bits as the original. A negative or NaN friction is
+/// refused by name.
+#[test]
+fn friction_set_between_steps_slows_a_sliding_sphere_at_mu_g() {
+    let r = 0.02;
+    let mut cfg = SimConfig::<3>::paper();
+    cfg.walls = Some((
+        Vector::<3>::zeros(),
+        Vector::<3>::new(10.0, 10.0, f64::INFINITY),
+    ));
+    cfg.container = Container::Box;
+    cfg.gravity = Vector::<3>::new(0.0, 0.0, -9.81);
+    cfg.material.friction = 0.0;
+    cfg.drag = 0.0;
+    cfg.dt = 1e-5;
+    let mut w = World::new(cfg).unwrap();
+    // resting on the floor at its static overlap after a short settle
+    w.add_particles(&[Vector::<3>::new(1.0, 5.0, r)], &[r], None, None)
+        .unwrap();
+    w.step_n(20_000).unwrap();
+    w.set_velocities(&[Vector::<3>::new(1.0, 0.0, w.velocities()[0][2])])
+        .unwrap();
+    w.step_n(2000).unwrap();
+    assert!(
+        (w.velocities()[0][0] - 1.0).abs() < 1e-12,
+        "{}",
+        w.velocities()[0][0]
+    );
+    let mu = 0.4;
+    w.set_friction(mu).unwrap();
+    let mut copy = w.clone();
+    let t = 0.02; // sliding lasts 2 v / (7 mu g) = 0.036 s
+    w.step_n((t / 1e-5) as u64).unwrap();
+    let dv = 1.0 - w.velocities()[0][0];
+    assert!((dv / (mu * 9.81 * t) - 1.0).abs() < 0.02, "{dv}");
+    copy.step_n((t / 1e-5) as u64).unwrap();
+    assert_eq!(copy.positions()[0], w.positions()[0]);
+    assert_eq!(copy.spins()[0], w.spins()[0]);
+    for bad in [-0.1, Real::NAN, Real::INFINITY] {
+        let err = w.set_friction(bad).unwrap_err();
+        assert!(err.to_string().contains("friction"), "{err}");
+    }
+}
