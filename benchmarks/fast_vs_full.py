@@ -22,6 +22,11 @@ error.
 
     python benchmarks/fast_vs_full.py --presets 4.1 --packs 10 --out bench-out
     python benchmarks/fast_vs_full.py --presets 4.3 --variants full freeze fast
+    python benchmarks/fast_vs_full.py --presets 4.1 4.2 --packs 20 --variants full fast \
+        --inertia-2d sphere
+
+`--inertia-2d` sets the 2D mass convention of every variant (the presets' default is
+disc mass; the manifest records which one ran).
 
 Every pack's values go to `fast_vs_full_packs.csv` as well, with Z in each fifth of the
 pack height (z_fifth_1 at the bottom): it shows where a variant changes the contacts.
@@ -154,6 +159,13 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--dt-fraction", type=float, default=0.9)
+    ap.add_argument(
+        "--inertia-2d",
+        choices=["sphere", "disc"],
+        default=None,
+        help="2D mass convention of every variant, full fidelity included (default: the "
+        "presets' own); ignored by the 3D presets",
+    )
     ap.add_argument("--out", type=Path, default=Path("bench-fast-vs-full"))
     ap.add_argument("--replot", action="store_true", help="only redraw the plot from --out's CSV")
     ap.add_argument(
@@ -182,10 +194,16 @@ def main(argv: list[str] | None = None) -> None:
         pl.read_csv(a.reference, schema_overrides={"preset": pl.String}) if a.reference else None
     )
     a.out.mkdir(parents=True, exist_ok=True)
-    write_manifest(a.out, seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"})
+    write_manifest(
+        a.out,
+        seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"},
+        extra={"inertia_2d": a.inertia_2d or gp.PackScene.preset("4.1").inertia_2d},
+    )
     wanted = ["full"] + [v for v in a.variants if v != "full"]
     for name in a.presets:
         base = gp.PackScene.preset(name)
+        if a.inertia_2d is not None and base.dim == 2:
+            base = base.replace(inertia_2d=a.inertia_2d)
         results = {}
         all_variants = variants(base, a.dt_fraction, changes)
         for label in wanted:

@@ -45,7 +45,7 @@ def run_impact(sim: gp.Simulation, overlap, max_steps: int = 400_000, chunk: int
 @pytest.mark.parametrize("dim", [2, 3])
 def test_hertz_head_on_two_spheres(dim):
     mat = gp.Material(damping=0.0, friction=0.0)
-    sim = gp.Simulation(dim=dim, material=mat, dt=1e-6, gravity=[0.0] * dim)
+    sim = gp.Simulation(dim=dim, material=mat, dt=1e-6, gravity=[0.0] * dim, inertia_2d="sphere")
     r, v = 0.01, 1.0
     x = np.zeros((2, dim))
     x[1, 0] = 2 * r + 1e-9
@@ -70,7 +70,9 @@ def test_hertz_head_on_two_spheres(dim):
 def test_hertz_sphere_on_floor(dim):
     mat = gp.Material(damping=0.0, friction=0.0)
     box = ((0.0,) * dim, (1.0,) * (dim - 1) + (math.inf,))
-    sim = gp.Simulation(dim=dim, material=mat, dt=1e-6, gravity=[0.0] * dim, box=box)
+    sim = gp.Simulation(
+        dim=dim, material=mat, dt=1e-6, gravity=[0.0] * dim, box=box, inertia_2d="sphere"
+    )
     r, v = 0.01, 0.7
     x = np.full((1, dim), 0.5)
     x[0, -1] = r + 1e-9
@@ -89,7 +91,9 @@ def test_hertz_sphere_on_floor(dim):
 
 def floor_rebound(dim: int, mat: gp.Material, v: float, vt: float = 0.0, dt: float = 1e-6):
     box = ((0.0,) * dim, (1.0,) * (dim - 1) + (math.inf,))
-    sim = gp.Simulation(dim=dim, material=mat, dt=dt, gravity=[0.0] * dim, box=box)
+    sim = gp.Simulation(
+        dim=dim, material=mat, dt=dt, gravity=[0.0] * dim, box=box, inertia_2d="sphere"
+    )
     r = 0.01
     x = np.full((1, dim), 0.5)
     x[0, -1] = r + 1e-9
@@ -117,7 +121,7 @@ def test_oblique_impact_in_the_sliding_regime(dim):
     """Rigid-body impulse result (e.g. Maw et al. 1976; Chung & Ooi 2011): when the
     contact slides throughout, the tangential impulse is mu times the normal impulse:
     v_t' = v_t - mu (1 + e) v_n and |w'| = mu (1 + e) v_n r m / I = 5/2 mu (1 + e) v_n / r
-    (sphere inertia, also the 2D default)."""
+    (sphere inertia: the 2D run has sphere mass, inertia_2d="sphere")."""
     mu, r, vn, vt = 0.3, 0.01, 0.5, 1.5  # vt / vn = 3 > 7/2 mu (1 + e) = 2.1
     mat = gp.Material(damping=0.0, friction=mu)
     sim = floor_rebound(dim, mat, vn, vt)
@@ -149,7 +153,7 @@ def test_incline_rolls_or_slides(dim, mu):
     box = ((-1.0,) + (0.0,) * (dim - 1), (10.0,) * (dim - 1) + (math.inf,))
     if dim == 3:
         box = ((-1.0, -1.0, 0.0), (10.0, 1.0, math.inf))
-    sim = gp.Simulation(dim=dim, material=mat, dt=1e-5, gravity=grav, box=box)
+    sim = gp.Simulation(dim=dim, material=mat, dt=1e-5, gravity=grav, box=box, inertia_2d="sphere")
     m = sphere_mass(r)
     e_star = mat.young / (2 * (1 - mat.poisson**2))
     d0 = (m * g * math.cos(theta) / (4 / 3 * e_star * math.sqrt(r))) ** (2 / 3)
@@ -184,7 +188,7 @@ def test_column_settles_and_stays(dim):
     r, n = 0.01, 12
     width = 2.3 * r
     box = ((0.0,) * dim, (width,) * (dim - 1) + (math.inf,))
-    sim = gp.Simulation(dim=dim, dt=1e-4, drag=0.005, box=box)
+    sim = gp.Simulation(dim=dim, dt=1e-4, drag=0.005, box=box, inertia_2d="sphere")
     rng = np.random.default_rng(1)
     x = np.empty((n, dim))
     x[:, :-1] = width / 2 + rng.uniform(-0.1 * r, 0.1 * r, size=(n, dim - 1))

@@ -18,7 +18,8 @@ meshio = pytest.importorskip("meshio")
 
 @pytest.fixture(scope="module", params=[2, 3], ids=["2d", "3d"])
 def pack(request) -> gp.Pack:
-    p = gp.generate(small_scene(request.param))
+    # sphere mass in 2D: the LAMMPS density column is then the material's
+    p = gp.generate(small_scene(request.param, inertia_2d="sphere"))
     # The checks below need both kinds of contacts to mean anything.
     assert (p.contacts.j >= 0).sum() > 5 and (p.contacts.j < 0).sum() > 2
     return p

@@ -13,9 +13,10 @@ import granpack as gp
 
 @pytest.fixture
 def deep_scene() -> gp.PackScene:
-    """Enough thin layers that the bottom ones lie deeper than the freezing depth."""
+    """Enough thin layers that the bottom ones lie deeper than the freezing depth (sphere
+    mass: its bounds on overlaps and wall penetration are at that scale)."""
     return gp.PackScene.preset("4.1").replace(
-        base=(0.3,), height=0.2, h_layer=0.04, settle_time=0.6, seed=11
+        base=(0.3,), height=0.2, h_layer=0.04, settle_time=0.6, seed=11, inertia_2d="sphere"
     )
 
 

@@ -46,7 +46,8 @@ CASES = [(3, "box"), (3, "periodic"), (3, "cylinder"), (2, "box"), (2, "periodic
 @pytest.fixture(scope="module", params=CASES, ids=[f"{d}d-{c}" for d, c in CASES])
 def pack(request) -> gp.Pack:
     dim, container = request.param
-    return gp.generate(small_scene(dim, container=container).fast())
+    # sphere mass in 2D (LoadSphereType's templates); disc_pack has the disc convention
+    return gp.generate(small_scene(dim, container=container, inertia_2d="sphere").fast())
 
 
 @pytest.fixture(scope="module")

@@ -55,8 +55,8 @@ def pack(request):
 
 
 def masses(pack: gp.Pack) -> np.ndarray:
-    """The engine's masses: a sphere's 4/3 pi r^3 rho in 3D and, by default, in 2D (a disc of
-    unit thickness, pi r^2 rho, with inertia_2d = "disc")."""
+    """The engine's masses: a sphere's 4/3 pi r^3 rho in 3D and in 2D with inertia_2d =
+    "sphere"; a disc of unit thickness, pi r^2 rho, in 2D by default (inertia_2d = "disc")."""
     rho = pack.scene.material.density
     r = pack.radii
     if pack.dim == 2 and pack.scene.inertia_2d == "disc":

@@ -237,8 +237,9 @@ def test_a_pack_that_has_not_settled_warns():
 
 
 def test_strong_drag_lengthens_the_fall_time():
-    # terminal speed m g / c_D = 0.084 m/s for r = 0.01 m: 1.2 s through a 0.1 m slab
-    scene = gp.PackScene(drag=0.1)
+    # terminal speed m g / c_D = 0.084 m/s for r = 0.01 m (sphere mass): 1.2 s through a
+    # 0.1 m slab
+    scene = gp.PackScene(drag=0.1, inertia_2d="sphere")
     assert fall_time(scene) == pytest.approx(0.1 / (4 / 3 * np.pi * 1e-6 * 1000 * 2 / 0.1))
     # the scene alone decides: its packs are not looked at
     assert "drag = 0.1 N s/m" in settling_issue(SimpleNamespace(scene=scene))

@@ -79,7 +79,15 @@ def random_scene(dim, ratio, mu, xi, young, frac, seed, rotations=True, n=12):
     gravity[-1] = -g
     box = ((0.0,) * dim, (width,) * (dim - 1) + (math.inf,))
     dt = frac * mat.critical_time_step(R_MIN)
-    sim = gp.Simulation(dim=dim, material=mat, dt=dt, gravity=gravity, box=box, rotations=rotations)
+    sim = gp.Simulation(
+        dim=dim,
+        material=mat,
+        dt=dt,
+        gravity=gravity,
+        box=box,
+        rotations=rotations,
+        inertia_2d="sphere",
+    )
     sim.add_particles(x, r, velocities=vel)
     n_steps = min(20_000, int(3 * math.sqrt(2 * h / g) / dt))
     return sim, width, g, v_lim, n_steps

@@ -26,9 +26,10 @@ from granpack.pack import (
 sys.path.insert(0, str(Path(__file__).parent))
 from scenes import small_scene  # noqa: E402
 
-#: A small 2D pack that comes to rest (kinetic energy near 1e-8 m g r at the end).
+#: A small 2D pack that comes to rest (kinetic energy near 1e-8 m g r at the end), with
+#: sphere mass.
 SETTLED = gp.PackScene.preset("4.1").replace(
-    base=(0.3,), height=0.12, h_layer=0.04, settle_time=1.0, seed=5
+    base=(0.3,), height=0.12, h_layer=0.04, settle_time=1.0, seed=5, inertia_2d="sphere"
 )
 
 

@@ -217,7 +217,7 @@ class Simulation:
         walls: Box | None,
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
-        inertia_2d: Inertia2D = "sphere",
+        inertia_2d: Inertia2D = "disc",
         container: ContainerName = "box",
         cylinder_radius: float | None = None,
     ) -> Self: ...

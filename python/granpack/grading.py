@@ -94,9 +94,9 @@ class Grading:
         return cls(**out)
 
 
-def mass_exponent(dim: int, inertia_2d: str = "sphere") -> int:
+def mass_exponent(dim: int, inertia_2d: str = "disc") -> int:
     """The power p of the radius a particle's mass grows with: 3, or 2 for 2D discs of
-    unit thickness (inertia_2d = "disc")."""
+    unit thickness (inertia_2d = "disc", the default; "sphere" gives 3 in 2D too)."""
     if dim not in (2, 3):
         raise InvalidParameterError(
             f"invalid dim = {short_repr(dim)}: must be 2 or 3", parameter="dim"
@@ -127,7 +127,7 @@ def _radii_and_exponent(
             f"finite too (0 < r <= {np.finfo(np.float64).max / 2:.4g} m)",
             parameter="radii",
         )
-    return r, mass_exponent(3 if dim is None else dim, inertia_2d or "sphere")
+    return r, mass_exponent(3 if dim is None else dim, inertia_2d or "disc")
 
 
 def _quantiles(d: np.ndarray, w: np.ndarray) -> list[float]:
@@ -155,7 +155,7 @@ def realised_grading(
         2 or 3; default the pack's, or 3 for bare radii.
     inertia_2d : {"sphere", "disc"}, optional
         2D mass model (sets what "mass" weighs, see the module); default the pack's
-        scene's, or "sphere".
+        scene's, or "disc" (the engine's default).
     """
     r, p = _radii_and_exponent(pack_or_radii, dim, inertia_2d)
     d = 2.0 * r

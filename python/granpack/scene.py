@@ -202,7 +202,9 @@ class PackScene:
     stream : int
         Random stream of this pack within an ensemble of the same seed (>= 0). Default 0.
     inertia_2d : {"sphere", "disc"}
-        2D mass model (default "sphere": m = 4/3 pi r^3 rho, I = 2/5 m r^2).
+        2D mass model. Default "disc": a disc of unit thickness, m = pi r^2 rho per
+        metre, I = m r^2 / 2 (LAMMPS ``density/disc``, PFC2D); "sphere": a sphere
+        confined to the plane, m = 4/3 pi r^3 rho, I = 2/5 m r^2.
     skin_ratio : float
         Verlet skin over the smallest radius. Default 0.2.
     max_overlap_ratio : float
@@ -294,7 +296,7 @@ class PackScene:
     rotations: bool = True
     seed: int = 0
     stream: int = 0
-    inertia_2d: Literal["sphere", "disc"] = "sphere"
+    inertia_2d: Literal["sphere", "disc"] = "disc"
     skin_ratio: float = 0.2
     max_overlap_ratio: float = 0.5
     max_attempts: int = 1_000_000

@@ -97,7 +97,8 @@ class Simulation:
         Overlap, as a fraction of the smaller radius, at which a run stops as
         unstable. Default 0.5.
     inertia_2d : {"sphere", "disc"}
-        2D mass model: a sphere confined to the plane (default) or a unit-thickness disc.
+        2D mass model: a unit-thickness disc (default, m = pi r^2 rho per metre) or a
+        sphere confined to the plane (m = 4/3 pi r^3 rho).
     container : str
         One of `granpack.scene.CONTAINERS`: what bounds the particles laterally inside `box` (needed
         for the other two): side walls (default), periodic horizontal axes with periods hi - lo, or
@@ -124,7 +125,7 @@ class Simulation:
         *,
         skin_ratio: float = 0.2,
         max_overlap_ratio: float = 0.5,
-        inertia_2d: str = "sphere",
+        inertia_2d: str = "disc",
         container: str = "box",
         cylinder_radius: float | None = None,
     ) -> None:

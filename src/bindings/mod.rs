@@ -377,7 +377,7 @@ struct Simulation {
 impl Simulation {
     #[new]
     #[pyo3(signature = (dim, material, dt, gravity, drag, rotations, walls, skin_ratio=0.2,
-                        max_overlap_ratio=0.5, inertia_2d="sphere", container="box",
+                        max_overlap_ratio=0.5, inertia_2d="disc", container="box",
                         cylinder_radius=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(

@@ -274,6 +274,6 @@ def microstructure(
     values.update(_beyond_the_paper(prep, values, n_slices, has_forces))
     scene = getattr(pack, "scene", None)
     values["grading"] = realised_grading(
-        r, d, inertia_2d=getattr(scene, "inertia_2d", None) or "sphere"
+        r, d, inertia_2d=getattr(scene, "inertia_2d", None) or "disc"
     )
     return Microstructure(**values)

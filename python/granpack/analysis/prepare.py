@@ -306,7 +306,7 @@ def _body_forces(pack, r: np.ndarray, d: int) -> np.ndarray | None:
         return None
     record = getattr(pack, "consolidation", None)
     g = 0.0 if record is not None and not record.get("gravity", True) else float(scene.gravity)
-    disc = d == 2 and getattr(scene, "inertia_2d", "sphere") == "disc"
+    disc = d == 2 and getattr(scene, "inertia_2d", "disc") == "disc"
     vol = np.pi * r * r if disc else 4.0 / 3.0 * np.pi * r**3
     body = np.zeros((r.shape[0], d))
     body[:, -1] = -scene.material.density * vol * g

@@ -243,7 +243,7 @@ class Microstructure:
     correlate by 0.7 or more (see granpack.analysis.BondOrder)."""
     grading: Grading
     """The realised grading of the particles (D10 ... D90, Cu, Cc by mass and by number;
-    docs/grading.md), mass weighed by the pack's inertia_2d in 2D ("sphere" for bare
+    docs/grading.md), mass weighed by the pack's inertia_2d in 2D ("disc" for bare
     positions and radii)."""
 
     def __post_init__(self) -> None:

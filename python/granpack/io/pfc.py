@@ -18,7 +18,8 @@ velocity and spin follow in a ``ball attribute ... range id i`` line::
 
 In 2D (PFC2D) the extent has four numbers and the conditions two, positions and
 velocities are ``(x,y)`` and the spin is a number (about z). PFC2D's balls are discs of
-unit thickness (m = rho pi r^2); for granpack's default 2D mass (``inertia_2d="sphere"``,
+unit thickness (m = rho pi r^2), as granpack's default 2D mass (``inertia_2d="disc"``):
+their density is the material's. For sphere mass (``inertia_2d="sphere"``,
 m = 4/3 pi r^3 rho) each ball gets the density 4/3 r rho, which gives the same mass (the
 moment of inertia is then PFC2D's disc's, m r^2 / 2, not the sphere's 2/5 m r^2).
 

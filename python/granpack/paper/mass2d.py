@@ -1,8 +1,8 @@
 """The two 2D mass conventions side by side, for ``granpack paper``.
 
-A 2D particle has the mass of a sphere of its radius (``inertia_2d="sphere"``, the
-presets' default) or of a disc of unit thickness (``"disc"``, the convention of LAMMPS
-``density/disc`` and PFC2D). The paper does not say which it used, and the choice moves
+A 2D particle has the mass of a disc of unit thickness (``inertia_2d="disc"``, the
+presets' default and the convention of LAMMPS ``density/disc`` and PFC2D) or of a sphere
+of its radius (``"sphere"``). The paper does not say which it used, and the choice moves
 phi by up to 0.05 (docs/physics.md). So ``granpack paper`` also runs every 2D case under
 the other convention, which costs little beside the 3D cases, and reports both beside the
 paper's phi and LAMMPS' (``data/lammps_2d.csv``, disc mass, one pack per case).
