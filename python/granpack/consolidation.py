@@ -470,17 +470,19 @@ def consolidate(
     start = time.perf_counter()
 
     def run() -> dict:
-        out = _core.sim_consolidate(
-            sim._sim,
-            [(index[n], targets[n]) for n in order],
-            stress_tol=s["stress_tol"],
-            unbalanced_tol=s["unbalanced_tol"],
-            hold=s["hold"],
-            check_every=s["check_every"],
-            max_steps=s["max_steps"],
-            max_wall_speed=max_wall_speed,
-            gain=s["gain"],
-            local_damping=s["local_damping"],
+        out: dict = dict(
+            _core.sim_consolidate(
+                sim._sim,
+                [(index[n], targets[n]) for n in order],
+                stress_tol=s["stress_tol"],
+                unbalanced_tol=s["unbalanced_tol"],
+                hold=s["hold"],
+                check_every=s["check_every"],
+                max_steps=s["max_steps"],
+                max_wall_speed=max_wall_speed,
+                gain=s["gain"],
+                local_damping=s["local_damping"],
+            )
         )
         _check_converged(out, order, s)
         return out
@@ -511,6 +513,7 @@ def consolidate(
         },
     )
     if density is not None:
+        assert record.consolidation is not None
         record.consolidation["density"] = density
     return record
 

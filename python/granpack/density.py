@@ -381,7 +381,7 @@ def generate_at_density(
                     "phi": phi,
                     "method": "servo",
                     "seconds": time.perf_counter() - t,
-                    "phases": pack.consolidation["density"]["phases"],
+                    "phases": (pack.consolidation or {})["density"]["phases"],
                 }
             )
             return finish(pack, phi, "servo", mu0)
