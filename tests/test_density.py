@@ -339,3 +339,18 @@ def test_the_command_line_passes_the_target(tmp_path, window2):
     assert "Density target target_phi" in (out / "report.md").read_text()
     with pytest.raises(SystemExit):
         main(["generate", str(toml), "--target-phi", "0.8", "--target-void-ratio", "0.2"])
+
+
+def test_the_limits_command(tmp_path, window2, capsys):
+    from granpack.cli import main
+
+    toml = tmp_path / "b2.toml"
+    toml.write_text(B2.to_toml())
+    out = tmp_path / "limits.json"
+    assert main(["limits", str(toml), "--packs", "1", "--json", str(out)]) == 0
+    import json
+
+    body = json.loads(out.read_text())
+    # the same packs as void_ratio_limits' on the same scene, bit for bit
+    assert body["e_min"] == window2.e_min and body["e_max"] == window2.e_max
+    assert "e_min" in capsys.readouterr().out

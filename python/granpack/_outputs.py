@@ -196,6 +196,12 @@ def micro_record(pack, m, k: int) -> dict:
             density_friction=d["friction"],
             density_generations=d["generations"],
         )
+        if "e_min" in d:
+            rec.update(
+                density_e_min=d["e_min"],
+                density_e_max=d["e_max"],
+                density_relative_density=d["relative_density"],
+            )
     rec.update(jsonable(m.to_dict()))
     return rec
 

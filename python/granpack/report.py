@@ -180,6 +180,17 @@ def _density_lines(records: Sequence[Mapping]) -> list[str]:
         f"{_mean_sd(_col(records, 'density_friction'), 3)}), "
         f"{_mean_sd(_col(records, 'density_generations'), 1)} pack(s) generated per pack.",
         "",
+        *(
+            [
+                f"The model's e_min {_mean_sd(_col(records, 'density_e_min'), 4)} and e_max "
+                f"{_mean_sd(_col(records, 'density_e_max'), 4)} (each pack's own seed and "
+                f"stream); relative density Dr "
+                f"{_mean_sd(_col(records, 'density_relative_density'), 3)}.",
+                "",
+            ]
+            if "density_e_min" in rec
+            else []
+        ),
     ]
 
 

@@ -60,6 +60,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="output pack file (default: <PACK stem>_consolidated.npz beside PACK)",
     )
+    p.add_argument(
+        "--target-phi",
+        type=float,
+        default=None,
+        metavar="PHI",
+        help="a density target, phi between the floor and the lid: the friction is lowered "
+        "under the servo until it is reached, then restored (docs/density.md)",
+    )
+    p.add_argument("--density-tol", type=float, default=0.002, help="default: 0.002")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -86,6 +95,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
         unbalanced_tol=args.unbalanced_tol,
         max_steps=args.max_steps,
         max_wall_speed=args.max_wall_speed,
+        target_phi=args.target_phi,
+        density_tol=args.density_tol,
     )
     path = done.save(out)  # atomic: a temporary file, then a rename
     r = done.consolidation

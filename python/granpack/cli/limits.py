@@ -1,0 +1,67 @@
+"""``granpack limits``: the model's own e_min and e_max for a scene."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from .._validate import check_outputs
+from ._console import Console
+
+HELP = "e_min and e_max of the model for a scene, over packs"
+DESCRIPTION = (
+    "Generates --packs packs of the scene with every layer jammed frictionless (e_min) and "
+    "--packs jammed at the loosest deposition friction (e_max), each brought back to the "
+    "material's friction, settled and, when the scene consolidates, consolidated, and "
+    "prints the mean void ratio of each end with its standard deviation "
+    "(granpack.void_ratio_limits; docs/density.md)."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    p = parser
+    p.add_argument("scene", metavar="SCENE", help="preset name (4.1, 4.2, 4.3, 4.4) or TOML file")
+    p.add_argument("--packs", type=int, default=5, help="packs per end (default 5)")
+    p.add_argument("--fast", action="store_true", help="the fast settings (PackScene.fast())")
+    p.add_argument("--json", type=Path, default=None, help="also write the limits to this file")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    from ..density import void_ratio_limits
+    from ..pack import atomic_write
+    from .generate import _scene_from_arg
+
+    scene, name = _scene_from_arg(args.scene)
+    if args.fast:
+        scene = scene.fast()
+    if args.json is not None:
+        check_outputs([args.json], [], parameter="--json")
+    lim = void_ratio_limits(
+        scene,
+        packs=args.packs,
+        progress=lambda row: console.say(
+            f"  {row['end']} stream {row['stream']}: phi {row['phi']:.4f}, "
+            f"e {row['void_ratio']:.4f} ({row['seconds']:.1f} s)"
+        ),
+    )
+    console.say(
+        f"{name}: e_min {lim.e_min:.4f} ± {lim.e_min_sd:.4f}, e_max {lim.e_max:.4f} ± "
+        f"{lim.e_max_sd:.4f} ({lim.measure} phi {lim.phi_max:.4f} to {lim.phi_min:.4f}; "
+        f"{lim.packs} pack(s) per end)"
+    )
+    if args.json is not None:
+        body = {
+            "scene": name,
+            "e_min": lim.e_min,
+            "e_min_sd": lim.e_min_sd,
+            "e_max": lim.e_max,
+            "e_max_sd": lim.e_max_sd,
+            "e_min_values": list(lim.e_min_values),
+            "e_max_values": list(lim.e_max_values),
+            "measure": lim.measure,
+            "packs": lim.packs,
+        }
+        atomic_write(args.json, json.dumps(body, indent=1).encode())
+    return 0
