@@ -140,8 +140,11 @@ def _fields(scene: gp.PackScene) -> dict:
 
 
 #: Scene keys the engine reads by attribute (LayerPacker, validate_scene); the Python
-#: layer runs the trim, the settling at rest and the consolidation stage.
-ENGINE_KEYS = [k for k in KEYS if k not in ("trim", "rest_tol", "consolidate")]
+#: layer runs the trim, the settling at rest, the consolidation stage and the density
+#: target's search.
+PYTHON_KEYS = ("trim", "rest_tol", "consolidate", "target_phi", "target_void_ratio")
+PYTHON_KEYS += ("target_relative_density", "density_tol", "density_method")
+ENGINE_KEYS = [k for k in KEYS if k not in PYTHON_KEYS]
 
 
 @pytest.mark.parametrize("key", ENGINE_KEYS)
