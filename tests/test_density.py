@@ -247,13 +247,15 @@ _DETERMINISM = textwrap.dedent(
     h = hashlib.sha256()
     p = gp.generate(sc.replace(target_relative_density=0.5))
     h.update(np.ascontiguousarray(p.positions).tobytes())
-    h.update(repr(p.density["history"]).encode())
+    # the search's packs, without their wall-clock seconds
+    h.update(repr([(g["friction"], g["phi"]) for g in p.density["history"]]).encode())
     deposit = gp.generate(sc)
     phi0 = gp.consolidate(deposit, 1e3).consolidation["phi"]
     try:
         s = gp.consolidate(deposit, 1e3, target_phi=round(phi0 + 0.006, 4))
         h.update(np.ascontiguousarray(s.positions).tobytes())
         h.update(repr(s.consolidation["density"]).encode())
+        h.update(repr(s.consolidation["phi"]).encode())
     except gp.DensityTargetError as e:  # a step of phi beyond the tolerance: same bits
         h.update(str(e).encode())
     print(h.hexdigest())
