@@ -710,6 +710,15 @@ def generate(
         each layer's report dict (layer, added, total, phi_rsa, height, steps,
         kinetic_energy, wall_seconds).
 
+    A scene with a density target (``target_phi``, ``target_void_ratio`` or
+    ``target_relative_density``) is built by `granpack.density.generate_at_density`,
+    which may generate several packs of the scene (docs/density.md).
+
+    Raises
+    ------
+    DensityTargetError
+        The scene's density target lies outside the window it reaches.
+
     Warns
     -----
     UnsettledPackWarning
