@@ -16,6 +16,7 @@ Three studies, each writing CSV rows, a summary and a manifest into its folder:
     python benchmarks/density_targets.py friction [--containers box periodic]
     python benchmarks/density_targets.py targets --container box
     python benchmarks/density_targets.py limits [--packs 5]
+    python benchmarks/density_targets.py figure     # the friction figure, from runs.csv
 """
 
 from __future__ import annotations
@@ -108,28 +109,50 @@ def _figure(rows: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
-    for cont, mark in (("box", "o"), ("periodic", "s")):
-        pts = [r for r in rows if r["container"] == cont]
+    for cont, mark, colour in (("box", "o", "C0"), ("periodic", "s", "C1")):
+        pts = sorted((r for r in rows if r["container"] == cont), key=lambda r: r["mu_dep"])
         if not pts:
             continue
-        x = [r["mu_dep"] for r in pts]
-        ax.plot(x, [r["phi_core"] for r in pts], mark + "-", label=f"{cont}, settled at mu")
+        # the search's variable, ln(mu_dep + 0.1), in which phi is nearly linear
+        x = [float(r["mu_dep"]) + 0.1 for r in pts]
         ax.plot(
             x,
-            [r["phi_core_jammed"] for r in pts],
-            mark + ":",
-            alpha=0.5,
-            label=f"{cont}, as jammed",
+            [float(r["phi_core"]) for r in pts],
+            mark + "-",
+            color=colour,
+            label=f"{cont}: settled at the material's mu",
         )
-    ax.axvline(0.2, color="grey", lw=0.8)
-    ax.text(0.21, ax.get_ylim()[1] - 0.003, "material's mu", fontsize=8, va="top")
-    ax.set_xscale("symlog", linthresh=0.05)
-    ax.set_xlabel("deposition friction mu_dep")
+        ax.plot(
+            x,
+            [float(r["phi_core_jammed"]) for r in pts],
+            mark,
+            color=colour,
+            alpha=0.4,
+            mfc="none",
+            label=f"{cont}: as jammed at mu_dep",
+        )
+    ax.axvline(0.3, color="grey", lw=0.8)
+    ax.text(0.31, 0.637, "material's mu = 0.2", fontsize=8)
+    ax.set_xscale("log")
+    ticks = [0.0, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0, 2.0]
+    ax.set_xticks([t + 0.1 for t in ticks], [f"{t:g}" for t in ticks])
+    ax.minorticks_off()
+    ax.set_xlabel("deposition friction mu_dep (axis: ln(mu_dep + 0.1))")
     ax.set_ylabel("core phi")
     ax.set_title("Example 4.3 (seed 1, fast): phi against mu_dep")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+
+
+def figure(args) -> None:
+    """Draws the friction study's figure again from its runs.csv."""
+    out = args.out or RESULTS / "density_friction_4.3"
+    with open(out / "runs.csv") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        r["mu_dep"] = float(r["mu_dep"])
+    _figure(rows, out / "phi_vs_friction.png")
 
 
 def targets(args) -> None:
@@ -257,11 +280,13 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--container", default="box", choices=["box", "periodic"])
     lim = sub.add_parser("limits")
     lim.add_argument("--packs", type=int, default=5)
-    for p in (f, t, lim):
+    fig = sub.add_parser("figure")
+    for p in (f, t, lim, fig):
         p.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore", gp.UnsettledPackWarning)
-    {"friction": friction, "targets": targets, "limits": limits}[args.study](args)
+    studies = {"friction": friction, "targets": targets, "limits": limits, "figure": figure}
+    studies[args.study](args)
     return 0
 
 
