@@ -10,12 +10,13 @@ Three studies, each writing CSV rows, a summary and a manifest into its folder:
 - ``targets``: example 4.3 (seed 1, ``fast()``), consolidated oedometrically to 100 kPa,
   at targets phi = 0.57, 0.60, 0.63 and Dr = 0.3, 0.7: realised phi, e, Dr, Z, |a^r|,
   K0, the packs generated, and the time against one plain generation of the same scene.
-- ``limits``: e_min and e_max over 5 packs for 4.3, 4.4 and the sieve-curve example
-  (examples/sieve_curve.py), deposits in the box.
+- ``limits``: e_min and e_max over 5 packs for 4.3, 4.4, a 30-60 mm sieve curve and
+  (``--scenes sieve_example``) the sieve-curve example's grading
+  (examples/sieve_curve.py), deposits in example 4.3's box.
 
     python benchmarks/density_targets.py friction [--containers box periodic]
     python benchmarks/density_targets.py targets --container box
-    python benchmarks/density_targets.py limits [--packs 5]
+    python benchmarks/density_targets.py limits [--packs 5] [--scenes sieve_example]
     python benchmarks/density_targets.py figure     # the friction figure, from runs.csv
 """
 
@@ -49,11 +50,29 @@ STRESS = 1e5
 
 
 def _sieve_scene() -> gp.PackScene:
-    """The sieve-curve example's scene (examples/sieve_curve.py)."""
+    """A sieve curve of 30 to 60 mm in example 4.3's box."""
     sieves = (0.03, 0.04, 0.05, 0.06)
     return gp.PackScene.preset("4.3").replace(
         radius_law="sieve", sieve_sizes=sieves, sieve_passing=(0.0, 0.3, 0.7, 1.0)
     )
+
+
+def _sieve_example_scene() -> gp.PackScene:
+    """The sieve-curve example's grading (examples/sieve_curve.py: 20 to 80 mm) in
+    example 4.3's box, wide and tall enough for a core window."""
+    return gp.PackScene.preset("4.3").replace(
+        radius_law="sieve",
+        sieve_sizes=(0.02, 0.03, 0.05, 0.08),
+        sieve_passing=(0.0, 0.3, 0.7, 1.0),
+    )
+
+
+SCENES = {
+    "4.3": lambda: gp.PackScene.preset("4.3"),
+    "4.4": lambda: gp.PackScene.preset("4.4"),
+    "sieve": _sieve_scene,
+    "sieve_example": _sieve_example_scene,
+}
 
 
 def _write(out: Path, rows: list[dict], name: str = "runs.csv") -> None:
@@ -242,11 +261,8 @@ def _row(target, d, method, pack, m, phi, secs, t_plain, limits) -> dict:
 
 def limits(args) -> None:
     rows = []
-    for name, scene in (
-        ("4.3", gp.PackScene.preset("4.3")),
-        ("4.4", gp.PackScene.preset("4.4")),
-        ("sieve", _sieve_scene()),
-    ):
+    for name in args.scenes:
+        scene = SCENES[name]()
         t = time.perf_counter()
         lim = gp.void_ratio_limits(scene.replace(seed=1).fast(), packs=args.packs)
         rows.append(
@@ -267,8 +283,9 @@ def limits(args) -> None:
         )
         print(json.dumps(rows[-1]), flush=True)
     out = args.out or RESULTS / "void_ratio_limits"
-    _write(out, rows)
-    write_manifest(out, seeds=[1])
+    tag = "" if args.scenes == ["4.3", "4.4", "sieve"] else "_" + "_".join(args.scenes)
+    _write(out, rows, name=f"runs{tag}.csv")
+    write_manifest(out, seeds=[1], name=f"manifest{tag}.json")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -280,6 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--container", default="box", choices=["box", "periodic"])
     lim = sub.add_parser("limits")
     lim.add_argument("--packs", type=int, default=5)
+    lim.add_argument("--scenes", nargs="+", choices=list(SCENES), default=["4.3", "4.4", "sieve"])
     fig = sub.add_parser("figure")
     for p in (f, t, lim, fig):
         p.add_argument("--out", type=Path, default=None)
