@@ -10,6 +10,8 @@ Three studies, each writing CSV rows, a summary and a manifest into its folder:
 - ``targets``: example 4.3 (seed 1, ``fast()``), consolidated oedometrically to 100 kPa,
   at targets phi = 0.57, 0.60, 0.63 and Dr = 0.3, 0.7: realised phi, e, Dr, Z, |a^r|,
   K0, the packs generated, and the time against one plain generation of the same scene.
+- ``cost``: one plain generation beside each mechanism's target phi = 0.63 (4.3 in the
+  box, consolidated to 100 kPa), in turn, twice: the time a target costs, side by side.
 - ``limits``: e_min and e_max over 5 packs for 4.3, 4.4, a 30-60 mm sieve curve and
   (``--scenes sieve_example``) the sieve-curve example's grading
   (examples/sieve_curve.py), deposits in example 4.3's box.
@@ -18,6 +20,7 @@ Three studies, each writing CSV rows, a summary and a manifest into its folder:
     python benchmarks/density_targets.py targets --container box
     python benchmarks/density_targets.py limits [--packs 5] [--scenes sieve_example]
     python benchmarks/density_targets.py figure     # the friction figure, from runs.csv
+    python benchmarks/density_targets.py cost [--rounds 2]
 """
 
 from __future__ import annotations
@@ -259,6 +262,42 @@ def _row(target, d, method, pack, m, phi, secs, t_plain, limits) -> dict:
     }
 
 
+def cost(args) -> None:
+    """One plain generation (with its consolidation) beside each mechanism's target
+    phi = 0.63, in turn, `--rounds` times: the time a target costs against the plain
+    generation, taken side by side in one run."""
+    scene = (
+        gp.PackScene.preset("4.3")
+        .replace(container="box", seed=1, consolidate={"stress": STRESS})
+        .fast()
+    )
+    runs = (
+        ("plain", {}),
+        ("servo", {"target_phi": 0.63, "density_method": "servo"}),
+        ("deposition", {"target_phi": 0.63, "density_method": "deposition"}),
+    )
+    rows = []
+    for k in range(args.rounds):
+        for name, kw in runs:
+            t = time.perf_counter()
+            pack = gp.generate(scene.replace(**kw))
+            secs = time.perf_counter() - t
+            d = pack.density
+            rows.append(
+                {
+                    "round": k,
+                    "run": name,
+                    "seconds": secs,
+                    "phi": sample_phi(pack)[0],
+                    "generations": d["generations"] if d else 1,
+                }
+            )
+            print(json.dumps(rows[-1]), flush=True)
+    out = args.out or RESULTS / "density_target_cost_4.3"
+    _write(out, rows)
+    write_manifest(out, seeds=[1])
+
+
 def limits(args) -> None:
     rows = []
     for name in args.scenes:
@@ -299,11 +338,19 @@ def main(argv: list[str] | None = None) -> int:
     lim.add_argument("--packs", type=int, default=5)
     lim.add_argument("--scenes", nargs="+", choices=list(SCENES), default=["4.3", "4.4", "sieve"])
     fig = sub.add_parser("figure")
-    for p in (f, t, lim, fig):
+    c = sub.add_parser("cost")
+    c.add_argument("--rounds", type=int, default=2)
+    for p in (f, t, lim, fig, c):
         p.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore", gp.UnsettledPackWarning)
-    studies = {"friction": friction, "targets": targets, "limits": limits, "figure": figure}
+    studies = {
+        "friction": friction,
+        "targets": targets,
+        "limits": limits,
+        "figure": figure,
+        "cost": cost,
+    }
     studies[args.study](args)
     return 0
 
