@@ -574,17 +574,14 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
         }
 
     if phi0 > target + tol:
-        raise DensityTargetError(
+        raise _servo_error(
             f"invalid target_phi = {target:g}: the sample is at phi = {phi0:.4f} with the "
             f"material's friction {mu0:g} already, denser than the target; lowering the "
             "friction under the servo only densifies. Reach a looser target by the "
             "deposition friction (density_method = 'deposition')",
-            parameter="target_phi",
-            value=target,
-            target_phi=target,
-            phi_min=phi0,
-            phi_max=math.nan,
-            realised=phi0,
+            target,
+            phi0,
+            phi0,
         )
     if abs(phi0 - target) <= ACCEPT_SHARE * tol or mu0 == 0.0:
         if phi0 < target - tol:
@@ -628,17 +625,14 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             above = (mu, phi)
             sim._sim = _core.sim_clone(snapshot)
     if not reached:
-        raise DensityTargetError(
+        raise _servo_error(
             f"target_phi = {target:g} not reached in {MAX_FRICTION_PHASES} friction phases "
             f"under the servo (phi from {phi0:.4f} at friction {mu0:g}; nearest "
             f"{min(phases, key=lambda p: abs(p['phi'] - target))['phi']:.4f}); give a "
             "larger density_tol, or density_method = 'deposition'",
-            parameter="target_phi",
-            value=target,
-            target_phi=target,
-            phi_min=phi0,
-            phi_max=math.nan,
-            realised=min((p["phi"] for p in phases), key=lambda v: abs(v - target)),
+            target,
+            phi0,
+            min((p["phi"] for p in phases), key=lambda v: abs(v - target)),
         )
     _core.sim_set_friction(sim._sim, mu0)
     rep = run()
@@ -646,18 +640,29 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
     phi = phi_now()
     phases.append({"friction": mu0, "phi": phi, "steps": int(rep["steps"]), "kept": True})
     if abs(phi - target) > tol:
-        raise DensityTargetError(
+        raise _servo_error(
             f"target_phi = {target:g} reached under lowered friction, but restoring the "
             f"material's friction {mu0:g} moved phi to {phi:.4f}, beyond density_tol = "
             f"{tol:g}; give a larger density_tol",
-            parameter="target_phi",
-            value=target,
-            target_phi=target,
-            phi_min=phi0,
-            phi_max=math.nan,
-            realised=phi,
+            target,
+            phi0,
+            phi,
         )
     return {**rep, "steps": steps}, record(phi, "reached")
+
+
+def _servo_error(message: str, target: float, phi0: float, realised: float) -> DensityTargetError:
+    """The stage's DensityTargetError: the window's lower end is the sample at the
+    material's friction; its upper end is unknown where the stage did not reach zero."""
+    return DensityTargetError(
+        message,
+        parameter="target_phi",
+        value=target,
+        target_phi=target,
+        phi_min=phi0,
+        phi_max=math.nan,
+        realised=realised,
+    )
 
 
 def _beyond_zero_friction(target: float, phi0: float, phi_max: float) -> DensityTargetError:
