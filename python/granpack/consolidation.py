@@ -493,7 +493,7 @@ def consolidate(
         solid = float(np.sum(_volumes(r, dim)))
 
         def phi_now() -> float:
-            return solid / _sample_volume(sim, names, sc)
+            return solid / _sample_volume(_wall_positions(sim, names), sc)
 
         rep, density = _lower_friction(sim, run, phi_now, rep, target_phi, density_tol, mat)
     seconds = time.perf_counter() - start
@@ -536,11 +536,15 @@ def _check_converged(rep: dict, order: list[str], s: dict) -> None:
         )
 
 
-def _sample_volume(sim: Simulation, names: list[str], sc) -> float:
-    """The volume between the floor, the lid and the side walls where they are now (m^3;
-    m^2 in 2D)."""
+def _wall_positions(sim: Simulation, names: list[str]) -> dict[str, float]:
+    """Each wall's position now (m), by name."""
     walls = _core.sim_walls(sim._sim)
-    pos = {n: float(walls["position"][k]) for k, n in enumerate(names)}
+    return {n: float(walls["position"][k]) for k, n in enumerate(names)}
+
+
+def _sample_volume(pos: dict[str, float], sc) -> float:
+    """The volume between the floor, the lid and the side walls at positions `pos` (m^3;
+    m^2 in 2D)."""
     height = pos["lid"] - pos["floor"]
     if sc.container == "cylinder":
         return math.pi * pos["cylinder"] ** 2 * height
@@ -827,7 +831,8 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
     x = x + shift
     lid = pos["lid"] - pos["floor"]
     vol_solid = float(np.sum(_volumes(pack.radii, dim)))
-    volume = float(scene.base_area) * lid
+    # the volume the density target's phases measure too (`_sample_volume`)
+    volume = _sample_volume(pos, sc)
     phi = vol_solid / volume
     forces = contact_forces(contacts.normal, contacts.force_normal, contacts.force_tangential)
     lw = love_weber(forces, contacts.branch, volume)

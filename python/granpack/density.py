@@ -43,6 +43,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from ._validate import as_int
 from .analysis import microstructure
 from .consolidation import consolidate, settle
 from .errors import DensityTargetError, InvalidParameterError
@@ -73,12 +74,16 @@ DEFAULT_TOL_PHI = 0.002
 #: friction is restored (when the scene sets no rest_tol).
 REST_TOL = 1e-4
 
-_TARGET_FIELDS = (
+#: The scene's keys that the layer loop does not run: the pack is generated without
+#: them (`_plain`), and its scene gets them back at the end.
+_STAGE_FIELDS = (
     "target_phi",
     "target_void_ratio",
     "target_relative_density",
     "density_tol",
     "density_method",
+    "consolidate",
+    "rest_tol",
 )
 
 
@@ -93,15 +98,8 @@ def sample_phi(pack: Pack) -> tuple[float, str]:
 
 def _plain(scene: PackScene) -> PackScene:
     """The scene without its target, settling and consolidation: the layer loop's part."""
-    return scene.replace(
-        target_phi=None,
-        target_void_ratio=None,
-        target_relative_density=None,
-        density_tol=None,
-        density_method="auto",
-        consolidate=None,
-        rest_tol=None,
-    )
+    defaults = {f.name: f.default for f in dataclasses.fields(PackScene)}
+    return scene.replace(**{k: defaults[k] for k in _STAGE_FIELDS})
 
 
 def _at_friction(
@@ -145,8 +143,8 @@ class VoidRatioLimits:
         e_min_sd, e_max_sd: their sample standard deviation over the packs (0 for one).
         e_min_values, e_max_values: each pack's.
         measure: "sample" (floor to lid, a consolidating scene) or "core".
-        packs: how many packs each end was measured on (streams 0 .. packs - 1 of the
-            scene's seed).
+        packs: how many packs each end was measured on (the scene's stream and the next
+            ones, of its seed).
     """
 
     e_min: float
@@ -179,9 +177,10 @@ def void_ratio_limits(
     progress: bool | Callable[[dict], None] = False,
 ) -> VoidRatioLimits:
     """e_min and e_max of the model for `scene`'s size distribution, container and
-    material, each over `packs` packs (streams 0 .. packs - 1 of the scene's seed).
+    material, each over `packs` packs.
 
     e_min: every layer jammed frictionless (mu_dep = 0); e_max: jammed at MU_DEP_MAX.
+    The packs take the scene's stream and the next ``packs - 1``.
     Each pack then gets the material's friction back, settles (REST_TOL, or the scene's
     rest_tol) and, when the scene consolidates, is consolidated at the material's
     friction. The void ratio is the sample's (floor to lid) when the scene consolidates,
@@ -201,8 +200,6 @@ def void_ratio_limits(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
-    from ._validate import as_int
-
     packs = as_int("packs", packs, 1, 1000)
     values: dict[str, list[float]] = {"e_min": [], "e_max": []}
     measure = "core"
@@ -222,16 +219,23 @@ def void_ratio_limits(
                     "seconds": time.perf_counter() - t0,
                 },
             )
-    sd = {k: statistics.stdev(v) if len(v) > 1 else 0.0 for k, v in values.items()}
+    return _limits(values["e_min"], values["e_max"], measure)
+
+
+def _limits(e_min: list[float], e_max: list[float], measure: str) -> VoidRatioLimits:
+    """The limits from each end's packs (the mean of one pack is its value, exactly)."""
+    sd = {
+        k: statistics.stdev(v) if len(v) > 1 else 0.0 for k, v in (("min", e_min), ("max", e_max))
+    }
     return VoidRatioLimits(
-        e_min=statistics.fmean(values["e_min"]),
-        e_max=statistics.fmean(values["e_max"]),
-        e_min_sd=sd["e_min"],
-        e_max_sd=sd["e_max"],
-        e_min_values=tuple(values["e_min"]),
-        e_max_values=tuple(values["e_max"]),
+        e_min=statistics.fmean(e_min),
+        e_max=statistics.fmean(e_max),
+        e_min_sd=sd["min"],
+        e_max_sd=sd["max"],
+        e_min_values=tuple(e_min),
+        e_max_values=tuple(e_max),
         measure=measure,
-        packs=packs,
+        packs=len(e_min),
     )
 
 
@@ -250,11 +254,11 @@ def _report(progress, row: dict) -> None:
 
 
 def _band(
-    key: str, value: float, tol: float | None, limits: tuple[float, float] | None
+    key: str, value: float, tol: float | None, limits: VoidRatioLimits | None
 ) -> tuple[float, float, float, float]:
     """The target as phi, the band of phi that meets it, and the tolerance in the
-    target's quantity: (phi_target, phi_lo, phi_hi, tol). `limits` (e_min, e_max) for a
-    relative density."""
+    target's quantity: (phi_target, phi_lo, phi_hi, tol). `limits` for a relative
+    density."""
     if key == "target_phi":
         tol = DEFAULT_TOL_PHI if tol is None else tol
         return value, value - tol, value + tol, tol
@@ -263,7 +267,7 @@ def _band(
         tol = DEFAULT_TOL_PHI * (1.0 + e) ** 2 if tol is None else tol
     else:
         assert limits is not None
-        e_min, e_max = limits
+        e_min, e_max = limits.e_min, limits.e_max
         e = e_max - value * (e_max - e_min)
         if tol is None:
             tol = DEFAULT_TOL_PHI * (1.0 + e) ** 2 / (e_max - e_min)
@@ -330,7 +334,7 @@ def generate_at_density(
         # Dr needs e_min and e_max: the two ends of this seed's deposition friction,
         # which bracket the search as well
         phi_loose, phi_dense = at(MU_DEP_MAX)[1], at(0.0)[1]
-        limits = (1.0 / phi_dense - 1.0, 1.0 / phi_loose - 1.0)
+        limits = _limits([1.0 / phi_dense - 1.0], [1.0 / phi_loose - 1.0], measure)
     phi_t, lo, hi, tol = _band(key, value, scene.density_tol, limits)
 
     def finish(pack: Pack, phi: float, method: str, friction: float) -> Pack:
@@ -349,13 +353,11 @@ def generate_at_density(
             "seconds": time.perf_counter() - t0,
         }
         if limits is not None:
-            record["e_min"], record["e_max"] = limits
-            record["relative_density"] = (limits[1] - e) / (limits[1] - limits[0])
-        user = {k: getattr(scene, k) for k in _TARGET_FIELDS}
-        user.update(consolidate=scene.consolidate, rest_tol=scene.rest_tol)
+            record["e_min"], record["e_max"] = limits.e_min, limits.e_max
+            record["relative_density"] = limits.relative_density(e)
         return dataclasses.replace(
             pack,
-            scene=pack.scene.replace(**user),
+            scene=pack.scene.replace(**{k: getattr(scene, k) for k in _STAGE_FIELDS}),
             density=record,
             wall_time=time.perf_counter() - t0,
         )
@@ -398,19 +400,17 @@ def generate_at_density(
                 raise _renamed(e, key, value, phi_t) from None
             # the recipe's sample is denser than the target: the deposition friction
             # loosens it (the servo's first equilibrium was this pack at mu0)
-            return _search(
-                scene, key, value, phi_t, lo, hi, at, finish, mu0, tried=[(mu0, e.phi_min)]
-            )
+            return _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=[(mu0, e.phi_min)])
     # a relative density's window ends bracket the search from the start
     for end in (MU_DEP_MAX, 0.0) if limits else ():
         pack, phi = done[end]
         if lo <= phi <= hi:
             return finish(pack, phi, "deposition", end)
     ends = [(MU_DEP_MAX, done[MU_DEP_MAX][1]), (0.0, done[0.0][1])] if limits else []
-    return _search(scene, key, value, phi_t, lo, hi, at, finish, mu0, tried=ends)
+    return _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=ends)
 
 
-def _search(scene, key, value, phi_t, lo, hi, at, finish, mu0, tried=()) -> Pack:
+def _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=()) -> Pack:
     """The secant search of the deposition friction in ln(mu + MU_SHIFT), from the
     recipe's friction `mu0` or, after `tried` (mu, phi) points, from where they point."""
     points: list[tuple[float, float]] = list(tried)
