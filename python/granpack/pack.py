@@ -497,19 +497,21 @@ def _consolidation_record(value) -> dict | None:
 
 def _rest_record(value) -> dict | None:
     """The settling record of a pack file (absent unless `settle` ran)."""
-    if value is None:
-        return None
-    if not isinstance(value, dict) or not math.isfinite(float(value["unbalanced"])):
-        raise ValueError("rest record: expected a table with a finite unbalanced ratio")
-    return value
+    return _checked_record(value, "rest", "unbalanced", "unbalanced ratio")
 
 
 def _density_record(value) -> dict | None:
     """The density target's record of a pack file (absent unless the scene had one)."""
+    return _checked_record(value, "density", "phi", "phi")
+
+
+def _checked_record(value, name: str, key: str, what: str) -> dict | None:
+    """A stage's record of a pack file: None where absent, else a table whose `key` is
+    finite (a damaged file otherwise)."""
     if value is None:
         return None
-    if not isinstance(value, dict) or not math.isfinite(float(value["phi"])):
-        raise ValueError("density record: expected a table with a finite phi")
+    if not isinstance(value, dict) or not math.isfinite(float(value[key])):
+        raise ValueError(f"{name} record: expected a table with a finite {what}")
     return value
 
 
