@@ -15,7 +15,8 @@ where
     // the landing and of the rest of each layer); engine settings: DT (s, overrides
     // FAST_DT), SKIN=0.2 (largest skin over r_min);
     // SETTLE=1.0 (s per layer; short ones profile the falling phase, e.g. under
-    // callgrind); HEIGHT=0.5 (m, the desired pack height); SEED=1
+    // callgrind); HEIGHT=0.5 (m, the desired pack height); SEED=1; BASE=1.0 (m, the
+    // side of the square base); PERIODIC=0 (1: a periodic cell instead of the box)
     let env = |k: &str, d: f64| {
         std::env::var(k)
             .ok()
@@ -36,9 +37,12 @@ where
         .then(|| settle_frac * sim.material.rayleigh_time_step(r))
         .filter(|&d| d > sim.dt);
     sim.skin_ratio = env("SKIN", sim.skin_ratio);
+    if env("PERIODIC", 0.0) != 0.0 {
+        sim.container = _core::pipeline::Container::Periodic;
+    }
     let cfg = PackConfig::<D> {
         sim,
-        base: Vector::<D>::from_element(1.0),
+        base: Vector::<D>::from_element(env("BASE", 1.0)),
         height: env("HEIGHT", 0.5),
         radii: RadiusLaw::Constant(r),
         h_layer: 0.1,
