@@ -15,6 +15,9 @@ pub enum Error {
         name: String,
         /// The offending value, formatted.
         value: String,
+        /// The offending value as a number, where the rule is about one number (the
+        /// Python exception's `value` is then that number rather than its text).
+        number: Option<f64>,
         /// The allowed range or form.
         expected: String,
     },
@@ -102,6 +105,23 @@ impl Error {
         Error::InvalidParameter {
             name: name.to_string(),
             value: value.to_string(),
+            number: None,
+            expected: expected.to_string(),
+        }
+    }
+
+    /// [`Error::invalid`] for a rule about the number `x`, shown in the message as
+    /// `shown` (with its unit or context).
+    pub fn invalid_number(
+        name: &str,
+        x: f64,
+        shown: impl std::fmt::Display,
+        expected: &str,
+    ) -> Self {
+        Error::InvalidParameter {
+            name: name.to_string(),
+            value: shown.to_string(),
+            number: Some(x),
             expected: expected.to_string(),
         }
     }
@@ -119,6 +139,33 @@ fn invalid_message(name: &str, value: &str, expected: &str) -> String {
 
 /// The crate's result type.
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// `x` as C's and Python's `%g` write it: six significant digits, trailing zeros
+/// dropped, the exponent form (with a signed, two-digit exponent) below 1e-4 and from
+/// 1e6 on. Messages that quote a derived value use it, so that they read as the
+/// Python package's.
+pub fn fmt_g(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let trim = |s: &str| -> String {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s.to_string()
+        }
+    };
+    // the exponent after rounding to six digits (9.999995 rounds up to 1e1)
+    let sci = format!("{x:.5e}");
+    let (mantissa, exp) = sci.split_once('e').expect("an exponent");
+    let exp: i32 = exp.parse().expect("an integer exponent");
+    if !(-4..6).contains(&exp) {
+        let sign = if exp < 0 { '-' } else { '+' };
+        format!("{}e{sign}{:02}", trim(mantissa), exp.abs())
+    } else {
+        trim(&format!("{:.*}", (5 - exp) as usize, x))
+    }
+}
 
 /// Checks `lo < value < hi` (open) or `lo <= value <= hi` (closed ends as flagged) and
 /// finiteness, naming the parameter in the error.
@@ -142,4 +189,28 @@ pub fn check_range(
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod format_tests {
+    use super::fmt_g;
+
+    #[test]
+    fn fmt_g_writes_what_python_percent_g_writes() {
+        // the right-hand sides are Python's f"{x:g}"
+        for (x, want) in [
+            (1e12, "1e+12"),
+            (0.5, "0.5"),
+            (1e-4, "0.0001"),
+            (1.5e-5, "1.5e-05"),
+            (123456.0, "123456"),
+            (1234567.0, "1.23457e+06"),
+            (9.9999996, "10"),
+            (-2.5e-7, "-2.5e-07"),
+            (0.1 + 0.2, "0.3"),
+            (100.0, "100"),
+        ] {
+            assert_eq!(fmt_g(x), want, "{x}");
+        }
+    }
 }

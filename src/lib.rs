@@ -8,6 +8,8 @@
 //! - [`error`]: the one error enum;
 //! - [`geometry`]: cell grid and pair search;
 //! - [`dynamics`]: material, the Hertz-Mindlin contact law;
+//! - [`scene`]: a scene as the user writes it, its one validator and what it resolves
+//!   to (the radius law, the container, [`PackConfig`]);
 //! - [`pipeline`]: the world and its step, random sequential addition, the layer loop;
 //! - `bindings` (feature `python`): the PyO3 module `granpack._core`.
 #![warn(missing_docs)]
@@ -18,6 +20,7 @@ pub mod error;
 pub mod geometry;
 pub mod math;
 pub mod pipeline;
+pub mod scene;
 
 #[cfg(feature = "python")]
 mod bindings;

@@ -136,6 +136,17 @@ pub fn particle_volume<const D: usize>(r: Real) -> Real {
     }
 }
 
+/// [`particle_volume`] for a dimension known at run time (2: a disc, otherwise a
+/// sphere).
+#[inline]
+pub fn particle_volume_of(dim: usize, r: Real) -> Real {
+    if dim == 2 {
+        particle_volume::<2>(r)
+    } else {
+        particle_volume::<3>(r)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

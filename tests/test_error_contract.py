@@ -42,7 +42,7 @@ def test_a_time_step_above_the_rayleigh_step_is_the_same_error_everywhere(preset
         gp.PackScene.from_toml_string(f'preset = "{preset}"\ndt = {dt!r}\n')
     raised["from_toml_string"] = e.value
     for name, entry in (
-        ("validate_scene", _core.validate_scene),
+        ("resolve_scene", _core.resolve_scene),
         ("LayerPacker", _core.LayerPacker),
     ):
         with pytest.raises(gp.UnstableTimeStepError) as e:
@@ -96,7 +96,7 @@ def test_a_bad_key_is_the_same_error_from_the_scene_and_from_the_engine(key, val
     scene = gp.PackScene.preset("4.1")
     with pytest.raises(gp.InvalidParameterError) as from_scene:
         scene.replace(**{key: value})
-    for entry in (_core.validate_scene, _core.LayerPacker):
+    for entry in (_core.resolve_scene, _core.LayerPacker):
         with pytest.raises(gp.InvalidParameterError) as from_engine:
             entry(_fields(scene, **{key: value}))
         assert type(from_engine.value) is type(from_scene.value)

@@ -139,7 +139,7 @@ def _fields(scene: gp.PackScene) -> dict:
     return {f.name: getattr(scene, f.name) for f in dataclasses.fields(scene)}
 
 
-#: Scene keys the engine reads by attribute (LayerPacker, validate_scene); the Python
+#: Scene keys the engine reads by attribute (LayerPacker, resolve_scene); the Python
 #: layer runs the trim, the settling at rest, the consolidation stage and the density
 #: target's search.
 PYTHON_KEYS = ("trim", "rest_tol", "consolidate", "target_phi", "target_void_ratio")
@@ -156,7 +156,7 @@ def test_the_engine_names_a_key_of_the_wrong_type(key):
     if key == "material":
         bad = types.SimpleNamespace(**{**fields["material"].to_dict(), "young": "1e7"})
     obj = types.SimpleNamespace(**{**fields, key: bad})
-    for entry in (_core.validate_scene, _core.LayerPacker):
+    for entry in (_core.resolve_scene, _core.LayerPacker):
         with pytest.raises(gp.InvalidParameterError) as info:
             entry(obj)
         assert names_the_key(info.value, key), (key, str(info.value))

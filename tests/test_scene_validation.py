@@ -15,10 +15,10 @@ from granpack.cli import main
 
 @pytest.fixture
 def counted(monkeypatch):
-    """Counts the scene's validations: `validate_scene` (once per PackScene built) and
+    """Counts the scene's validations: `resolve_scene` (once per PackScene built) and
     the engine's own (once per LayerPacker, that is per pack)."""
     calls: collections.Counter = collections.Counter()
-    validate, packer = _core.validate_scene, _core.LayerPacker
+    validate, packer = _core.resolve_scene, _core.LayerPacker
 
     def counting_validate(scene):
         calls["scene"] += 1
@@ -28,7 +28,7 @@ def counted(monkeypatch):
         calls["engine"] += 1
         return packer(scene, *args, **kwargs)
 
-    monkeypatch.setattr(_core, "validate_scene", counting_validate)
+    monkeypatch.setattr(_core, "resolve_scene", counting_validate)
     monkeypatch.setattr(_core, "LayerPacker", counting_packer)
     return calls
 

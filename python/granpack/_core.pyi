@@ -18,6 +18,8 @@ __all__ = [
     "MAX_STEPS_PER_LAYER",
     "MAX_ATTEMPTS",
     "MAX_LAYERS",
+    "MAX_PARTICLES",
+    "RSA_SATURATION",
     "CONTAINERS",
     "RADIUS_LAWS",
     "cpu_level",
@@ -26,8 +28,7 @@ __all__ = [
     "LayerPacker",
     "find_contacts",
     "rayleigh_time_step",
-    "validate_scene",
-    "radius_law_summary",
+    "resolve_scene",
     "number_fractions",
     "sample_radii",
     "sim_add_lid",
@@ -48,6 +49,11 @@ MAX_ATTEMPTS: int
 """Most consecutive failed placements of a layer's RSA (`max_attempts`; 1e9)."""
 MAX_LAYERS: int
 """Most layers of a pack (`max_layers`; 1e6)."""
+MAX_PARTICLES: float
+"""Most particles a scene may need, by its estimate (5e8)."""
+RSA_SATURATION: tuple[float, float]
+"""Solid fraction near which random sequential addition saturates, in 2D and 3D
+(0.547, 0.384): a layer's `phi_layer` stays below it."""
 
 Material: TypeAlias = tuple[float, float, float, float, float]
 """density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""
@@ -157,6 +163,22 @@ class SceneFields(RadiusLawFields, Protocol):
     def freeze_speed(self) -> float: ...
     @property
     def freeze_force(self) -> float: ...
+    @property
+    def trim(self) -> bool: ...
+    @property
+    def rest_tol(self) -> float | None: ...
+    @property
+    def target_phi(self) -> float | None: ...
+    @property
+    def target_void_ratio(self) -> float | None: ...
+    @property
+    def target_relative_density(self) -> float | None: ...
+    @property
+    def density_tol(self) -> float | None: ...
+    @property
+    def density_method(self) -> str: ...
+    @property
+    def consolidate(self) -> object | None: ...
 
 Float64Array: TypeAlias = npt.NDArray[np.float64]
 Int64Array: TypeAlias = npt.NDArray[np.int64]
@@ -296,13 +318,25 @@ def find_contacts(
 def rayleigh_time_step(density: float, young: float, poisson: float, r_min: float) -> float:
     """pi r_min sqrt(rho / G) / (0.1631 nu + 0.8766) (s)."""
 
-def validate_scene(scene: SceneFields) -> None:
-    """The engine's checks of a whole scene, those `LayerPacker(scene)` runs; the error
-    names the scene key."""
+class ResolvedScene(TypedDict):
+    """What a valid scene resolves to."""
 
-def radius_law_summary(scene: RadiusLawFields) -> tuple[float, float, float, float]:
-    """(r_min, r_max, r_mean, r_std) of the scene's radius law (m), checked; mean and
-    sd by number (the parameters before truncation for gaussian and lognormal)."""
+    r_min: float
+    r_max: float
+    r_mean: float
+    r_std: float
+    base: list[float]
+    cylinder_radius: float | None
+    critical_dt: float
+    estimated_particles: float
+
+def resolve_scene(scene: SceneFields) -> ResolvedScene:
+    """The scene's one validator: every range and cross-field rule of a whole scene
+    (those `LayerPacker(scene)` runs and those of the keys the Python layer runs), the
+    error naming the scene key; returns what the scene resolves to: the radius law's
+    r_min, r_max and, by number, r_mean and r_std (m; the parameters before truncation
+    for gaussian and lognormal), the base (m; a cylinder's is (2R, 2R)), the cylinder's
+    radius (m), the critical step of r_min (s) and the estimated particle count."""
 
 def number_fractions(scene: RadiusLawFields) -> list[float] | None:
     """Number fractions of a discrete law's radii or a sieve law's classes, after any

@@ -26,7 +26,6 @@ from ._validate import (
     short_repr,
     unknown_keys,
 )
-from .errors import UnstableTimeStepError
 from .simulation import Material
 
 if TYPE_CHECKING:
@@ -51,7 +50,7 @@ _LAW_LISTS = ("radii", "fractions", "sieve_sizes", "sieve_passing")
 #: Random sequential addition jams near these fractions (Feder 1980 for discs,
 #: Talbot et al. 2000 / Torquato et al. 2006 for spheres); a layer fraction at or above
 #: them cannot be reached.
-RSA_SATURATION = {2: 0.547, 3: 0.384}
+RSA_SATURATION = {2: _core.RSA_SATURATION[0], 3: _core.RSA_SATURATION[1]}
 
 _MATERIAL_KEYS = [f.name for f in dataclasses.fields(Material)]
 
@@ -340,38 +339,7 @@ class PackScene:
                 f"for dim = {self.dim}",
                 parameter="base",
             )
-        s(self, "base", tuple(as_real("base", b, 0, lo_open=True, unit="m") for b in base))
-        s(self, "height", as_real("height", self.height, 0, lo_open=True, unit="m"))
-        if self.inertia_2d not in ("sphere", "disc"):
-            raise InvalidParameterError(
-                f"invalid inertia_2d = {short_repr(self.inertia_2d)}: must be 'sphere' or 'disc'",
-                parameter="inertia_2d",
-            )
-        self._check_radius_law()
-        self._check_container()
-        for b in self.base:
-            if b < 2 * self.r_max:
-                raise InvalidParameterError(
-                    f"invalid base = {short_repr(self.base)}: every length must be at least "
-                    "one particle "
-                    f"diameter 2 r_max = {2 * self.r_max} (m)",
-                    parameter="base",
-                )
-        s(self, "h_layer", as_real("h_layer", self.h_layer, 0, lo_open=True, unit="m"))
-        sat = RSA_SATURATION[self.dim]
-        s(
-            self,
-            "phi_layer",
-            as_real(
-                "phi_layer",
-                self.phi_layer,
-                0,
-                sat,
-                lo_open=True,
-                hi_open=True,
-                unit=f"RSA saturates near {sat} in {self.dim}D",
-            ),
-        )
+        s(self, "base", tuple(as_real("base", b, unit="m") for b in base))
         if not isinstance(self.material, Material):
             if isinstance(self.material, dict):
                 s(self, "material", _material_table(self.material))
@@ -380,101 +348,18 @@ class PackScene:
                     f"invalid material = {short_repr(self.material)}: must be a Material",
                     parameter="material",
                 )
-        s(self, "dt", as_real("dt", self.dt, 0, lo_open=True, unit="s"))
-        crit = self.material.critical_time_step(self.r_min)
-        if self.dt > crit:
-            # the class and attributes the engine gives the same fault (Simulation.step,
-            # the layer loop)
-            raise UnstableTimeStepError(
-                f"invalid dt = {self.dt:g} s: must not exceed the critical (Rayleigh) time step "
-                f"{crit:.4g} s estimated for r_min = {self.r_min:g} m",
-                dt=self.dt,
-                critical=crit,
-                r_min=self.r_min,
-            )
-        s(self, "settle_time", as_real("settle_time", self.settle_time, 0, unit="s"))
-        # gravity is a magnitude along -vertical: zero or a negative value would leave the
-        # layers in the air (or lift them), a "pack" that is no pack
-        s(
-            self,
-            "gravity",
-            as_real(
-                "gravity",
-                self.gravity,
-                0,
-                lo_open=True,
-                unit="m/s^2; a magnitude, the pull is along -vertical",
-            ),
-        )
-        s(self, "drag", as_real("drag", self.drag, 0, unit="N s/m"))
-        s(self, "rotations", as_bool("rotations", self.rotations))
-        s(self, "seed", as_int("seed", self.seed, 0, 2**64 - 1))
-        s(self, "stream", as_int("stream", self.stream, 0, 2**64 - 1))
-        s(self, "skin_ratio", as_real("skin_ratio", self.skin_ratio, 0, 10))
-        s(
-            self,
-            "max_overlap_ratio",
-            as_real("max_overlap_ratio", self.max_overlap_ratio, 0, 1, lo_open=True),
-        )
-        # Both bound work: a saturated layer retries max_attempts times, and a pack that
-        # never grows runs max_layers jamming runs before it gives up.
-        s(self, "max_attempts", as_int("max_attempts", self.max_attempts, 1, MAX_ATTEMPTS))
-        s(self, "max_layers", as_int("max_layers", self.max_layers, 1, MAX_LAYERS))
-        if self.rest_tol is not None:
-            s(self, "rest_tol", as_real("rest_tol", self.rest_tol, 1e-9, 1, hi_open=True))
-        self._check_density_target()
-        if self.settle_tol is not None:
-            s(self, "settle_tol", as_real("settle_tol", self.settle_tol, 0, lo_open=True))
-        if self.settle_dt is not None:
-            s(
-                self,
-                "settle_dt",
-                as_real(
-                    "settle_dt",
-                    self.settle_dt,
-                    0,
-                    crit,
-                    lo_open=True,
-                    unit=f"s; at most the Rayleigh step {crit:.4g} s for r_min = {self.r_min:g} m",
-                ),
-            )
-        if self.freeze_depth is not None:
-            s(self, "freeze_depth", as_real("freeze_depth", self.freeze_depth, 0, unit="m"))
-        s(self, "freeze_speed", as_real("freeze_speed", self.freeze_speed, 0, unit="m/s"))
-        s(self, "freeze_force", as_real("freeze_force", self.freeze_force, 0))
-        s(self, "trim", as_bool("trim", self.trim))
-        if self.trim and self.height < 2.0 * self.r_min:
-            # a particle resting on the floor reaches 2 r at least: the flat top would
-            # remove every one and leave an empty pack
-            raise InvalidParameterError(
-                f"invalid height = {self.height:g} m with trim = true: the flat top removes "
-                "every particle whose top lies above height, and the smallest particle "
-                f"resting on the floor reaches 2 r_min = {2.0 * self.r_min!r} m; give "
-                f"height >= {2.0 * self.r_min!r} m, or trim = false",
-                parameter="height",
-                value=self.height,
-                expected=f">= {2.0 * self.r_min!r} m with trim = true",
-            )
-        # A scene whose layers alone would exceed memory is refused up front.
-        n_est = self.estimated_particles()
-        if not n_est <= 5e8:  # NaN (inf / inf) is refused too
-            raise InvalidParameterError(
-                f"invalid scene: about {n_est:.3g} particles would be needed (limit 5e8); "
-                "shrink base/height or grow the radii",
-                parameter="scene",
-            )
-        # Checked after the particle count, the more basic of the two: both grow without
-        # bound as the radii and dt shrink.
-        if self.settle_time / self.dt > MAX_STEPS_PER_LAYER:
-            raise InvalidParameterError(
-                f"invalid settle_time = {self.settle_time:g} s: with dt = {self.dt:g} s that is "
-                f"{self.settle_time / self.dt:.3g} steps per layer; at most "
-                f"{MAX_STEPS_PER_LAYER:.0e} (settle_time <= {MAX_STEPS_PER_LAYER * self.dt:.3g} s)",
-                parameter="settle_time",
-            )
-        # The engine's own checks, the same that the layer loop runs: a scene that is
-        # built is one that generates.
-        _core.validate_scene(self)
+        self._check_radius_law()
+        # Every rule about the values, and what they resolve to, is the engine's: the
+        # scene's one validator (src/scene/), the same that the layer loop runs, so a
+        # scene that is built is one that generates.
+        resolved = _core.resolve_scene(self)
+        s(self, "r_min", resolved["r_min"])
+        s(self, "r_max", resolved["r_max"])
+        if self.radius_law in ("constant", "uniform", "discrete", "sieve"):
+            s(self, "r_mean", resolved["r_mean"])
+            s(self, "r_std", resolved["r_std"])
+        s(self, "base", tuple(resolved["base"]))
+        s(self, "cylinder_radius", resolved["cylinder_radius"])
 
     def _check_types(self) -> None:
         """Types every key (`_KEY_TYPES`) without checking its range: a value of the
@@ -538,10 +423,10 @@ class PackScene:
                 raise AssertionError(f"scene key {key} has no type")
 
     def _check_radius_law(self) -> None:
-        """Types the radius law's keys, then has the engine check the law and derive
-        r_min, r_max (and r_mean, r_std where the law does not take them)."""
+        """Types the radius law's keys (the engine checks the law and derives r_min,
+        r_max, and r_mean, r_std where the law does not take them)."""
         s = object.__setattr__
-        if not isinstance(self.radius_law, str) or self.radius_law not in RADIUS_LAWS:
+        if not isinstance(self.radius_law, str):
             raise InvalidParameterError(
                 f"invalid radius_law = {short_repr(self.radius_law)}: must be one of "
                 + ", ".join(repr(n) for n in RADIUS_LAWS),
@@ -573,91 +458,6 @@ class PackScene:
                 parameter="fractions_by",
                 value=self.fractions_by,
                 expected="'number' | 'mass'",
-            )
-        r_min, r_max, r_mean, r_std = _core.radius_law_summary(self)
-        s(self, "r_min", r_min)
-        s(self, "r_max", r_max)
-        if self.radius_law in ("constant", "uniform", "discrete", "sieve"):
-            s(self, "r_mean", r_mean)
-            s(self, "r_std", r_std)
-
-    def _check_container(self) -> None:
-        """Validates container and cylinder_radius against dim, base and r_max."""
-        s = object.__setattr__
-        assert self.r_max is not None  # set before this runs
-        if self.container not in CONTAINERS:
-            raise InvalidParameterError(
-                f"invalid container = {short_repr(self.container)}: must be one of "
-                + ", ".join(repr(c) for c in CONTAINERS),
-                parameter="container",
-                value=self.container,
-                expected=" | ".join(CONTAINERS),
-            )
-        if self.container != "cylinder":
-            if self.cylinder_radius is not None:
-                raise InvalidParameterError(
-                    f"invalid cylinder_radius = {short_repr(self.cylinder_radius)}: only a "
-                    f"container = 'cylinder' has a radius (container = {self.container!r})",
-                    parameter="cylinder_radius",
-                    value=self.cylinder_radius,
-                    expected="None unless container = 'cylinder'",
-                )
-            if self.container == "periodic":
-                # The minimum image needs a period above twice the largest cutoff of
-                # the pair list, 2 (r_max + half skin) <= r_max (2 + skin_ratio): a pair
-                # then has one nearest image.
-                least = 4.0 * self.r_max * (1.0 + self.skin_ratio)
-                for b in self.base:
-                    if b < least:
-                        raise InvalidParameterError(
-                            f"invalid base = {short_repr(self.base)}: a periodic cell needs "
-                            f"every period >= 4 r_max (1 + skin_ratio) = {least:g} m",
-                            parameter="base",
-                            value=self.base,
-                            expected=f">= {least:g} m per axis",
-                        )
-            return
-        if self.dim != 3:
-            raise InvalidParameterError(
-                "invalid container = 'cylinder': a cylinder needs dim = 3 (in 2D use "
-                "'box' or 'periodic')",
-                parameter="container",
-                value="cylinder",
-                expected="'box' | 'periodic' in 2D",
-            )
-        if self.cylinder_radius is None:
-            b1, b2 = self.base
-            if b1 != b2:
-                raise InvalidParameterError(
-                    f"invalid base = {short_repr(self.base)}: a cylinder without "
-                    "cylinder_radius takes R = base / 2, so base must be square (2R, 2R)",
-                    parameter="base",
-                    value=self.base,
-                    expected="(2R, 2R)",
-                )
-            s(self, "cylinder_radius", 0.5 * b1)
-        else:
-            R = as_real("cylinder_radius", self.cylinder_radius, 0, lo_open=True, unit="m")
-            s(self, "cylinder_radius", R)
-            if any(not math.isclose(b, 2 * R, rel_tol=1e-12) for b in self.base):
-                raise InvalidParameterError(
-                    f"invalid base = {short_repr(self.base)} with cylinder_radius = {R:g} m: "
-                    f"a cylinder's base is (2R, 2R) = ({2 * R:g}, {2 * R:g}) m; give base "
-                    "to match, or leave cylinder_radius unset to take R = base / 2",
-                    parameter="base",
-                    value=self.base,
-                    expected=f"({2 * R:g}, {2 * R:g})",
-                )
-            s(self, "base", (2 * R, 2 * R))
-        radius = self.cylinder_radius
-        assert radius is not None
-        if radius < 2 * self.r_max:
-            raise InvalidParameterError(
-                f"invalid cylinder_radius = {radius:g} m: must be at least 2 r_max = "
-                f"{2 * self.r_max:g} m",
-                parameter="cylinder_radius",
-                value=radius,
-                expected=f">= {2 * self.r_max:g} m",
             )
 
     # -- construction ---------------------------------------------------------------
@@ -697,50 +497,6 @@ class PackScene:
             if value is not None:
                 return key, value
         return None
-
-    def _check_density_target(self) -> None:
-        s = object.__setattr__
-        given = [k for k in self.TARGET_KEYS if getattr(self, k) is not None]
-        if len(given) > 1:
-            raise InvalidParameterError(
-                f"invalid {given[1]} = {short_repr(getattr(self, given[1]))}: a scene gives at "
-                f"most one density target, and {given[0]} is set too",
-                parameter=given[1],
-                expected="one of target_phi, target_void_ratio, target_relative_density",
-            )
-        if self.target_phi is not None:
-            s(
-                self,
-                "target_phi",
-                as_real("target_phi", self.target_phi, 0, 1, lo_open=True, hi_open=True),
-            )
-        if self.target_void_ratio is not None:
-            s(
-                self,
-                "target_void_ratio",
-                as_real("target_void_ratio", self.target_void_ratio, 0, lo_open=True),
-            )
-        if self.target_relative_density is not None:
-            s(
-                self,
-                "target_relative_density",
-                as_real("target_relative_density", self.target_relative_density, 0, 1),
-            )
-        if self.density_tol is not None:
-            s(self, "density_tol", as_real("density_tol", self.density_tol, 0, 0.1, lo_open=True))
-        if self.density_method not in ("auto", "deposition", "servo"):
-            raise InvalidParameterError(
-                f"invalid density_method = {short_repr(self.density_method)}: must be "
-                "'auto', 'deposition' or 'servo'",
-                parameter="density_method",
-            )
-        if self.density_method == "servo" and given and self.consolidate is None:
-            raise InvalidParameterError(
-                "invalid density_method = 'servo': the servo's friction reduction runs in "
-                "the consolidation stage; give a [consolidate] table, or "
-                "density_method = 'deposition'",
-                parameter="density_method",
-            )
 
     def replace(self, **changes) -> PackScene:
         """A copy with some fields changed (validated again; a change of `seed` and

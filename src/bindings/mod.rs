@@ -7,12 +7,9 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
-use crate::pipeline::sizes::lognormal_params;
 use crate::pipeline::world::{geometric_contacts, Contacts, Container, Inertia2D};
-use crate::pipeline::{
-    DiscreteLaw, FractionsBy, LayerReport, PackConfig, Packer, RadiusLaw, SieveLaw, SimConfig,
-    World,
-};
+use crate::pipeline::{LayerReport, Packer, RadiusLaw, SimConfig, World};
+use crate::scene::{LawSpec, SceneSpec};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
@@ -46,10 +43,14 @@ fn typed_error(py: Python<'_>, msg: &str, e: Error) -> PyResult<PyErr> {
         Error::InvalidParameter {
             name,
             value,
+            number,
             expected,
         } => {
             kw.set_item("parameter", name)?;
-            kw.set_item("value", (!value.is_empty()).then_some(value))?;
+            match number {
+                Some(x) => kw.set_item("value", x)?,
+                None => kw.set_item("value", (!value.is_empty()).then_some(value))?,
+            }
             kw.set_item("expected", expected)?;
             "InvalidParameterError"
         }
@@ -139,6 +140,7 @@ fn key_type_error(py: Python<'_>, e: PyErr) -> PyErr {
     PyErr::from(Error::InvalidParameter {
         name: key,
         value: String::new(),
+        number: None,
         expected: format!("wrong type ({why})"),
     })
 }
@@ -148,6 +150,7 @@ fn bad(name: &str, msg: impl std::fmt::Display) -> PyErr {
     PyErr::from(Error::InvalidParameter {
         name: name.to_string(),
         value: String::new(),
+        number: None,
         expected: msg,
     })
 }
@@ -600,124 +603,38 @@ struct LawArgs {
     sieve_passing: Option<Vec<f64>>,
 }
 
-/// The radius laws a scene may name (`PackScene.radius_law`).
-const RADIUS_LAWS: &str =
-    "\"constant\", \"gaussian\", \"uniform\", \"lognormal\", \"discrete\" or \"sieve\"";
-
 impl LawArgs {
-    /// The power of the radius a particle's mass grows with: 3, or 2 for discs of
-    /// unit thickness (`inertia_2d = "disc"` in 2D).
-    fn mass_exponent(&self) -> i32 {
-        if self.dim == 2 && self.inertia_2d == "disc" {
+    fn spec(self) -> LawSpec {
+        LawSpec {
+            radius_law: self.radius_law,
+            r_mean: self.r_mean,
+            r_std: self.r_std,
+            r_min: self.r_min,
+            r_max: self.r_max,
+            radii: self.radii,
+            fractions: self.fractions,
+            fractions_by: self.fractions_by,
+            sieve_sizes: self.sieve_sizes,
+            sieve_passing: self.sieve_passing,
+        }
+    }
+
+    /// The law, checked by the scene's validator.
+    fn law(self) -> PyResult<RadiusLaw> {
+        let exponent = if self.dim == 2 && self.inertia_2d == "disc" {
             2
         } else {
             3
-        }
-    }
-
-    /// The law, checked; a key the law does not take, or one it lacks, is named.
-    fn law(&self) -> PyResult<RadiusLaw> {
-        let name = self.radius_law.as_str();
-        let takes = |key: &str, given: bool, law: &str| -> PyResult<()> {
-            if given && name != law {
-                return Err(bad(
-                    key,
-                    format!(
-                        "only radius_law = \"{law}\" takes {key} (radius_law = {name:?}); \
-                         unset it (None)"
-                    ),
-                ));
-            }
-            Ok(())
         };
-        takes("radii", self.radii.is_some(), "discrete")?;
-        takes("fractions", self.fractions.is_some(), "discrete")?;
-        takes("sieve_sizes", self.sieve_sizes.is_some(), "sieve")?;
-        takes("sieve_passing", self.sieve_passing.is_some(), "sieve")?;
-        let by = match self.fractions_by.as_str() {
-            "number" => FractionsBy::Number,
-            "mass" => FractionsBy::Mass,
-            other => {
-                return Err(bad(
-                    "fractions_by",
-                    format!("{other:?}, expected \"number\" or \"mass\""),
-                ))
-            }
-        };
-        let need = |key: &str, v: &Option<Vec<f64>>| -> PyResult<Vec<f64>> {
-            v.clone().ok_or_else(|| {
-                bad(
-                    key,
-                    format!("radius_law = {name:?} needs {key} (a list of numbers)"),
-                )
-            })
-        };
-        let std = self.r_std;
-        if !(std.is_finite() && std >= 0.0) {
-            return Err(Error::invalid("r_std", std, "must be finite and >= 0 (m)").into());
-        }
-        let law = match name {
-            "constant" => RadiusLaw::Constant(self.r_mean),
-            "gaussian" => RadiusLaw::Gaussian {
-                mean: self.r_mean,
-                std,
-                min: self.r_min.unwrap_or(self.r_mean - 3.0 * std),
-                max: self.r_max.unwrap_or(self.r_mean + 3.0 * std),
-            },
-            "uniform" => {
-                let (Some(min), Some(max)) = (self.r_min, self.r_max) else {
-                    return Err(bad(
-                        if self.r_min.is_none() {
-                            "r_min"
-                        } else {
-                            "r_max"
-                        },
-                        "radius_law = \"uniform\" needs r_min and r_max (m)",
-                    ));
-                };
-                RadiusLaw::Uniform { min, max }
-            }
-            "lognormal" => {
-                // default window: three standard deviations of ln r about its mean
-                let (mu, sigma) = if self.r_mean > 0.0 && std >= 0.0 {
-                    lognormal_params(self.r_mean, std)
-                } else {
-                    (f64::NAN, f64::NAN)
-                };
-                RadiusLaw::Lognormal {
-                    mean: self.r_mean,
-                    std,
-                    min: self.r_min.unwrap_or((mu - 3.0 * sigma).exp()),
-                    max: self.r_max.unwrap_or((mu + 3.0 * sigma).exp()),
-                }
-            }
-            "discrete" => RadiusLaw::Discrete(DiscreteLaw::new(
-                &need("radii", &self.radii)?,
-                &need("fractions", &self.fractions)?,
-                by,
-                self.mass_exponent(),
-            )?),
-            "sieve" => RadiusLaw::Sieve(SieveLaw::new(
-                &need("sieve_sizes", &self.sieve_sizes)?,
-                &need("sieve_passing", &self.sieve_passing)?,
-                self.mass_exponent(),
-            )?),
-            other => {
-                return Err(bad(
-                    "radius_law",
-                    format!("{other:?}, expected {RADIUS_LAWS}"),
-                ))
-            }
-        };
-        law.validate()?;
-        Ok(law)
+        Ok(self.spec().law(exponent)?)
     }
 }
 
-/// The fields of a `granpack.PackScene` the layer loop needs, read by attribute (the
-/// radius law's keys are read into [`LawArgs`]).
+/// The keys of a `granpack.PackScene` that are not the radius law's, read by attribute
+/// (the radius law's keys are read into [`LawArgs`]); the integers wider than the
+/// engine's, so that a value out of range is refused by the validator, by name.
 #[derive(FromPyObject)]
-struct SceneArgs {
+struct SceneArgs<'py> {
     dim: i64,
     base: Vec<f64>,
     container: String,
@@ -731,122 +648,97 @@ struct SceneArgs {
     gravity: f64,
     drag: f64,
     rotations: bool,
-    seed: u64,
-    stream: u64,
+    seed: i128,
+    stream: i128,
     inertia_2d: String,
     skin_ratio: f64,
     max_overlap_ratio: f64,
-    max_attempts: u64,
-    max_layers: usize,
+    max_attempts: i128,
+    max_layers: i128,
     settle_tol: Option<f64>,
     settle_dt: Option<f64>,
     freeze_depth: Option<f64>,
     freeze_speed: f64,
     freeze_force: f64,
+    trim: bool,
+    rest_tol: Option<f64>,
+    target_phi: Option<f64>,
+    target_void_ratio: Option<f64>,
+    target_relative_density: Option<f64>,
+    density_tol: Option<f64>,
+    density_method: String,
+    consolidate: Option<Bound<'py, PyAny>>,
 }
 
-/// The scene as the engine takes it, validated (`PackConfig::validate`: every error
-/// names the scene key).
-fn pack_config<const D: usize>(s: &SceneArgs, law: RadiusLaw) -> PyResult<PackConfig<D>>
-where
-    Dim<D>: Spatial<D>,
-{
-    let container = container_from(&s.container, s.cylinder_radius)?;
-    let v = <Dim<D> as Spatial<D>>::VERTICAL;
-    let mut gravity = vec![0.0; D];
-    gravity[v] = -s.gravity;
+/// A `granpack.PackScene` as the scene's validator takes it.
+fn scene_spec(scene: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
+    let s: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
+    let law = scene
+        .extract::<LawArgs>()
+        .map_err(|e| key_type_error(scene.py(), e))?
+        .spec();
     let m = &s.material;
-    let sim = sim_config::<D>(
-        (m.density, m.young, m.poisson, m.damping, m.friction),
-        s.dt,
-        &gravity,
-        s.drag,
-        s.rotations,
-        None,
-        s.skin_ratio,
-        s.max_overlap_ratio,
-        &s.inertia_2d,
-        container,
-    )?;
-    if s.base.len() != D - 1 {
-        return Err(bad(
-            "base",
-            format!("{} lengths, expected {}", s.base.len(), D - 1),
-        ));
-    }
-    let mut b = Vector::<D>::zeros();
-    let mut it = s.base.iter();
-    for k in (0..D).filter(|&k| k != v) {
-        b[k] = *it.next().expect("D - 1 lengths");
-    }
-    let cfg = PackConfig {
-        sim,
-        base: b,
+    Ok(SceneSpec {
+        dim: s.dim,
+        base: s.base,
+        container: s.container,
+        cylinder_radius: s.cylinder_radius,
         height: s.height,
-        radii: law,
+        law,
         h_layer: s.h_layer,
         phi_layer: s.phi_layer,
+        material: Material {
+            density: m.density,
+            young: m.young,
+            poisson: m.poisson,
+            damping: m.damping,
+            friction: m.friction,
+        },
+        dt: s.dt,
         settle_time: s.settle_time,
+        gravity: s.gravity,
+        drag: s.drag,
+        rotations: s.rotations,
         seed: s.seed,
         stream: s.stream,
+        inertia_2d: s.inertia_2d,
+        skin_ratio: s.skin_ratio,
+        max_overlap_ratio: s.max_overlap_ratio,
         max_attempts: s.max_attempts,
         max_layers: s.max_layers,
         settle_tol: s.settle_tol,
+        settle_dt: s.settle_dt,
         freeze_depth: s.freeze_depth,
         freeze_speed: s.freeze_speed,
         freeze_force: s.freeze_force,
-        settle_dt: s.settle_dt,
-    };
-    // The scene's own checks that the engine's config does not hold (PackScene makes
-    // them too): the same fault is the same error whichever way the scene came.
-    let saturation = if D == 2 { 0.547 } else { 0.384 };
-    if !(s.phi_layer > 0.0 && s.phi_layer < saturation) {
-        return Err(Error::invalid(
-            "phi_layer",
-            s.phi_layer,
-            &format!("must lie in (0, {saturation}) (RSA saturates near {saturation} in {D}D)"),
-        )
-        .into());
-    }
-    if !(s.gravity > 0.0 && s.gravity.is_finite()) {
-        return Err(Error::invalid(
-            "gravity",
-            s.gravity,
-            "must lie in (0, inf) (m/s^2; a magnitude, the pull is along -vertical)",
-        )
-        .into());
-    }
-    cfg.validate()?;
-    Ok(cfg)
+        trim: s.trim,
+        rest_tol: s.rest_tol,
+        target_phi: s.target_phi,
+        target_void_ratio: s.target_void_ratio,
+        target_relative_density: s.target_relative_density,
+        density_tol: s.density_tol,
+        density_method: s.density_method,
+        consolidates: s.consolidate.is_some(),
+    })
 }
 
-/// A scene's radius law, checked: (r_min, r_max, r_mean, r_std) of the law (m), the
-/// last two by number (the parameters before truncation for the Gaussian and the
-/// lognormal).
+/// Checks a whole scene (`granpack.PackScene`, read by attribute) with the scene's one
+/// validator, the same checks as `LayerPacker(scene)` and more, and returns what it
+/// resolves to: r_min, r_max, r_mean, r_std (m), base (m), cylinder_radius (m or
+/// None), critical_dt (s), estimated_particles. The error names the scene key.
 #[pyfunction]
-fn radius_law_summary(scene: &Bound<'_, PyAny>) -> PyResult<(f64, f64, f64, f64)> {
-    let law = scene
-        .extract::<LawArgs>()
-        .map_err(|e| key_type_error(scene.py(), e))?
-        .law()?;
-    let (mean, std) = law.number_moments();
-    Ok((law.r_min(), law.r_max(), mean, std))
-}
-
-/// Validates a whole scene as the layer loop will take it (the same checks as
-/// `LayerPacker(scene)`); the error names the scene key.
-#[pyfunction]
-fn validate_scene(scene: &Bound<'_, PyAny>) -> PyResult<()> {
-    let args: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
-    let law = scene
-        .extract::<LawArgs>()
-        .map_err(|e| key_type_error(scene.py(), e))?
-        .law()?;
-    match args.dim {
-        2 => pack_config::<2>(&args, law).map(|_| ()),
-        3 => pack_config::<3>(&args, law).map(|_| ()),
-        other => Err(bad("dim", format!("{other}, expected 2 or 3"))),
-    }
+fn resolve_scene<'py>(scene: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+    let r = scene_spec(scene)?.resolve()?;
+    let d = PyDict::new(scene.py());
+    d.set_item("r_min", r.r_min)?;
+    d.set_item("r_max", r.r_max)?;
+    d.set_item("r_mean", r.r_mean)?;
+    d.set_item("r_std", r.r_std)?;
+    d.set_item("base", r.base)?;
+    d.set_item("cylinder_radius", r.cylinder_radius)?;
+    d.set_item("critical_dt", r.critical_dt)?;
+    d.set_item("estimated_particles", r.estimated_particles)?;
+    Ok(d)
 }
 
 /// Number fractions of a scene's discrete radii or sieve classes (as `radii` or the
@@ -908,14 +800,10 @@ impl LayerPacker {
     /// validated here).
     #[new]
     fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let args: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
-        let law = scene
-            .extract::<LawArgs>()
-            .map_err(|e| key_type_error(scene.py(), e))?
-            .law()?;
-        let inner = match args.dim {
-            2 => PackInner::D2(Packer::new(pack_config::<2>(&args, law)?)?),
-            3 => PackInner::D3(Packer::new(pack_config::<3>(&args, law)?)?),
+        let spec = scene_spec(scene)?;
+        let inner = match spec.dim {
+            2 => PackInner::D2(Packer::new(spec.pack_config::<2>()?)?),
+            3 => PackInner::D3(Packer::new(spec.pack_config::<3>()?)?),
             other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
         };
         Ok(LayerPacker { inner })
@@ -1227,8 +1115,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(rayleigh_time_step, m)?)?;
-    m.add_function(wrap_pyfunction!(validate_scene, m)?)?;
-    m.add_function(wrap_pyfunction!(radius_law_summary, m)?)?;
+    m.add_function(wrap_pyfunction!(resolve_scene, m)?)?;
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
     scene::register(m)?;

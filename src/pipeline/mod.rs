@@ -1,13 +1,13 @@
-//! The time step, the world that owns the state, the radius laws, random sequential
-//! addition and the layer loop.
+//! The time step, the world that owns the state, random sequential addition, the
+//! layer loop and the consolidation stage.
 
 pub mod consolidate;
 pub mod pack;
 pub mod rsa;
-pub mod sizes;
 pub mod world;
 
+pub use crate::scene::radius_law as sizes;
+pub use crate::scene::{DiscreteLaw, FractionsBy, SieveLaw};
 pub use consolidate::{consolidate, ConsolidateConfig, ConsolidateReport, ServoCheck, ServoTarget};
 pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};
-pub use sizes::{DiscreteLaw, FractionsBy, SieveLaw};
 pub use world::{Contacts, Container, FreezeConfig, Inertia2D, SimConfig, World};

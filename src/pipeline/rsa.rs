@@ -12,7 +12,7 @@ use crate::pipeline::world::Container;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-pub use crate::pipeline::sizes::RadiusLaw;
+pub use crate::scene::RadiusLaw;
 
 /// A growable cell grid over a slab, for overlap tests during insertion. On periodic
 /// axes the grid divides the period into whole cells and wraps around.
