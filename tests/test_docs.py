@@ -20,7 +20,7 @@ MAP = ROOT / "ARCHITECTURE.md"
 #: Words of a work diary, not of a product: numbered work sessions and tracker issues, the
 #: virtual machines that measurements were once taken on, and the tools and machines that a
 #: piece of work was or was not given. A measurement names its CPU model and date instead
-#: (benchmarks/results/*/manifest.json), and what it measured. The product's own words stay
+#: (studies/*/manifest.json), and what it measured. The product's own words stay
 #: allowed: a session of work, pytest's session scope, a process's new session, the step
 #: team's helper threads, the verb "issues".
 BANNED = [
