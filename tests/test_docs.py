@@ -32,6 +32,18 @@ BANNED = [
     # what a piece of work was or was not lent to measure with, rather than the CPU measured
     re.compile(r"\bdevice machines?\b", re.IGNORECASE),
     re.compile(r"\bstatus\W{0,3}:?\W{0,3}not drawn|\bnot drawn\)", re.IGNORECASE),
+    # a machine, device or task that was (not) drawn or lent; a figure is not drawn
+    re.compile(
+        r"\b(machines?|devices?|GPUs?|accelerators?|tasks?)\b[^.\n]{0,40}\bnot drawn\b"
+        r"|\bdrawn (by chance|for (this|the|a|each) (task|session|piece of work))\b",
+        re.IGNORECASE,
+    ),
+    re.compile(r"\bno device\b|\bdevice (time|checks?|runs?|budget|loans?)\b", re.IGNORECASE),
+    re.compile(
+        r"\b(was|were|is|are|been|not|none|never) lent\b|\blent (to|for) (this|the|a|one|each)"
+        r" (task|session|piece of work|run)\b|\b(machines?|devices?|GPUs?) (was |were )?lent\b",
+        re.IGNORECASE,
+    ),
     re.compile(r"\b(in|for|of) this task\b", re.IGNORECASE),
     # a session as a stretch of someone's work, not a session of the product's tools
     re.compile(r"\b(this|last|next|previous|earlier|later|current|that) session\b", re.IGNORECASE),
@@ -134,6 +146,18 @@ def test_the_banned_words_are_caught():
         "No device machine for this task (`status`: not drawn), so 1 and 2 threads",
         "(status: not drawn)",
         "the GPU was not drawn)",
+        "the device machine was not drawn for this work",
+        "a GPU machine is not drawn, so the CPU figures stand",
+        "the task's accelerator, not drawn, so no GPU run",
+        "machines are drawn by chance for each task",
+        "No device for this work, so 1 and 2 threads",
+        "no device: the figures are the CPU's",
+        "within the device time left",
+        "the device checks were not run",
+        "no GPU was lent",
+        "a machine lent to this task",
+        "the accelerator machines were lent to some tasks only",
+        "machines lent",
         "measured in this task",
         "as in the last session",
         "this session's time",
@@ -155,6 +179,11 @@ def test_the_banned_words_are_caught():
         "a helper that never starts leaves its items to the master",
         "a large sphere drawn late in a layer",
         "each task of the ensemble is a pack",
+        'raise OSError(28, "No space left on device")',
+        "a rename would replace a device (/dev/null), a pipe or a folder",
+        "the periodic images are not drawn; the seam is",
+        "a contact across a periodic seam is drawn as its short segment",
+        "the spheres drawn back to front, coloured by layer",
     )
     for line in product:
         assert not any(p.search(line) for p in BANNED), line
