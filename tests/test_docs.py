@@ -5,6 +5,7 @@ product (no work diary in its files)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import subprocess
 from pathlib import Path
@@ -16,6 +17,7 @@ from granpack import Material, PackScene
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_PAGE = ROOT / "docs" / "scene.md"
 MAP = ROOT / "ARCHITECTURE.md"
+STUDIES = ROOT / "studies"
 
 #: Words of a work diary, not of a product: numbered work sessions and tracker issues, the
 #: virtual machines that measurements were once taken on, and the tools and machines that a
@@ -254,3 +256,33 @@ def test_the_architecture_map_check_sees_a_missing_module():
     # tables.py is not named by io/tables.py
     text = re.sub(r"(?<![\w./-])tables\.py", "tables", MAP.read_text()) + "\n`io/tables.py`"
     assert "python/granpack/tables.py" in unmapped_modules(text)
+
+
+def _keys(value) -> set[str]:
+    """Every key of a JSON value, at any depth (a reconstructed manifest lists its runs)."""
+    if isinstance(value, dict):
+        return set(value) | {k for v in value.values() for k in _keys(v)}
+    if isinstance(value, list):
+        return {k for v in value for k in _keys(v)}
+    return set()
+
+
+def test_every_study_folder_with_results_has_a_manifest():
+    # a folder of studies/ that holds results (anything but its scripts) says where they
+    # came from: the commit, the CPU, the date and the command
+    folders = [STUDIES, *sorted(p for p in STUDIES.rglob("*") if p.is_dir())]
+    checked = 0
+    for folder in folders:
+        if folder == STUDIES or folder.name in ("_common", "__pycache__"):
+            continue
+        results = [f for f in folder.iterdir() if f.is_file() and f.suffix not in (".py", ".pyc")]
+        if not results:
+            continue
+        manifests = sorted(folder.glob("manifest*.json"))
+        assert manifests, f"{folder.relative_to(ROOT)} holds results without a manifest"
+        for m in manifests:
+            keys = _keys(json.loads(m.read_text()))
+            for want in ("commit", "cpu_model", "date", "command"):
+                assert any(k.startswith(want) for k in keys), (m.relative_to(ROOT), want)
+        checked += 1
+    assert checked >= 10, checked
