@@ -1,4 +1,4 @@
-"""benchmarks/alternate.py: the numbers it reports are those the commands printed."""
+"""studies/_common/alternate.py: the numbers it reports are those the commands printed."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "alternate.py"
+SCRIPT = Path(__file__).resolve().parents[1] / "studies" / "_common" / "alternate.py"
 
 
 def printer(*values: float) -> str:

@@ -5,6 +5,7 @@ product (no work diary in its files)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import subprocess
 from pathlib import Path
@@ -16,11 +17,12 @@ from granpack import Material, PackScene
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_PAGE = ROOT / "docs" / "scene.md"
 MAP = ROOT / "ARCHITECTURE.md"
+STUDIES = ROOT / "studies"
 
 #: Words of a work diary, not of a product: numbered work sessions and tracker issues, the
 #: virtual machines that measurements were once taken on, and the tools and machines that a
 #: piece of work was or was not given. A measurement names its CPU model and date instead
-#: (benchmarks/results/*/manifest.json), and what it measured. The product's own words stay
+#: (studies/*/manifest.json), and what it measured. The product's own words stay
 #: allowed: a session of work, pytest's session scope, a process's new session, the step
 #: team's helper threads, the verb "issues".
 BANNED = [
@@ -32,6 +34,18 @@ BANNED = [
     # what a piece of work was or was not lent to measure with, rather than the CPU measured
     re.compile(r"\bdevice machines?\b", re.IGNORECASE),
     re.compile(r"\bstatus\W{0,3}:?\W{0,3}not drawn|\bnot drawn\)", re.IGNORECASE),
+    # a machine, device or task that was (not) drawn or lent; a figure is not drawn
+    re.compile(
+        r"\b(machines?|devices?|GPUs?|accelerators?|tasks?)\b[^.\n]{0,40}\bnot drawn\b"
+        r"|\bdrawn (by chance|for (this|the|a|each) (task|session|piece of work))\b",
+        re.IGNORECASE,
+    ),
+    re.compile(r"\bno device\b|\bdevice (time|checks?|runs?|budget|loans?)\b", re.IGNORECASE),
+    re.compile(
+        r"\b(was|were|is|are|been|not|none|never) lent\b|\blent (to|for) (this|the|a|one|each)"
+        r" (task|session|piece of work|run)\b|\b(machines?|devices?|GPUs?) (was |were )?lent\b",
+        re.IGNORECASE,
+    ),
     re.compile(r"\b(in|for|of) this task\b", re.IGNORECASE),
     # a session as a stretch of someone's work, not a session of the product's tools
     re.compile(r"\b(this|last|next|previous|earlier|later|current|that) session\b", re.IGNORECASE),
@@ -134,6 +148,18 @@ def test_the_banned_words_are_caught():
         "No device machine for this task (`status`: not drawn), so 1 and 2 threads",
         "(status: not drawn)",
         "the GPU was not drawn)",
+        "the device machine was not drawn for this work",
+        "a GPU machine is not drawn, so the CPU figures stand",
+        "the task's accelerator, not drawn, so no GPU run",
+        "machines are drawn by chance for each task",
+        "No device for this work, so 1 and 2 threads",
+        "no device: the figures are the CPU's",
+        "within the device time left",
+        "the device checks were not run",
+        "no GPU was lent",
+        "a machine lent to this task",
+        "the accelerator machines were lent to some tasks only",
+        "machines lent",
         "measured in this task",
         "as in the last session",
         "this session's time",
@@ -155,6 +181,11 @@ def test_the_banned_words_are_caught():
         "a helper that never starts leaves its items to the master",
         "a large sphere drawn late in a layer",
         "each task of the ensemble is a pack",
+        'raise OSError(28, "No space left on device")',
+        "a rename would replace a device (/dev/null), a pipe or a folder",
+        "the periodic images are not drawn; the seam is",
+        "a contact across a periodic seam is drawn as its short segment",
+        "the spheres drawn back to front, coloured by layer",
     )
     for line in product:
         assert not any(p.search(line) for p in BANNED), line
@@ -225,3 +256,33 @@ def test_the_architecture_map_check_sees_a_missing_module():
     # tables.py is not named by io/tables.py
     text = re.sub(r"(?<![\w./-])tables\.py", "tables", MAP.read_text()) + "\n`io/tables.py`"
     assert "python/granpack/tables.py" in unmapped_modules(text)
+
+
+def _keys(value) -> set[str]:
+    """Every key of a JSON value, at any depth (a reconstructed manifest lists its runs)."""
+    if isinstance(value, dict):
+        return set(value) | {k for v in value.values() for k in _keys(v)}
+    if isinstance(value, list):
+        return {k for v in value for k in _keys(v)}
+    return set()
+
+
+def test_every_study_folder_with_results_has_a_manifest():
+    # a folder of studies/ that holds results (anything but its scripts) says where they
+    # came from: the commit, the CPU, the date and the command
+    folders = [STUDIES, *sorted(p for p in STUDIES.rglob("*") if p.is_dir())]
+    checked = 0
+    for folder in folders:
+        if folder == STUDIES or folder.name in ("_common", "__pycache__"):
+            continue
+        results = [f for f in folder.iterdir() if f.is_file() and f.suffix not in (".py", ".pyc")]
+        if not results:
+            continue
+        manifests = sorted(folder.glob("manifest*.json"))
+        assert manifests, f"{folder.relative_to(ROOT)} holds results without a manifest"
+        for m in manifests:
+            keys = _keys(json.loads(m.read_text()))
+            for want in ("commit", "cpu_model", "date", "command"):
+                assert any(k.startswith(want) for k in keys), (m.relative_to(ROOT), want)
+        checked += 1
+    assert checked >= 10, checked

@@ -1,4 +1,4 @@
-"""benchmarks/vs_peers.py --quick: granpack and the peers on two layers of the paper's
+"""studies/vs_peers/vs_peers.py --quick: granpack and the peers on two layers of the paper's
 jobs, one run, with a manifest. Needs LAMMPS and LIGGGHTS (Debian packages `lammps`,
 `liggghts`) and the peers' inputs beside the checkout; skipped otherwise."""
 
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "benchmarks" / "vs_peers.py"
+SCRIPT = ROOT / "studies" / "vs_peers" / "vs_peers.py"
 PEERS = Path(os.environ.get("GRANPACK_PEERS_DIR", ROOT.parent / "shared" / "peers"))
 
 missing = [b for b in ("lmp", "liggghts", "taskset") if shutil.which(b) is None]

@@ -115,7 +115,7 @@ FAST_FREEZE_LAYERS = 1.0
 #: Time step of `PackScene.fast()`, as a fraction of the Rayleigh estimate for r_min
 #: (never below the scene's own dt). A landing collision then lasts about 6 steps, and
 #: its restitution, averaged over where in a step the contact begins, is within 0.5 %
-#: of the resolved one, as at the paper's dt (`benchmarks/collision_dt.py`); 20 packs
+#: of the resolved one, as at the paper's dt (`studies/collision_dt/collision_dt.py`); 20 packs
 #: of 4.3 lie within 0.54 sd of the full-fidelity ensemble (README, "The fast settings").
 FAST_DT_RAYLEIGH = 0.55
 #: Time step of `PackScene.fast()` once a layer has fallen through its slab (settle_dt),
@@ -473,7 +473,7 @@ class PackScene:
         dt = FAST_DT_RAYLEIGH of the Rayleigh estimate (or the scene's dt, if larger:
         the 2D presets keep theirs) and, once each layer has fallen, settle_dt =
         FAST_SETTLE_DT_RAYLEIGH of it (unset where that is not larger than dt). The
-        physics constants are untouched; `benchmarks/fast_vs_full.py` measures how far
+        physics constants are untouched; `studies/fast_vs_full/fast_vs_full.py` measures how far
         the ensemble statistics move (see the README)."""
         assert self.r_min is not None  # set by __post_init__
         crit = self.material.critical_time_step(self.r_min)
