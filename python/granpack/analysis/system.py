@@ -179,10 +179,8 @@ def _container_of(pack, container, periodic, cylinder_radius, d: int):
     if pack is not None:
         scene = getattr(pack, "scene", None)
         if scene is not None:
-            told_kind, told_source = getattr(scene, "container", "box"), "scene"
-            told_radius = getattr(scene, "cylinder_radius", None)
-            if told_kind == "cylinder" and told_radius is None:
-                told_radius = float(scene.base[0]) / 2.0
+            of_scene = Container.from_scene(scene)
+            told_kind, told_source, told_radius = of_scene.kind, "scene", of_scene.radius
         else:
             flags = getattr(pack, "periodic", None)
             # another code's periodic horizontal axes (a dump's BOX BOUNDS pp); a periodic
