@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import FileFormatError
-from .analysis.container import CONTAINERS
+from .analysis.container import CONTAINERS, Container, make_container
 
 __all__ = ["ContainerTag", "container_tag", "parse_container_tag", "CONTAINER_KINDS"]
 
@@ -58,16 +58,36 @@ class ContainerTag:
     lo: np.ndarray | None = None
     hi: np.ndarray | None = None
 
+    @classmethod
+    def from_container(cls, container: Container, corners: bool = True) -> ContainerTag:
+        """The tag of a `granpack.analysis.Container` (with its corners, or without)."""
+        lo, hi = (container.lo, container.hi) if corners else (None, None)
+        return cls(container.kind, container.radius, lo, hi)
+
+    def to_container(self, lo=None, hi=None) -> Container:
+        """The `granpack.analysis.Container` the tag names: its corners, or `lo` and `hi`
+        where it gives none (each (D,), hi's vertical value H_top)."""
+        lo = self.lo if self.lo is not None else lo
+        hi = self.hi if self.hi is not None else hi
+        if lo is None or hi is None:
+            raise ValueError("the tag gives no corners: pass lo and hi")
+        periodic = (self.kind == "periodic",) * (len(lo) - 1)
+        return make_container(self.kind, lo, hi, periodic, self.cylinder_radius)
+
+    def words(self) -> str:
+        """The tag's words (full float precision: ``repr``)."""
+        words = [f"container={self.kind}"]
+        if self.cylinder_radius is not None:
+            words.append(f"cylinder_radius={float(self.cylinder_radius)!r}")
+        for name, v in (("lo", self.lo), ("hi", self.hi)):
+            if v is not None:
+                words.append(f"{name}=" + ",".join(repr(float(a)) for a in np.asarray(v).ravel()))
+        return " ".join(words)
+
 
 def container_tag(kind: str, radius: float | None, lo=None, hi=None) -> str:
     """The tag's words for a container (full float precision: ``repr``)."""
-    words = [f"container={kind}"]
-    if radius is not None:
-        words.append(f"cylinder_radius={float(radius)!r}")
-    for name, v in (("lo", lo), ("hi", hi)):
-        if v is not None:
-            words.append(f"{name}=" + ",".join(repr(float(a)) for a in np.asarray(v).ravel()))
-    return " ".join(words)
+    return ContainerTag(kind, radius, lo, hi).words()
 
 
 def parse_container_tag(text: str, path: Path, line: int, dim: int) -> ContainerTag | None:

@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 
 from ._validate import InvalidParameterError
+from .analysis.container import Container
 from .pack import Pack
 
 __all__ = [
@@ -65,14 +66,11 @@ SNIPPET_NAME = "in.granpack"
 def container_of(pack: Pack) -> tuple[str, float | None]:
     """The pack's container ("box", "periodic" or "cylinder") and cylinder radius (m,
     None for the others), from its scene (scenes without the key are boxes)."""
-    kind = getattr(pack.scene, "container", "box")
-    radius = getattr(pack.scene, "cylinder_radius", None)
+    c = Container.from_scene(pack.scene)
     rec = _record(pack)
-    if kind == "cylinder" and rec is not None and "cylinder" in rec["walls"]:
-        radius = rec["walls"]["cylinder"]  # where the consolidation left it
-    if kind == "cylinder" and radius is None:
-        radius = pack.scene.base[0] / 2.0
-    return kind, (float(radius) if kind == "cylinder" and radius is not None else None)
+    if c.kind == "cylinder" and rec is not None and "cylinder" in rec["walls"]:
+        return c.kind, float(rec["walls"]["cylinder"])  # where the consolidation left it
+    return c.kind, c.radius
 
 
 def _record(pack: Pack) -> dict | None:

@@ -37,6 +37,7 @@ from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
 from ._validate import InvalidParameterError
+from .analysis.container import Container
 from .pack import atomic_write
 
 __all__ = [
@@ -96,11 +97,10 @@ def _container(pack) -> tuple[str, float | None]:
     """The container of a pack's scene ("box" where the scene has none) and the
     cylinder radius (m; None for the others)."""
     scene = getattr(pack, "scene", None)
-    kind = getattr(scene, "container", "box") if scene is not None else "box"
-    radius = getattr(scene, "cylinder_radius", None) if kind == "cylinder" else None
-    if kind == "cylinder" and radius is None and scene is not None:
-        radius = scene.base[0] / 2.0
-    return kind, radius
+    if scene is None:
+        return "box", None
+    c = Container.from_scene(scene)
+    return c.kind, c.radius
 
 
 def _walls(ax, width: float, height: float, periodic: bool = False) -> None:

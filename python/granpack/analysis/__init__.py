@@ -24,9 +24,11 @@ One module per concern: ``relations`` (void ratio, empirical Z(e)), ``tensors`` 
 force tensors), ``volumes`` (exact volumes inside windows, slabs and cylinders),
 ``container`` (box, periodic cell, cylinder), ``coordination`` (P[k], rattlers), ``stress``
 (Love-Weber, K0), ``structure`` (g(r), bond order), ``profiles``, ``reader`` (text packs),
-``inputs`` (coercion of what the analysis is given, contacts in each container), ``voronoi``
-(local phi from the radical tessellation, optional), ``prepare`` (a pack made ready for
-analysis), ``result`` (:class:`Microstructure`) and ``compute`` (:func:`microstructure`).
+``inputs`` (coercion of what the analysis is given, contacts in each container), ``system``
+(:class:`System`, the one input of every function: ``System.from_any(pack_or_arrays)``),
+``voronoi`` (local phi from the radical tessellation, optional), ``prepare`` (what
+:func:`microstructure` adds beyond the paper), ``result`` (:class:`Microstructure`) and
+``compute`` (:func:`microstructure`).
 
 Warnings
 --------
@@ -45,6 +47,7 @@ from .reader import read_xyzr
 from .relations import empirical_z, phi_from_void_ratio, void_ratio
 from .result import Microstructure, MicrostructureWarning
 from .structure import CRYSTAL_THRESHOLD, BondOrder, rdf, steinhardt
+from .system import System
 from .tensors import (
     DEFAULT_N_BINS,
     ForceTensors,
@@ -61,6 +64,7 @@ from .volumes import cylinder_volumes, slab_volumes, window_volumes
 from .voronoi import local_phi
 
 __all__ = [
+    "System",
     "Microstructure",
     "BondOrder",
     "Container",

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Any, Unpack
 
 import numpy as np
 
 from .._validate import InvalidParameterError, as_int, as_real
 from ..grading import realised_grading
-from .prepare import MAX_SLICES, _beyond_the_paper, _prepare
+from .prepare import MAX_SLICES, _beyond_the_paper
 from .relations import empirical_z
 from .result import Microstructure, MicrostructureWarning
+from .system import System, SystemArgs
 from .tensors import (
     ANISOTROPY_FACTOR,
     ForceTensors,
@@ -33,24 +35,19 @@ __all__ = ["microstructure"]
 def microstructure(
     pack=None,
     *,
-    positions=None,
-    radii=None,
-    contacts=None,
-    box=None,
-    periodic=None,
-    cylinder_radius: float | None = None,
-    container: str | None = None,
     binned: bool = False,
     n_bins: int | None = None,
     core_margin: float = 0.1,
     slices: int = 10,
+    **where: Unpack[SystemArgs],
 ) -> Microstructure:
     """Microstructure of a pack: phi, void ratio, coordination, fabric, force tensors.
 
     Parameters
     ----------
-    pack : granpack.Pack or granpack.ParticleFile, optional
-        A generated pack (its positions, radii, contacts with forces, and box), or what
+    pack : granpack.Pack, granpack.ParticleFile or System, optional
+        A System made by :meth:`System.from_any`, a generated pack (its positions,
+        radii, contacts with forces, and box), or what
         :func:`granpack.read_particles` read from a file (its box, if the file has one,
         and its periodic horizontal axes: see ParticleFile.periodic). Give either
         `pack` or `positions` and `radii`, not both.
@@ -115,7 +112,7 @@ def microstructure(
     GranpackError
         Bad input, naming the parameter.
     """
-    prep = _prepare(pack, positions, radii, contacts, box, periodic, cylinder_radius, container)
+    prep = System.from_any(pack, **where)
     x, r, n, d = prep.x, prep.r, prep.n, prep.d
     lo, hi, c, contacts_given = prep.lo, prep.hi, prep.contacts, prep.contacts_given
     solid, vol, h_top, box_volume = prep.solid, prep.vol, prep.h_top, prep.volume
@@ -186,7 +183,7 @@ def microstructure(
 
     nan_t = np.full((d, d), np.nan)
     nan_v = np.full(d, np.nan)
-    values = {
+    values: dict[str, Any] = {
         "dim": d,
         "n_particles": n,
         "n_contacts": n_c,
@@ -272,7 +269,7 @@ def microstructure(
         a_t_binned=None if binned_t is None else binned_t.a_t,
     )
     values.update(_beyond_the_paper(prep, values, n_slices, has_forces))
-    scene = getattr(pack, "scene", None)
+    scene = getattr(prep.source, "scene", None)
     values["grading"] = realised_grading(
         r, d, inertia_2d=getattr(scene, "inertia_2d", None) or "disc"
     )

@@ -55,6 +55,23 @@ class Container:
     radius: float | None = None
     lid: bool = False
 
+    @classmethod
+    def from_scene(cls, scene, height: float = math.nan, lid: bool = False) -> Container:
+        """The container a scene (`granpack.PackScene`) describes, in the one place that
+        reads its description: ``scene.container`` (a name; "box" where the scene has
+        none), ``scene.cylinder_radius`` (None: half the base) and ``scene.base``; the
+        corners from 0 to (base, `height`), `height` being H_top (NaN where not known)."""
+        kind = getattr(scene, "container", "box")
+        base = tuple(float(b) for b in scene.base)
+        d = len(base) + 1
+        radius = None
+        if kind == "cylinder":
+            radius = getattr(scene, "cylinder_radius", None)
+            radius = base[0] / 2.0 if radius is None else float(radius)
+        lo = np.zeros(d)
+        hi = np.array([*base, float(height)])
+        return cls(kind, lo, hi, (kind == "periodic",) * (d - 1), radius, lid)
+
     @property
     def dim(self) -> int:
         return int(self.lo.shape[0])

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Unpack
 
 import numpy as np
 
 from .._validate import InvalidParameterError, as_int
 from .coordination import degrees
-from .prepare import MAX_SLICES, _prepare, stress_slices
+from .prepare import MAX_SLICES, stress_slices
 from .stress import contact_forces
+from .system import System, SystemArgs
 from .tensors import _bin_free
 from .volumes import cylinder_volumes, slab_volumes
 
@@ -39,23 +40,14 @@ def _per_group(group: np.ndarray, count: int, deg: np.ndarray):
     return npart, z, zm
 
 
-def profiles(
-    pack=None,
-    *,
-    positions=None,
-    radii=None,
-    contacts=None,
-    box=None,
-    periodic=None,
-    cylinder_radius=None,
-    slices: int = 10,
-) -> pl.DataFrame:
+def profiles(pack=None, *, slices: int = 10, **where: Unpack[SystemArgs]) -> pl.DataFrame:
     """Depth profile of a pack: one row per horizontal slice, from the floor to H_top.
 
     Parameters
     ----------
-    pack, positions, radii, contacts, box, periodic, cylinder_radius
-        As in :func:`granpack.microstructure` (a Pack, a ParticleFile, or arrays).
+    pack, positions, radii, contacts, box, periodic, cylinder_radius, container
+        As in :func:`granpack.microstructure` (a System, a Pack, a ParticleFile, or
+        arrays).
     slices : int
         Number of slices of equal thickness (default 10; 1 to 10 000).
 
@@ -81,7 +73,7 @@ def profiles(
           contact (walls included) given to the slice of its contact point.
     """
     n_s = as_int("slices", slices, 1, MAX_SLICES)
-    prep = _prepare(pack, positions, radii, contacts, box, periodic, cylinder_radius)
+    prep = System.from_any(pack, **where)
     x, r, d, cont = prep.x, prep.r, prep.d, prep.container
     c = prep.contacts
     edges = np.linspace(prep.lo[-1], prep.hi[-1], n_s + 1)
@@ -136,22 +128,13 @@ def profiles(
     )
 
 
-def radial_profiles(
-    pack=None,
-    *,
-    positions=None,
-    radii=None,
-    contacts=None,
-    box=None,
-    cylinder_radius=None,
-    shells: int = 10,
-) -> pl.DataFrame:
+def radial_profiles(pack=None, *, shells: int = 10, **where: Unpack[SystemArgs]) -> pl.DataFrame:
     """Radial profile of a pack in a cylinder: one row per coaxial shell of equal width, from
     the axis to the wall, over the whole height. It shows the layering the wall imposes.
 
     Parameters
     ----------
-    pack, positions, radii, contacts, box, cylinder_radius
+    pack, positions, radii, contacts, box, cylinder_radius, container
         As in :func:`granpack.microstructure`; the container must be a cylinder.
     shells : int
         Number of shells (default 10; 1 to 10 000).
@@ -166,7 +149,7 @@ def radial_profiles(
         shell.
     """
     n_s = as_int("shells", shells, 1, MAX_SLICES)
-    prep = _prepare(pack, positions, radii, contacts, box, None, cylinder_radius)
+    prep = System.from_any(pack, **where)
     cont = prep.container
     if cont.radius is None:
         raise InvalidParameterError(
@@ -176,7 +159,7 @@ def radial_profiles(
         )
     x, r = prep.x, prep.r
     big_r = cont.radius
-    ax = cont.axis
+    ax = cont.lo[:2] + big_r  # the axis
     edges = np.linspace(0.0, big_r, n_s + 1)
     lo_z, hi_z = -math.inf, math.inf
     reach = big_r + 2.0 * float(np.max(r))
@@ -190,7 +173,7 @@ def radial_profiles(
     shell_v = math.pi * (edges[1:] ** 2 - edges[:-1] ** 2) * cont.height
     phi = np.diff(inside) / shell_v
     s = np.hypot(x[:, 0] - ax[0], x[:, 1] - ax[1])
-    group = np.clip(np.searchsorted(edges, s, side="right") - 1, 0, n_s - 1)
+    group = np.asarray(np.clip(np.searchsorted(edges, s, side="right") - 1, 0, n_s - 1))
     c = prep.contacts
     deg = degrees(c.i, c.j, prep.n)
     npart, z, zm = _per_group(group, n_s, deg)

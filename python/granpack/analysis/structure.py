@@ -7,6 +7,8 @@ edge-corrected for the container's shape (box, periodic cell or cylinder).
 
 from __future__ import annotations
 
+from typing import Unpack
+
 import numpy as np
 
 from .._validate import InvalidParameterError, as_int, as_real
@@ -15,41 +17,29 @@ from .order import CRYSTAL_THRESHOLD as CRYSTAL_THRESHOLD
 from .order import R_MAX_FLOOR, bond_order, pair_correlation
 from .order import BondOrder as BondOrder
 from .order import spherical_harmonics as spherical_harmonics
-from .prepare import _prepare
+from .system import ContainerArgs, System
 
 __all__ = ["rdf", "steinhardt"]
-
-
-def _pack_or_arrays(first, radii):
-    if hasattr(first, "positions") and hasattr(first, "radii"):
-        if radii is not None:
-            raise InvalidParameterError(
-                "give either a pack or positions and radii, not both", parameter="radii"
-            )
-        return first, None, None
-    return None, first, radii
 
 
 def rdf(
     positions,
     radii=None,
     *,
-    box=None,
-    periodic=None,
-    cylinder_radius=None,
     r_max: float | None = None,
     bins: int = 100,
     margin: float = 0.1,
+    **where: Unpack[ContainerArgs],
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pair correlation function g(r) of the particle centres, edge-corrected.
 
     Parameters
     ----------
-    positions : (N, D) array, or a Pack / ParticleFile (then leave out radii and box)
+    positions : (N, D) array, or a System / Pack / ParticleFile (then leave out radii and box)
         Centres (m).
     radii : (N,) array
         Radii (m), > 0.
-    box, periodic, cylinder_radius
+    box, periodic, cylinder_radius, container, contacts
         The container, as in :func:`granpack.microstructure` (default: a Pack's own; for
         arrays, the bounding box). Periodic axes use the minimum image.
     r_max : float, optional
@@ -73,8 +63,7 @@ def rdf(
         ``pair_correlation``): tends to 1 at large r in the bulk; 0 below the closest
         approach; peaks at the neighbour shells.
     """
-    pack, x_in, r_in = _pack_or_arrays(positions, radii)
-    prep = _prepare(pack, x_in, r_in, None, box, periodic, cylinder_radius)
+    prep = System.from_any(positions, radii=radii, **where)
     n_bins = as_int("bins", bins, 1, 100_000)
     m = as_real("margin", margin, 0.0, unit="m")
     cont, keep = _core_window(prep.container, prep.x, m)
@@ -144,25 +133,22 @@ def steinhardt(
     radii=None,
     l: int = 6,  # noqa: E741
     *,
-    contacts=None,
-    box=None,
-    periodic=None,
-    cylinder_radius=None,
     threshold: float | None = None,
+    **where: Unpack[ContainerArgs],
 ) -> BondOrder:
     """Steinhardt bond order q_l per particle over its contact neighbours, the global Q_l, and
     the crystallised fraction.
 
     Parameters
     ----------
-    positions : (N, D) array, or a Pack / ParticleFile (then leave out radii and box)
+    positions : (N, D) array, or a System / Pack / ParticleFile (then leave out radii and box)
     radii : (N,) array (m)
     l : int
         The order (default 6; 1 to 16). In 2D the order of psi_l.
     contacts : optional
         As in :func:`granpack.microstructure`; default: a Pack's contacts, or the geometric
         contacts (overlap > 0) of the arrays, across periodic seams by minimum image.
-    box, periodic, cylinder_radius
+    box, periodic, cylinder_radius, container
         The container, as in :func:`granpack.microstructure`.
     threshold : float, optional
         Local order a crystalline particle needs (default 0.45 in 3D, 0.7 in 2D).
@@ -173,11 +159,10 @@ def steinhardt(
         On ideal lattices (every bond a contact): q6 = 0.5745 (FCC), 0.4848 (HCP), 0.3536
         (simple cubic); psi6 = 1 on the triangular lattice.
     """
-    pack, x_in, r_in = _pack_or_arrays(positions, radii)
     l_deg = as_int("l", l, 1, 16)
     if threshold is not None:
         threshold = as_real("threshold", threshold, 0.0, 1.0)
-    prep = _prepare(pack, x_in, r_in, contacts, box, periodic, cylinder_radius)
+    prep = System.from_any(positions, radii=radii, **where)
     pp = prep.contacts.particle_pairs()
     nrm = pp.normal / np.linalg.norm(pp.normal, axis=1)[:, None] if len(pp) else pp.normal
     return bond_order(pp.i, pp.j, nrm, prep.n, prep.d, l_deg, threshold)

@@ -5,16 +5,17 @@ cells."""
 
 from __future__ import annotations
 
+from typing import Unpack
+
 import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError
+from .system import System, SystemArgs
 
 __all__ = ["local_phi"]
 
 
-def local_phi(
-    pack=None, *, positions=None, radii=None, box=None, periodic=None, cylinder_radius=None
-) -> np.ndarray:
+def local_phi(pack=None, **where: Unpack[SystemArgs]) -> np.ndarray:
     """Local packing fraction of each particle: its volume over its radical Voronoi cell.
 
     The radical tessellation cuts space between two particles at the plane of equal power
@@ -25,7 +26,7 @@ def local_phi(
 
     Parameters
     ----------
-    pack, positions, radii, box, periodic, cylinder_radius
+    pack, positions, radii, contacts, box, periodic, cylinder_radius, container
         As in :func:`granpack.microstructure`; the container must be the box or the
         periodic cell (no cylinder: the tessellation library has no curved walls).
 
@@ -46,17 +47,14 @@ def local_phi(
         raise GranpackError(
             'local_phi needs the optional package pyvoro2: pip install "granpack[voronoi]"'
         ) from None
-    from .prepare import _prepare
-
     scene = getattr(pack, "scene", None)
-    if cylinder_radius is not None or getattr(scene, "container", "box") == "cylinder":
-        raise InvalidParameterError(
-            "invalid container = 'cylinder': the radical Voronoi tessellation is available "
-            "for the box and the periodic cell only",
-            parameter="container",
-        )
-    prep = _prepare(pack, positions, radii, None, box, periodic, None)
+    asked = where.get("container") or getattr(scene, "container", None)
+    if where.get("cylinder_radius") is not None or asked == "cylinder":
+        _no_cylinder()
+    prep = System.from_any(pack, **where)
     cont = prep.container
+    if cont.kind == "cylinder":
+        _no_cylinder()
     bounds = tuple((float(a), float(b)) for a, b in zip(cont.lo, cont.hi, strict=True))
     per = (*cont.periodic, False)
     x = prep.x
@@ -82,3 +80,11 @@ def local_phi(
     for c in cells:
         cell[int(c["id"])] = float(c[key])
     return prep.vol / cell
+
+
+def _no_cylinder() -> None:
+    raise InvalidParameterError(
+        "invalid container = 'cylinder': the radical Voronoi tessellation is available "
+        "for the box and the periodic cell only",
+        parameter="container",
+    )

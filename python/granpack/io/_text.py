@@ -3,6 +3,7 @@ choosing the dimension, ids, and the container tag."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -12,6 +13,7 @@ from .._numbers import _loadtxt
 from .._validate import (
     FileFormatError,
     InvalidParameterError,
+    is_number,
     short_repr,
 )
 from ..container_tag import ContainerTag, container_tag, parse_container_tag
@@ -305,3 +307,187 @@ def _format_lines(template: str, *columns) -> str:
     df = pl.DataFrame({f"c{k}": np.asarray(c) for k, c in enumerate(columns)})
     lines = df.select(pl.format(template, *(pl.col(f"c{k}") for k in range(len(columns)))))
     return lines.write_csv(include_header=False, quote_style="never", line_terminator="\n")
+
+
+class DumpBlock:
+    """One snapshot of a LAMMPS or LIGGGHTS dump (of atoms, or ``dump local`` entries):
+    where its items stand (0-based lines) and what its header says."""
+
+    __slots__ = (
+        "start",
+        "timestep",
+        "n",
+        "n_line",
+        "bounds",
+        "flags",
+        "box_line",
+        "names",
+        "first",
+    )
+
+    def __init__(self, start: int) -> None:
+        self.start = start
+        self.timestep: int | None = None
+        self.n: int | None = None
+        self.n_line = 0  # 0-based line after the count's value
+        self.bounds: list[tuple[float, float]] | None = None
+        self.flags: list[str] | None = None
+        self.box_line = 0
+        self.names: list[str] | None = None  # the columns of ITEM: ATOMS or ITEM: ENTRIES
+        self.first = 0  # 0-based line of the first row
+
+
+def scan_dump(path: Path, lines: list[str], local: bool = False) -> list[DumpBlock]:
+    """Walks the ITEM blocks of every snapshot of a dump, checking their structure (and
+    skipping the rows), so that a truncated or inconsistent file is refused whichever
+    snapshot is asked for: a dump of atoms (``dump custom``: their ITEM: ATOMS rows and
+    box), or with `local` a ``dump local`` file (its ITEM: ENTRIES rows: pairs)."""
+    rows_item = "ENTRIES" if local else "ATOMS"
+    count_item = f"NUMBER OF {rows_item}"
+    things = "entries" if local else "atoms"
+    rows_word = "entries" if local else "atom rows"
+    n_lines = len(lines)
+    blocks: list[DumpBlock] = []
+    cur: DumpBlock | None = None
+    i = 0
+
+    def fail(k: int, what: str) -> FileFormatError:
+        found = repr(lines[k].strip()[:60]) if k < n_lines else "the end of the file"
+        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
+
+    def integer(k: int, what: str) -> int:
+        words = lines[k].split() if k < n_lines else []
+        try:
+            if len(words) != 1:
+                raise ValueError
+            return int(words[0])
+        except ValueError:
+            raise fail(k, what) from None
+
+    while i < n_lines:
+        line = lines[i].strip()
+        if not line:
+            # LAMMPS writes no blank lines; tolerate them between snapshots only
+            i += 1
+            continue
+        if not line.startswith("ITEM:"):
+            raise fail(i, "an 'ITEM:' line")
+        item = line[5:].strip()
+        if cur is None or cur.names is not None:
+            if item not in ("TIMESTEP", "UNITS", "TIME"):
+                raise fail(i, "'ITEM: TIMESTEP' (the start of a snapshot)")
+            cur = DumpBlock(i)
+            blocks.append(cur)
+        if item == "TIMESTEP":
+            if cur.timestep is not None:
+                raise fail(
+                    i, f"'ITEM: {rows_item}' of the snapshot that starts at line {cur.start + 1}"
+                )
+            cur.timestep = integer(i + 1, "the timestep (an integer)")
+            i += 2
+        elif item in ("UNITS", "TIME"):  # dump_modify units/time yes
+            if i + 1 >= n_lines:
+                raise fail(i + 1, f"the {item.lower()} value")
+            i += 2
+        elif item == count_item:
+            what = f"the number of {things} (an integer >= 0)"
+            n = integer(i + 1, what)
+            if n < 0:
+                raise fail(i + 1, what)
+            cur.n, cur.n_line = n, i + 2
+            i += 2
+        elif item.startswith("BOX BOUNDS"):
+            if not local:  # the contacts need no box
+                _box_bounds(path, lines, i, cur, fail)
+            i += 4
+        elif item.startswith(rows_item) and item.split()[0] == rows_item:
+            names = item.split()[1:]
+            if cur.n is None:
+                raise FileFormatError(
+                    f"{path}:{i + 1}: 'ITEM: {rows_item}' before 'ITEM: {count_item}' in the "
+                    f"snapshot that starts at line {cur.start + 1}",
+                    path=path,
+                )
+            if not names and not local:
+                raise fail(i, "'ITEM: ATOMS' followed by the column names (dump custom)")
+            cur.names, cur.first = names, i + 1
+            first, end = i + 1, i + 1 + cur.n
+            # a snapshot shorter than its header: the next ITEM line falls inside
+            if end > n_lines or any(ln.startswith("ITEM:") for ln in lines[first:end]):
+                k = next(
+                    (j for j in range(first, min(end, n_lines)) if lines[j].startswith("ITEM:")),
+                    n_lines,
+                )
+                raise FileFormatError(
+                    f"{path}:{k + 1}: expected {cur.n} {rows_word} after line {i + 1} (ITEM: "
+                    f"{count_item} at line {cur.n_line - 1} says {cur.n}), found {k - first} "
+                    f"before {'the end of the file' if k >= n_lines else 'the next ITEM'}: "
+                    "a truncated or inconsistent snapshot",
+                    path=path,
+                )
+            if end < n_lines and lines[end].strip() and not lines[end].startswith("ITEM:"):
+                raise FileFormatError(
+                    f"{path}:{end + 1}: expected 'ITEM: TIMESTEP' after the {cur.n} {rows_word} "
+                    f"that ITEM: {count_item} (line {cur.n_line - 1}) announces, found a "
+                    f"further row: the snapshot holds more {things} than its header says",
+                    path=path,
+                )
+            i = end
+        elif not local and (item.startswith("NUMBER OF ENTRIES") or item.startswith("ENTRIES")):
+            raise FileFormatError(
+                f"{path}:{i + 1}: a 'dump local' file ({line}): pair or bond entries, not "
+                "particles",
+                path=path,
+            )
+        elif local and item == "NUMBER OF ATOMS":
+            raise FileFormatError(
+                f"{path}:{i + 1}: a dump of atoms ({line}), not of contacts: give the dump "
+                "local file of compute pair/gran/local or pair/local",
+                path=path,
+            )
+        else:
+            raise fail(i, f"ITEM: TIMESTEP, {count_item}, BOX BOUNDS or {rows_item}")
+    if not blocks:
+        raise FileFormatError(f"{path}: an empty dump (no snapshot)", path=path)
+    last = blocks[-1]
+    if last.names is None:
+        raise fail(
+            n_lines,
+            "the rest of the snapshot that starts at line "
+            f"{last.start + 1} (up to its ITEM: {rows_item} rows): a truncated dump",
+        )
+    for s in blocks:
+        if (s.bounds is None and not local) or s.timestep is None:
+            raise FileFormatError(
+                f"{path}:{s.start + 1}: the snapshot that starts here has no "
+                f"{'ITEM: TIMESTEP' if s.timestep is None else 'ITEM: BOX BOUNDS'}",
+                path=path,
+            )
+    return blocks
+
+
+def _box_bounds(path: Path, lines: list[str], i: int, cur: DumpBlock, fail) -> None:
+    """Reads the ITEM: BOX BOUNDS at line `i` into `cur` (an orthogonal box only)."""
+    line = lines[i].strip()
+    words = line[5:].strip().split()[2:]
+    if words[:3] == ["xy", "xz", "yz"]:
+        raise FileFormatError(
+            f"{path}:{i + 1}: a triclinic box ({line}); only orthogonal boxes are read",
+            path=path,
+        )
+    cur.flags = words or None
+    cur.box_line = i + 1
+    bounds = []
+    for k, ax in enumerate("xyz"):
+        j = i + 1 + k
+        what = f"the {ax} bounds: two numbers '{ax}lo {ax}hi'"
+        if j >= len(lines):
+            raise fail(j, what)
+        w = lines[j].split()
+        if len(w) != 2 or not all(is_number(v) for v in w):
+            raise fail(j, what)
+        lo, hi = float(w[0]), float(w[1])
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
+            raise fail(j, what + " (finite, lo <= hi)")
+        bounds.append((lo, hi))
+    cur.bounds = bounds

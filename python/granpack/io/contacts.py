@@ -25,7 +25,7 @@ import numpy as np
 from .._validate import FileFormatError, InvalidParameterError, is_number, short_repr
 from ..analysis.inputs import check_contacts_touch
 from ..contacts import Contacts
-from ._text import _frame_index
+from ._text import _frame_index, scan_dump
 from .particle_file import ParticleFile
 
 __all__ = ["LAYOUTS", "COLUMN_NAMES", "ContactFile", "read_contacts"]
@@ -121,98 +121,6 @@ def _columns(layout, columns) -> tuple[str, tuple[str, ...] | None]:
     return layout, LAYOUTS[layout]
 
 
-class _Block:
-    __slots__ = ("start", "timestep", "n", "n_line", "names", "first")
-
-    def __init__(self, start: int) -> None:
-        self.start = start
-        self.timestep: int | None = None
-        self.n: int | None = None
-        self.n_line = 0
-        self.names: list[str] | None = None
-        self.first = 0  # 0-based line of the first entry
-
-
-def _scan(path: Path, lines: list[str]) -> list[_Block]:
-    """The snapshots of a dump local file, their structure checked."""
-    n_lines = len(lines)
-
-    def fail(k: int, what: str) -> FileFormatError:
-        found = repr(lines[k].strip()[:60]) if k < n_lines else "the end of the file"
-        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
-
-    def integer(k: int, what: str) -> int:
-        w = lines[k].split() if k < n_lines else []
-        if len(w) != 1 or not w[0].lstrip("-").isdigit():
-            raise fail(k, what)
-        return int(w[0])
-
-    blocks: list[_Block] = []
-    cur: _Block | None = None
-    i = 0
-    while i < n_lines:
-        line = lines[i].strip()
-        if not line:
-            i += 1
-            continue
-        if not line.startswith("ITEM:"):
-            raise fail(i, "an 'ITEM:' line")
-        item = line[5:].strip()
-        if cur is None or cur.names is not None:
-            if item != "TIMESTEP":
-                raise fail(i, "'ITEM: TIMESTEP' (the start of a snapshot)")
-            cur = _Block(i)
-            blocks.append(cur)
-        if item == "TIMESTEP":
-            cur.timestep = integer(i + 1, "the timestep (an integer)")
-            i += 2
-        elif item == "NUMBER OF ENTRIES":
-            n = integer(i + 1, "the number of entries (an integer >= 0)")
-            if n < 0:
-                raise fail(i + 1, "the number of entries (an integer >= 0)")
-            cur.n, cur.n_line = n, i + 2
-            i += 2
-        elif item == "NUMBER OF ATOMS":
-            raise FileFormatError(
-                f"{path}:{i + 1}: a dump of atoms ({line}), not of contacts: give the dump "
-                "local file of compute pair/gran/local or pair/local",
-                path=path,
-            )
-        elif item.startswith("BOX BOUNDS"):
-            i += 4
-        elif item.startswith("ENTRIES"):
-            if cur.n is None:
-                raise fail(i, "'ITEM: NUMBER OF ENTRIES' before 'ITEM: ENTRIES'")
-            cur.names = item.split()[1:]
-            cur.first = i + 1
-            end = i + 1 + cur.n
-            inside = [j for j in range(i + 1, min(end, n_lines)) if lines[j].startswith("ITEM:")]
-            if end > n_lines or inside:
-                k = inside[0] if inside else n_lines
-                raise FileFormatError(
-                    f"{path}:{k + 1}: expected {cur.n} entries after line {i + 1} (ITEM: "
-                    f"NUMBER OF ENTRIES at line {cur.n_line - 1} says {cur.n}), found "
-                    f"{k - i - 1} before "
-                    f"{'the end of the file' if k >= n_lines else 'the next ITEM'}: a "
-                    "truncated dump",
-                    path=path,
-                )
-            if end < n_lines and lines[end].strip() and not lines[end].startswith("ITEM:"):
-                raise FileFormatError(
-                    f"{path}:{end + 1}: expected 'ITEM: TIMESTEP' after the {cur.n} entries "
-                    f"that line {cur.n_line - 1} announces, found a further row",
-                    path=path,
-                )
-            i = end
-        else:
-            raise fail(i, "ITEM: TIMESTEP, NUMBER OF ENTRIES, BOX BOUNDS or ENTRIES")
-    if not blocks:
-        raise FileFormatError(f"{path}: an empty dump (no snapshot)", path=path)
-    if blocks[-1].names is None:
-        raise fail(n_lines, f"the rest of the snapshot that starts at line {blocks[-1].start + 1}")
-    return blocks
-
-
 def read_contacts(
     path,
     particles: ParticleFile,
@@ -294,7 +202,7 @@ def read_contacts(
     from ._text import _read_text
 
     lines = _read_text(path).splitlines()
-    blocks = _scan(path, lines)
+    blocks = scan_dump(path, lines, local=True)
     n_snap = len(blocks)
     want_step = particles.timestep
     if snapshot is None:

@@ -38,6 +38,7 @@ from ._text import (
     _sorted_by_id,
     _tag_fields,
     lammps_positions,
+    scan_dump,
 )
 from .particle_file import ParticleFile
 
@@ -52,166 +53,14 @@ _DUMP_SCALED = (("xs", "ys", "zs", True), ("xsu", "ysu", "zsu", True))
 _DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
 
 
-class _Snapshot:
-    __slots__ = ("start", "timestep", "n", "n_line", "bounds", "flags", "box_line", "cols")
-
-    def __init__(self, start: int) -> None:
-        self.start = start  # 0-based index of its first line
-        self.timestep: int | None = None
-        self.n: int | None = None
-        self.n_line = 0
-        self.bounds: list[tuple[float, float]] | None = None
-        self.flags: list[str] | None = None
-        self.box_line = 0
-        self.cols: tuple[int, list[str]] | None = None  # (0-based line of ITEM: ATOMS, names)
-
-
-def _scan_dump(path: Path, lines: list[str]) -> list[_Snapshot]:
-    """Walks the ITEM blocks of every snapshot, checking their structure (and skipping
-    the atom rows), so that a truncated or inconsistent file is refused whichever
-    snapshot is asked for."""
-    snaps: list[_Snapshot] = []
-    cur: _Snapshot | None = None
-    i = 0
-    n_lines = len(lines)
-
-    def fail(k: int, what: str) -> FileFormatError:
-        found = repr(lines[k].strip()[:60]) if k < n_lines else "the end of the file"
-        return FileFormatError(f"{path}:{k + 1}: expected {what}, found {found}", path=path)
-
-    def value_line(k: int, what: str, kind=int) -> float | int:
-        if k >= n_lines:
-            raise fail(k, what)
-        words = lines[k].split()
-        try:
-            if len(words) != 1:
-                raise ValueError
-            return kind(words[0])
-        except ValueError:
-            raise fail(k, what) from None
-
-    while i < n_lines:
-        line = lines[i].strip()
-        if not line:
-            # LAMMPS writes no blank lines; tolerate them between snapshots only
-            i += 1
-            continue
-        if not line.startswith("ITEM:"):
-            raise fail(i, "an 'ITEM:' line")
-        item = line[5:].strip()
-        if cur is None or cur.cols is not None:
-            if item not in ("TIMESTEP", "UNITS", "TIME"):
-                raise fail(i, "'ITEM: TIMESTEP' (the start of a snapshot)")
-            cur = _Snapshot(i)
-            snaps.append(cur)
-        if item == "TIMESTEP":
-            if cur.timestep is not None:
-                raise fail(i, f"'ITEM: ATOMS' of the snapshot that starts at line {cur.start + 1}")
-            cur.timestep = int(value_line(i + 1, "the timestep (an integer)"))
-            i += 2
-        elif item in ("UNITS", "TIME"):  # dump_modify units/time yes
-            if i + 1 >= n_lines:
-                raise fail(i + 1, f"the {item.lower()} value")
-            i += 2
-        elif item in ("NUMBER OF ATOMS",):
-            n = int(value_line(i + 1, "the number of atoms (an integer >= 0)"))
-            if n < 0:
-                raise fail(i + 1, "the number of atoms (an integer >= 0)")
-            cur.n, cur.n_line = n, i + 2
-            i += 2
-        elif item.startswith("BOX BOUNDS"):
-            words = item.split()[2:]
-            if words[:3] == ["xy", "xz", "yz"]:
-                raise FileFormatError(
-                    f"{path}:{i + 1}: a triclinic box ({line}); only orthogonal boxes are read",
-                    path=path,
-                )
-            cur.flags = words or None
-            cur.box_line = i + 1
-            bounds = []
-            for k, ax in enumerate("xyz"):
-                j = i + 1 + k
-                what = f"the {ax} bounds: two numbers '{ax}lo {ax}hi'"
-                if j >= n_lines:
-                    raise fail(j, what)
-                w = lines[j].split()
-                if len(w) != 2 or not all(is_number(v) for v in w):
-                    raise fail(j, what)
-                lo, hi = float(w[0]), float(w[1])
-                if not (math.isfinite(lo) and math.isfinite(hi) and hi >= lo):
-                    raise fail(j, what + " (finite, lo <= hi)")
-                bounds.append((lo, hi))
-            cur.bounds = bounds
-            i += 4
-        elif item.startswith("ATOMS"):
-            names = item.split()[1:]
-            if cur.n is None:
-                raise FileFormatError(
-                    f"{path}:{i + 1}: 'ITEM: ATOMS' before 'ITEM: NUMBER OF ATOMS' in the "
-                    f"snapshot that starts at line {cur.start + 1}",
-                    path=path,
-                )
-            if not names:
-                raise fail(i, "'ITEM: ATOMS' followed by the column names (dump custom)")
-            cur.cols = (i, names)
-            first, end = i + 1, i + 1 + cur.n
-            # a snapshot shorter than its header: the next ITEM line falls inside
-            if end > n_lines or any(ln.startswith("ITEM:") for ln in lines[first:end]):
-                k = next(
-                    (j for j in range(first, min(end, n_lines)) if lines[j].startswith("ITEM:")),
-                    n_lines,
-                )
-                got = k - first
-                raise FileFormatError(
-                    f"{path}:{k + 1}: expected {cur.n} atom rows after line {i + 1} (ITEM: "
-                    f"NUMBER OF ATOMS at line {cur.n_line - 1} says {cur.n}), found {got} "
-                    f"before {'the end of the file' if k >= n_lines else 'the next ITEM'}: "
-                    "a truncated or inconsistent snapshot",
-                    path=path,
-                )
-            if end < n_lines and lines[end].strip() and not lines[end].startswith("ITEM:"):
-                raise FileFormatError(
-                    f"{path}:{end + 1}: expected 'ITEM: TIMESTEP' after the {cur.n} atom rows "
-                    f"that ITEM: NUMBER OF ATOMS (line {cur.n_line - 1}) announces, found a "
-                    "further row: the snapshot holds more atoms than its header says",
-                    path=path,
-                )
-            i = end
-        elif item.startswith("NUMBER OF ENTRIES") or item.startswith("ENTRIES"):
-            raise FileFormatError(
-                f"{path}:{i + 1}: a 'dump local' file ({line}): pair or bond entries, not "
-                "particles",
-                path=path,
-            )
-        else:
-            raise fail(i, "ITEM: TIMESTEP, NUMBER OF ATOMS, BOX BOUNDS or ATOMS")
-    if not snaps:
-        raise FileFormatError(f"{path}: an empty dump (no snapshot)", path=path)
-    last = snaps[-1]
-    if last.cols is None:
-        raise fail(
-            n_lines,
-            "the rest of the snapshot that starts at line "
-            f"{last.start + 1} (up to its ITEM: ATOMS rows): a truncated dump",
-        )
-    for s in snaps:
-        if s.bounds is None or s.timestep is None:
-            raise FileFormatError(
-                f"{path}:{s.start + 1}: the snapshot that starts here has no "
-                f"{'ITEM: BOX BOUNDS' if s.bounds is None else 'ITEM: TIMESTEP'}",
-                path=path,
-            )
-    return snaps
-
-
 def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     lines = _read_text(path).splitlines()
-    snaps = _scan_dump(path, lines)
+    snaps = scan_dump(path, lines)
     n_snap = len(snaps)
     k_snap = _frame_index(path, snapshot, n_snap, "dump", "snapshot")
     s = snaps[k_snap]
-    assert s.cols is not None and s.n is not None and s.bounds is not None
-    atoms_line, names = s.cols
+    assert s.names is not None and s.n is not None and s.bounds is not None
+    atoms_line, names = s.first - 1, s.names
     header = f"{path}:{atoms_line + 1}"
 
     coord: tuple[int | None, int | None, int | None] | None = None

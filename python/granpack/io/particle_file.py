@@ -121,7 +121,7 @@ class ParticleFile:
                 parameter="contacts",
             )
         from ..analysis.inputs import _as_contacts, check_contacts_touch
-        from ..analysis.prepare import analysis_container
+        from ..analysis.system import analysis_container
 
         # the contacts must touch in the container the analysis will see
         _as_contacts(c, len(self), self.dim)
