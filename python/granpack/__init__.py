@@ -34,9 +34,10 @@ if TYPE_CHECKING:
     from .consolidation import consolidate, settle
     from .contacts import Contacts
     from .density import VoidRatioLimits, void_ratio_limits
+    from .generation import generate
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
-    from .pack import Pack, UnsettledPackWarning, generate, load_pack
+    from .pack import Pack, UnsettledPackWarning, load_pack
     from .scene import PRESETS, PackScene
     from .simulation import Material, Simulation
     from .tile import tile
@@ -64,7 +65,7 @@ _LAZY = {
     "read_particles": "io",
     "Pack": "pack",
     "UnsettledPackWarning": "pack",
-    "generate": "pack",
+    "generate": "generation",
     "load_pack": "pack",
     "PRESETS": "scene",
     "PackScene": "scene",

@@ -47,7 +47,7 @@ from ._validate import as_int
 from .analysis import microstructure
 from .consolidation import consolidate, settle
 from .errors import DensityTargetError, InvalidParameterError
-from .pack import Pack, generate
+from .pack import Pack, deposit
 from .scene import PackScene
 
 __all__ = [
@@ -117,7 +117,7 @@ def _at_friction(
     jam = plain
     if mu_dep != mat.friction:
         jam = plain.replace(material=dataclasses.replace(mat, friction=mu_dep))
-    pack = generate(jam, progress)
+    pack = deposit(jam, progress)
     pack = dataclasses.replace(pack, scene=plain)
     if mu_dep > mat.friction or scene.rest_tol is not None:
         pack = settle(pack, scene.rest_tol if scene.rest_tol is not None else REST_TOL)

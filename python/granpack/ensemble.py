@@ -43,11 +43,11 @@ from pathlib import Path
 from typing import Any
 
 from ._validate import FileFormatError, GranpackError, InvalidParameterError, as_int
+from .generation import generate
 from .pack import (
     NEWER_FORMAT,
     Pack,
     UnsettledPackWarning,
-    generate,
     load_pack,
     scene_record_error,
     settling_issue,

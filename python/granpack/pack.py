@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import json
 import lzma
@@ -31,7 +30,7 @@ from .scene import PackScene
 
 __all__ = [
     "Pack",
-    "generate",
+    "deposit",
     "load_pack",
     "atomic_write",
     "UnsettledPackWarning",
@@ -697,44 +696,28 @@ def _check_trim_keeps_particles(packer: _core.LayerPacker, scene: PackScene) -> 
         )
 
 
-def generate(
+def deposit(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
+    *,
+    _stacklevel: int = 2,
 ) -> Pack:
-    """Builds one pack layer by layer (RSA layer, DEM jamming run, new height) until the
-    height reaches `scene.height`.
+    """The layer loop alone: one pack built layer by layer (RSA layer, DEM jamming run,
+    new height) until the height reaches `scene.height`, then the flat top if the scene
+    asks. The stages after it (a density target, `rest_tol`, `[consolidate]`) are
+    `granpack.generate`'s; this runs none of them.
 
     Parameters
     ----------
     scene : PackScene
     progress : bool or callable
-        False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
-        each layer's report dict (layer, added, total, phi_rsa, height, steps,
-        kinetic_energy, wall_seconds).
-
-    A scene with a density target (``target_phi``, ``target_void_ratio`` or
-    ``target_relative_density``) is built by `granpack.density.generate_at_density`,
-    which may generate several packs of the scene (docs/density.md).
-
-    Raises
-    ------
-    DensityTargetError
-        The scene's density target lies outside the window it reaches.
+        As `granpack.generate`.
 
     Warns
     -----
     UnsettledPackWarning
-        The pack has not come to rest (see `settling_issue`): settle_time shorter than
-        the fall time through a layer's slab, or particles still moving at the end.
+        The pack has not come to rest (see `settling_issue`).
     """
-    if not isinstance(scene, PackScene):
-        raise InvalidParameterError(
-            f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
-        )
-    if scene.density_target is not None:
-        from .density import generate_at_density
-
-        return generate_at_density(scene, progress)
     check_memory(scene)
     t0 = time.perf_counter()
     packer = _packer(scene)
@@ -787,14 +770,5 @@ def generate(
     )
     issue = settling_issue(pack)
     if issue is not None:
-        warnings.warn(issue, UnsettledPackWarning, stacklevel=2)
-    if scene.rest_tol is not None:
-        from .consolidation import settle
-
-        pack = settle(pack, scene.rest_tol)
-    if scene.consolidate is not None:
-        from .consolidation import consolidate
-
-        sample = consolidate(pack, **scene.consolidate)
-        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
+        warnings.warn(issue, UnsettledPackWarning, stacklevel=_stacklevel)
     return pack

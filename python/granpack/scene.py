@@ -27,6 +27,7 @@ from ._validate import (
     unknown_keys,
 )
 from .simulation import Material
+from .stage_settings import check_table
 
 if TYPE_CHECKING:
     from ._core import ContainerName, RadiusLawName
@@ -405,8 +406,6 @@ class PackScene:
                         expected=" | ".join(choices),
                     )
             elif kind == "consolidate?":
-                from .consolidation import check_table
-
                 s(self, key, check_table(value, self.dim, self.container))
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):

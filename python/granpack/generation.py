@@ -1,0 +1,63 @@
+"""`generate`: the layer loop (`granpack.pack.deposit`), then the stages a scene asks
+for after it: its density target (`granpack.density`), the settling to rest
+(`rest_tol`) and the consolidation (`[consolidate]`, `granpack.consolidation`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+from .consolidation import consolidate, settle
+from .density import generate_at_density
+from .errors import InvalidParameterError
+from .pack import Pack, deposit
+from .scene import PackScene
+
+__all__ = ["generate"]
+
+
+def generate(
+    scene: PackScene,
+    progress: bool | Callable[[dict], None] = False,
+) -> Pack:
+    """Builds one pack layer by layer (RSA layer, DEM jamming run, new height) until the
+    height reaches `scene.height`, then runs the stages the scene asks for: the flat top
+    (`trim`), the settling to rest (`rest_tol`) and the consolidation (`[consolidate]`).
+    A scene with a density target (``target_phi``, ``target_void_ratio`` or
+    ``target_relative_density``) is built by `granpack.density.generate_at_density`,
+    which may generate several packs of the scene (docs/density.md).
+
+    Parameters
+    ----------
+    scene : PackScene
+    progress : bool or callable
+        False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
+        each layer's report dict (layer, added, total, phi_rsa, height, steps,
+        kinetic_energy, wall_seconds).
+
+    Raises
+    ------
+    DensityTargetError
+        The scene's density target lies outside the window it reaches.
+
+    Warns
+    -----
+    UnsettledPackWarning
+        The pack has not come to rest (see `granpack.pack.settling_issue`): settle_time shorter than
+        the fall time through a layer's slab, or particles still moving at the end.
+    """
+    if not isinstance(scene, PackScene):
+        raise InvalidParameterError(
+            f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
+        )
+    if scene.density_target is not None:
+        return generate_at_density(scene, progress)
+    t0 = time.perf_counter()
+    pack = deposit(scene, progress, _stacklevel=3)
+    if scene.rest_tol is not None:
+        pack = settle(pack, scene.rest_tol)
+    if scene.consolidate is not None:
+        sample = consolidate(pack, **scene.consolidate)
+        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
+    return pack
