@@ -91,6 +91,44 @@ RULES = [
         gp.InvalidParameterError,
         "cylinder_radius",
     ),
+    # the rules the engine's validator took over from the Python layer
+    ("4.3", {"container": "cylinder", "base": (1.0, 0.8)}, gp.InvalidParameterError, "base"),
+    (
+        "4.3",
+        {"container": "cylinder", "cylinder_radius": 0.5, "base": (1.2, 1.2)},
+        gp.InvalidParameterError,
+        "base",
+    ),
+    ("4.1", {"container": "cylinder"}, gp.InvalidParameterError, "container"),
+    ("4.3", {"cylinder_radius": 0.5}, gp.InvalidParameterError, "cylinder_radius"),
+    ("4.3", {"trim": True, "height": 0.03}, gp.InvalidParameterError, "height"),
+    ("4.3", {"base": (400.0, 400.0)}, gp.InvalidParameterError, "scene"),
+    ("4.3", {"rest_tol": 1.0}, gp.InvalidParameterError, "rest_tol"),
+    ("4.3", {"target_phi": 1.0}, gp.InvalidParameterError, "target_phi"),
+    ("4.3", {"target_void_ratio": 0.0}, gp.InvalidParameterError, "target_void_ratio"),
+    (
+        "4.3",
+        {"target_relative_density": 1.5},
+        gp.InvalidParameterError,
+        "target_relative_density",
+    ),
+    (
+        "4.3",
+        {"target_phi": 0.6, "target_void_ratio": 0.6},
+        gp.InvalidParameterError,
+        "target_void_ratio",
+    ),
+    ("4.3", {"target_phi": 0.6, "density_tol": 0.5}, gp.InvalidParameterError, "density_tol"),
+    ("4.3", {"density_method": "fast"}, gp.InvalidParameterError, "density_method"),
+    (
+        "4.3",
+        {"target_phi": 0.6, "density_method": "servo"},
+        gp.InvalidParameterError,
+        "density_method",
+    ),
+    ("4.1", {"seed": -1}, gp.InvalidParameterError, "seed"),
+    ("4.1", {"inertia_2d": "ring"}, gp.InvalidParameterError, "inertia_2d"),
+    ("4.2", {"radius_law": "normal"}, gp.InvalidParameterError, "radius_law"),
 ]
 IDS = [f"{p}-{'-'.join(c)}" for p, c, _, _ in RULES]
 
@@ -98,7 +136,9 @@ IDS = [f"{p}-{'-'.join(c)}" for p, c, _, _ in RULES]
 def _toml(preset: str, changes: dict) -> str:
     lines = [f'preset = "{preset}"']
     for key, value in changes.items():
-        if isinstance(value, tuple):
+        if isinstance(value, bool):
+            value = "true" if value else "false"
+        elif isinstance(value, tuple):
             value = "[" + ", ".join(repr(v) for v in value) + "]"
         elif isinstance(value, str):
             value = f'"{value}"'

@@ -802,8 +802,8 @@ impl LayerPacker {
     fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
         let spec = scene_spec(scene)?;
         let inner = match spec.dim {
-            2 => PackInner::D2(Packer::new(spec.pack_config::<2>()?)?),
-            3 => PackInner::D3(Packer::new(spec.pack_config::<3>()?)?),
+            2 => PackInner::D2(Packer::new(spec.checked_config::<2>()?)?),
+            3 => PackInner::D3(Packer::new(spec.checked_config::<3>()?)?),
             other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
         };
         Ok(LayerPacker { inner })

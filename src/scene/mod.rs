@@ -369,15 +369,6 @@ impl SceneSpec {
         }
     }
 
-    /// What the layer loop runs, every field checked.
-    pub fn pack_config<const D: usize>(&self) -> Result<PackConfig<D>>
-    where
-        Dim<D>: Spatial<D>,
-    {
-        let law = self.radius_law()?;
-        self.pack_config_with::<D>(law).map(|(cfg, _)| cfg)
-    }
-
     fn pack_config_with<const D: usize>(&self, law: RadiusLaw) -> Result<(PackConfig<D>, Vec<Real>)>
     where
         Dim<D>: Spatial<D>,
@@ -476,17 +467,32 @@ impl SceneSpec {
     /// the scene key and its allowed range (an unstable `dt` is
     /// [`Error::UnstableTimeStep`]).
     pub fn resolve(&self) -> Result<Resolved> {
-        let dim = self.dim()?;
+        match self.dim()? {
+            2 => self.checked::<2>().map(|(r, _)| r),
+            _ => self.checked::<3>().map(|(r, _)| r),
+        }
+    }
+
+    /// What the layer loop runs, after every rule of the scene is checked (as
+    /// [`SceneSpec::resolve`] checks them): `dim` must be `D`.
+    pub fn checked_config<const D: usize>(&self) -> Result<PackConfig<D>>
+    where
+        Dim<D>: Spatial<D>,
+    {
+        if self.dim()? != D {
+            return Err(Error::invalid("dim", self.dim, &format!("expected {D}")));
+        }
+        self.checked::<D>().map(|(_, cfg)| cfg)
+    }
+
+    fn checked<const D: usize>(&self) -> Result<(Resolved, PackConfig<D>)>
+    where
+        Dim<D>: Spatial<D>,
+    {
         let law = self.radius_law()?;
         let (r_min, r_max) = (law.r_min(), law.r_max());
         let (r_mean, r_std) = law.number_moments();
-        let (cfg_base, estimated, container) = if dim == 2 {
-            let (cfg, base) = self.pack_config_with::<2>(law)?;
-            (base, cfg.estimated_particles(), cfg.sim.container)
-        } else {
-            let (cfg, base) = self.pack_config_with::<3>(law)?;
-            (base, cfg.estimated_particles(), cfg.sim.container)
-        };
+        let (cfg, base) = self.pack_config_with::<D>(law)?;
         if let Some(tol) = self.rest_tol {
             check_range("rest_tol", tol, 1e-9, true, 1.0, false)?;
         }
@@ -507,19 +513,20 @@ impl SceneSpec {
                 ),
             ));
         }
-        Ok(Resolved {
+        let resolved = Resolved {
             r_min,
             r_max,
             r_mean,
             r_std,
-            base: cfg_base,
-            cylinder_radius: match container {
+            base,
+            cylinder_radius: match cfg.sim.container {
                 Container::Cylinder(radius) => Some(radius),
                 _ => None,
             },
             critical_dt: self.material.rayleigh_time_step(r_min),
-            estimated_particles: estimated,
-        })
+            estimated_particles: cfg.estimated_particles(),
+        };
+        Ok((resolved, cfg))
     }
 
     fn check_density_target(&self) -> Result<()> {

@@ -127,13 +127,6 @@ def run(args: argparse.Namespace, console: Console) -> int:
     changes: dict = {}
     if args.rotations is not None:
         changes["rotations"] = args.rotations
-    if args.cylinder_radius is not None and (args.container or scene.container) != "cylinder":
-        raise InvalidParameterError(
-            "invalid --cylinder-radius: only --container cylinder has a radius",
-            parameter="cylinder_radius",
-            value=args.cylinder_radius,
-            expected="--container cylinder",
-        )
     if args.container is not None or args.cylinder_radius is not None:
         changes["container"] = args.container or scene.container
         if args.cylinder_radius is not None:
