@@ -302,6 +302,10 @@ class LayerPacker:
     def state(self) -> PackerState:
         """positions, velocities, spins, radii, layer, time."""
     def contacts(self) -> ContactArrays: ...
+    def memory(self) -> dict[str, int]:
+        """Bytes of the engine's state by group (particles, wall_contacts, pair_list,
+        incidence) and of the layer loop's (layers), with particles_count and
+        pairs_count."""
 
 def find_contacts(
     positions: npt.NDArray[np.float64],

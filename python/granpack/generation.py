@@ -34,7 +34,7 @@ def generate(
     progress : bool or callable
         False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
         each layer's report dict (layer, added, total, phi_rsa, height, steps,
-        kinetic_energy, wall_seconds).
+        kinetic_energy, wall_seconds, frozen, and memory: the engine's bytes by group).
 
     Raises
     ------

@@ -711,7 +711,8 @@ def deposit(
     ----------
     scene : PackScene
     progress : bool or callable
-        As `granpack.generate`.
+        As `granpack.generate`; a callable's report also holds ``memory``, the
+        engine's bytes by group (`_core.LayerPacker.memory`).
 
     Warns
     -----
@@ -736,7 +737,9 @@ def deposit(
                 bar.set_postfix(layer=rep["layer"], N=rep["total"], s=f"{rep['wall_seconds']:.1f}")
                 bar.refresh()
             elif callable(progress):
-                progress(rep)
+                # the engine's memory with the report, for the callback only (the pack
+                # keeps the reports as the engine gave them)
+                progress({**rep, "memory": dict(packer.memory())})
     finally:
         if bar is not None:
             bar.close()

@@ -886,6 +886,23 @@ impl LayerPacker {
         }
     }
 
+    /// Bytes of the engine's state by group (`World::memory`: particles,
+    /// wall_contacts, pair_list, incidence) and the layer loop's own (`layers`: each
+    /// particle's layer), with the particle and pair counts they are for.
+    fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        with_packer!(&self.inner, p, _D, {
+            let w = p.world();
+            for (name, bytes) in w.memory() {
+                d.set_item(name, bytes)?;
+            }
+            d.set_item("layers", std::mem::size_of_val(p.layers()))?;
+            d.set_item("particles_count", w.len())?;
+            d.set_item("pairs_count", w.pair_counts().0)?;
+        });
+        Ok(d)
+    }
+
     /// Particle arrays: positions, radii, velocities, spins, layer.
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);

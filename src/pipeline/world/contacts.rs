@@ -68,7 +68,7 @@ where
                     continue;
                 }
                 let n = wall.normal(&self.p.x[q]);
-                let fv = self.p.wall_force[q][wi];
+                let fv = self.p.wall_force[q * self.walls.len() + wi];
                 let fn_ = fv.dot(&n);
                 out.i.push(q as i64);
                 out.j.push(-(wi as i64) - 1);

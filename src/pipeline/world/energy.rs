@@ -173,7 +173,7 @@ where
                 let d = self.p.r[q] - wall.gap(&self.p.x[q]);
                 if d > 0.0 {
                     let sr = wall.r_eff(self.p.r[q]).sqrt();
-                    let h2 = self.p.wall_hist[q][wi].norm_squared();
+                    let h2 = self.p.wall_hist[q * self.walls.len() + wi].norm_squared();
                     e += contact(c.kn * sr, c.kt * sr, d, h2);
                 }
             }

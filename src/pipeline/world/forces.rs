@@ -781,8 +781,9 @@ where
 {
     f: SyncPtr<Vector<D>>,
     t: SyncPtr<Ang<D>>,
-    wh: SyncPtr<[Vector<D>; MAX_WALLS]>,
-    wf: SyncPtr<[Vector<D>; MAX_WALLS]>,
+    /// Each particle's wall state, `walls` entries a particle.
+    wh: SyncPtr<Vector<D>>,
+    wf: SyncPtr<Vector<D>>,
     wm: SyncPtr<u8>,
     v: SyncPtr<Vector<D>>,
     w: SyncPtr<Ang<D>>,
@@ -818,13 +819,14 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
 ) where
     Dim<D>: Spatial<D>,
 {
-    // SAFETY: q is below the particle count and q's outputs are ours (caller).
+    // SAFETY: q is below the particle count and q's outputs are ours (caller); its wall
+    // state is the run of `walls` entries at q * walls, which no other q's overlaps.
     let (v, w, wh, wf, wm) = unsafe {
         (
             &mut *out.v.0.add(q),
             &mut *out.w.0.add(q),
-            &mut *out.wh.0.add(q),
-            &mut *out.wf.0.add(q),
+            std::slice::from_raw_parts_mut(out.wh.0.add(q * c.walls.len()), c.walls.len()),
+            std::slice::from_raw_parts_mut(out.wf.0.add(q * c.walls.len()), c.walls.len()),
             &mut *out.wm.0.add(q),
         )
     };

@@ -229,12 +229,22 @@ where
     /// state and the incidence lists (lengths; spare capacity that was never touched
     /// costs address space, not memory).
     pub fn state_bytes(&self) -> usize {
+        self.memory().iter().map(|(_, bytes)| bytes).sum()
+    }
+
+    /// Where [`World::state_bytes`] goes, by group: `particles` (position, velocity,
+    /// force, spin, torque, radius, mass and inverse mass and inertia, the rebuild's
+    /// reference position and skin, the flags), `wall_contacts` (each particle's
+    /// tangential history and force against every wall), `pair_list` (the pairs' indices
+    /// and their state: history, force, torque, overlap, law factors) and `incidence`
+    /// (each particle's pairs, for the gather). Bytes in use (lengths).
+    pub fn memory(&self) -> [(&'static str, usize); 4] {
         fn b<T>(v: &[T]) -> usize {
             std::mem::size_of_val(v)
         }
         let p = &self.p;
         let pr = &self.pairs;
-        b(&p.x)
+        let particles = b(&p.x)
             + b(&p.v)
             + b(&p.f)
             + b(&p.w)
@@ -245,17 +255,18 @@ where
             + b(&p.inv_i)
             + b(&p.x_ref)
             + b(&p.half_skin)
-            + b(&p.wall_hist)
-            + b(&p.wall_force)
             + b(&p.frozen)
             + b(&p.wall_mask)
-            + b(&p.wall_near)
-            + b(&pr.ij)
-            + b(&pr.blocks)
-            + b(&pr.i_frozen)
-            + b(&pr.i_active)
-            + b(&pr.j_start)
-            + b(&pr.j_inc)
+            + b(&p.wall_near);
+        [
+            ("particles", particles),
+            ("wall_contacts", b(&p.wall_hist) + b(&p.wall_force)),
+            ("pair_list", b(&pr.ij) + b(&pr.blocks)),
+            (
+                "incidence",
+                b(&pr.i_frozen) + b(&pr.i_active) + b(&pr.j_start) + b(&pr.j_inc),
+            ),
+        ]
     }
 
     /// Pairs in the Verlet list, and how many of them join two frozen particles.

@@ -106,6 +106,18 @@ where
                 ),
             ));
         }
+        // every particle's wall state gains the lid's entry, zero
+        let (walls, n) = (self.walls.len(), self.p.x.len());
+        let widen = |v: &mut Vec<Vector<D>>| {
+            let mut wide = Vec::with_capacity(n * (walls + 1));
+            for q in 0..n {
+                wide.extend_from_slice(&v[q * walls..(q + 1) * walls]);
+                wide.push(Vector::<D>::zeros());
+            }
+            *v = wide;
+        };
+        widen(&mut self.p.wall_hist);
+        widen(&mut self.p.wall_force);
         self.walls.push(Wall::Plane {
             axis: vert,
             pos: z,
@@ -278,7 +290,7 @@ where
             let wall = &self.walls[wi];
             let n = wall.normal(&self.p.x[q]);
             let l = &mut loads[wi];
-            l.force += self.p.wall_force[q][wi].dot(&n);
+            l.force += self.p.wall_force[q * self.walls.len() + wi].dot(&n);
             let k = kn * (wall.r_eff(self.p.r[q]) * d).sqrt();
             l.stiffness += k;
             l.viscosity += 2.0 * xi * (self.p.m[q] * k).sqrt();
@@ -310,7 +322,7 @@ where
             }
         }
         for (q, wi, _) in self.wall_contacts() {
-            sum += self.p.wall_force[q][wi].norm();
+            sum += self.p.wall_force[q * self.walls.len() + wi].norm();
             fb.contacts += 1;
         }
         if fb.contacts > 0 {

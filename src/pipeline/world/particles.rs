@@ -20,9 +20,11 @@ pub(super) struct Particles<const D: usize, A> {
     /// h_i + h_j of contact, so it stays valid while no particle has moved more than
     /// its own h.
     pub(super) half_skin: Vec<Real>,
-    /// Tangential history and last force on each wall.
-    pub(super) wall_hist: Vec<[Vector<D>; MAX_WALLS]>,
-    pub(super) wall_force: Vec<[Vector<D>; MAX_WALLS]>,
+    /// Tangential history and last force on each wall, one entry per wall the world
+    /// has (particle q's against wall w at `q * n_walls + w`): a periodic cell stores
+    /// its floor's alone (and the lid's once it has one), not the box's six.
+    pub(super) wall_hist: Vec<Vector<D>>,
+    pub(super) wall_force: Vec<Vector<D>>,
     /// Frozen particles are not integrated (see [`FreezeConfig`]).
     pub(super) frozen: Vec<bool>,
     /// Bit w set: wall w was in contact at the last evaluation (its state is nonzero).
@@ -147,8 +149,13 @@ where
             self.p.m.push(m);
             self.p.inv_m.push(1.0 / m);
             self.p.inv_i.push(1.0 / inertia);
-            self.p.wall_hist.push([Vector::<D>::zeros(); MAX_WALLS]);
-            self.p.wall_force.push([Vector::<D>::zeros(); MAX_WALLS]);
+            let walls = self.walls.len();
+            self.p
+                .wall_hist
+                .extend(std::iter::repeat_n(Vector::<D>::zeros(), walls));
+            self.p
+                .wall_force
+                .extend(std::iter::repeat_n(Vector::<D>::zeros(), walls));
             self.p.frozen.push(false);
             self.p.wall_mask.push(0);
             self.p.wall_near.push(0);

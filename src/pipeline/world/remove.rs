@@ -3,6 +3,19 @@
 use super::*;
 
 /// Keeps the entries of `v` whose flag in `keep` is set, in order.
+/// Keeps the runs of `stride` entries whose flag in `keep` is set (a per-particle
+/// array with `stride` entries a particle).
+fn retain_runs<T: Copy>(v: &mut Vec<T>, keep: &[bool], stride: usize) {
+    let mut out = 0;
+    for (q, &k) in keep.iter().enumerate() {
+        if k {
+            v.copy_within(q * stride..(q + 1) * stride, out * stride);
+            out += 1;
+        }
+    }
+    v.truncate(out * stride);
+}
+
 fn retain_by<T>(v: &mut Vec<T>, keep: &[bool]) {
     let mut k = 0;
     v.retain(|_| {
@@ -78,8 +91,8 @@ where
         retain_by(&mut p.inv_i, keep);
         retain_by(&mut p.x_ref, keep);
         retain_by(&mut p.half_skin, keep);
-        retain_by(&mut p.wall_hist, keep);
-        retain_by(&mut p.wall_force, keep);
+        retain_runs(&mut p.wall_hist, keep, self.walls.len());
+        retain_runs(&mut p.wall_force, keep, self.walls.len());
         retain_by(&mut p.frozen, keep);
         retain_by(&mut p.wall_mask, keep);
         retain_by(&mut p.wall_near, keep);
