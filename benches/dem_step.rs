@@ -82,9 +82,10 @@ fn bench_grid_and_rsa(c: &mut Criterion) {
     g.finish();
 }
 
-/// The step on tiled copies of the peers' packs: 3D 8 952 x 9 = 80 568 and x 64 =
-/// 572 928 spheres, 2D 1 397 x 72 = 100 584 discs, on 1 and all threads. The cost per
-/// particle-step should stay flat with size.
+/// The step on the peers' 3D pack and tiled copies of it: 8 952 (about 1e4), x 9 =
+/// 80 568 (about 1e5) and x 64 = 572 928 spheres, and x 121 = 1 083 192 (about 1e6) with
+/// `GRANPACK_BENCH_1E6=1`; the 2D pack x 72 = 100 584 discs; on 1 and all threads. The
+/// cost per particle-step should stay flat with size.
 fn bench_sizes(c: &mut Criterion) {
     let max_threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut g = c.benchmark_group("dem_step_sizes");
@@ -94,7 +95,12 @@ fn bench_sizes(c: &mut Criterion) {
             .num_threads(t)
             .build()
             .unwrap();
-        for tiles in [3, 8] {
+        // about 1e4, 1e5 and 5.7e5 spheres; GRANPACK_BENCH_1E6=1 adds 1.08e6 (about 2 GB)
+        let mut sizes = vec![1, 3, 8];
+        if std::env::var_os("GRANPACK_BENCH_1E6").is_some() {
+            sizes.push(11);
+        }
+        for &tiles in &sizes {
             let mut w = common::settled_world::<3>(tiles, 20, t);
             g.throughput(Throughput::Elements(w.len() as u64 * 2));
             g.bench_with_input(

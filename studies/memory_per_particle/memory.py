@@ -93,7 +93,7 @@ def measure(base: float, fast: bool, seed: int, tmp: Path) -> dict:
     out["export_s"] = time.perf_counter() - t
     out["export_peak"] = _kib("VmHWM:") - start
     out["phi_core"] = float(m.phi_core)
-    out["Z"] = float(m.Z)
+    out["Z"] = float(m.z)
     out["layers"] = layers
     return out
 
