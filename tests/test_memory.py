@@ -1,0 +1,75 @@
+"""Memory per particle: the engine's state by group, exactly, and the peak resident set of
+a 20 000-sphere generation, under a bound twice the measured value
+(`studies/memory_per_particle/`), so that a regression of 2x fails."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import granpack as gp
+
+#: Peak resident set added by `generate` of a periodic 4.3 cell of 1.5 m x 1.5 m with
+#: the fast settings (about 20 000 spheres), bytes per particle: twice the 2 373 measured
+#: on 2026-12-03 (studies/memory_per_particle/results.md), rounded up.
+GENERATE_PEAK_BOUND = 4_800
+
+
+def _engine_memory(container: str, base: float) -> tuple[dict, int]:
+    scene = gp.PackScene.preset("4.3").replace(container=container, base=(base, base), height=0.1)
+    reports: list[dict] = []
+    pack = gp.generate(scene.fast(), progress=reports.append)
+    return reports[-1]["memory"], len(pack)
+
+
+@pytest.mark.parametrize(("container", "walls"), [("periodic", 1), ("box", 5)])
+def test_each_particle_holds_the_state_of_the_walls_its_world_has(container, walls):
+    mem, n = _engine_memory(container, 0.4)
+    assert mem["particles_count"] == n
+    # tangential history and force, D = 3 components of 8 bytes, per wall present
+    assert mem["wall_contacts"] == n * walls * 2 * 3 * 8
+    # 3 x 8 bytes each of position, velocity, force, spin, torque, reference position;
+    # 8 each of radius, mass, inverse mass and inertia, half skin; 3 flag bytes
+    assert mem["particles"] == n * (6 * 24 + 5 * 8 + 3)
+    # the pair list: two u32 indices and a lane of a 128-pair block (h, f, t: 3 x 8
+    # bytes each; overlap and two law factors: 8 each) per pair, whole blocks
+    blocks = -(-mem["pairs_count"] // 128)
+    assert mem["pair_list"] == mem["pairs_count"] * 8 + blocks * 128 * (9 * 8 + 3 * 8)
+
+
+def test_a_20000_sphere_generation_stays_under_its_memory_bound(tmp_path):
+    """The peak resident set that generate adds, measured in a fresh process."""
+    code = textwrap.dedent(
+        """
+        import json
+        from pathlib import Path
+
+        import granpack as gp
+
+        def kib(key):
+            for line in Path("/proc/self/status").read_text().splitlines():
+                if line.startswith(key):
+                    return int(line.split()[1]) * 1024
+
+        scene = gp.PackScene.preset("4.3").replace(container="periodic", base=(1.5, 1.5))
+        scene = scene.fast()
+        Path("/proc/self/clear_refs").write_text("5")
+        start = kib("VmRSS:")
+        pack = gp.generate(scene)
+        print(json.dumps({"n": len(pack), "peak": kib("VmHWM:") - start}))
+        """
+    )
+    if not Path("/proc/self/clear_refs").exists():
+        pytest.skip("needs Linux's /proc/self/clear_refs")
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path
+    )
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert 18_000 <= got["n"] <= 22_000
+    per_particle = got["peak"] / got["n"]
+    assert per_particle <= GENERATE_PEAK_BOUND, per_particle
