@@ -1,5 +1,7 @@
 //! One pack of the paper's example 4.3 (or 4.1 with `2d`), layer by layer, with the
-//! time spent in pair-list rebuilds: where a pack's wall time goes.
+//! time spent in pair-list rebuilds: where a pack's wall time goes. The last line's
+//! state checksum is the pack's: a change meant to leave the arithmetic alone must
+//! print the same.
 //! `cargo run --release --example pack_profile -- [2d] [fast] [layers]`.
 use _core::pipeline::pack::{PackConfig, Packer, RadiusLaw};
 use _core::{Dim, SimConfig, Spatial, Vector};
@@ -80,9 +82,10 @@ where
     }
     let t = t0.elapsed().as_secs_f64();
     println!(
-        "total {t:.2} s, {steps} steps, {:.0} ns per particle-step (all particles), rebuilds {:.2} s",
+        "total {t:.2} s, {steps} steps, {:.0} ns per particle-step (all particles), rebuilds {:.2} s, state checksum {:016x}",
         t * 1e9 / psteps,
-        p.world().rebuild_seconds()
+        p.world().rebuild_seconds(),
+        p.world().state_checksum()
     );
 }
 

@@ -407,7 +407,149 @@ pub(crate) fn counting_sort(
 /// The pairs of [`neighbor_pairs`] that have at least one particle `i` with `active(i)`,
 /// sorted by (i, j). Pairs of two inactive particles are not searched at all: the
 /// engine keeps those of frozen particles from an earlier search.
+///
+/// The work follows the active particles, not the whole set: an inactive particle
+/// that lies farther than the largest cutoff from the active ones' bounding box (on the
+/// axes that are not periodic) cannot pair with any of them, so the grid is built over
+/// the active particles and the inactive ones near that box only. A settling bed whose
+/// lower layers are frozen is then searched in a band at its top, whatever its depth.
+/// The pairs are the same either way.
 pub fn neighbor_pairs_active<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    period: Option<&Period<D>>,
+    active: impl Fn(usize) -> bool + Sync,
+) -> Vec<[u32; 2]> {
+    let n = x.len();
+    // below three quarters of the set, the search over the subset pays for its copies
+    if let Some(near) = near_active(x, reach, period, &active).filter(|v| v.len() * 4 <= n * 3) {
+        let xs: Vec<Vector<D>> = near.iter().map(|&i| x[i as usize]).collect();
+        let rs: Vec<Real> = near.iter().map(|&i| reach[i as usize]).collect();
+        // `near` is increasing, so the pairs mapped back stay sorted by (i, j)
+        let mut pairs = active_pairs_of(&xs, &rs, period, |k| active(near[k] as usize));
+        for pair in pairs.iter_mut() {
+            *pair = [near[pair[0] as usize], near[pair[1] as usize]];
+        }
+        return pairs;
+    }
+    active_pairs_of(x, reach, period, active)
+}
+
+/// The particles, in increasing index, that are active or share a cell or a
+/// neighbouring cell with an active one, in a coarse grid whose cells are wider than
+/// the largest cutoff (2 reach_max). Every pair with an active particle has both ends
+/// among them: along each axis its ends lie less than a cell apart, so their cells
+/// differ by at most one (around the period on a periodic axis). None where more than
+/// three quarters of the particles are active (the whole search is then cheaper), or
+/// the extent is not finite.
+fn near_active<const D: usize>(
+    x: &[Vector<D>],
+    reach: &[Real],
+    period: Option<&Period<D>>,
+    active: &(impl Fn(usize) -> bool + Sync),
+) -> Option<Vec<u32>> {
+    let n = x.len();
+    let n_active = (0..n).filter(|&i| active(i)).count();
+    if n_active * 4 > n * 3 {
+        return None;
+    }
+    let reach_max = reach.iter().cloned().fold(0.0, Real::max);
+    let mut lo = Vector::<D>::repeat(Real::INFINITY);
+    let mut hi = Vector::<D>::repeat(Real::NEG_INFINITY);
+    for p in x {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let mut span = hi - lo;
+    let mut wrap = [false; D];
+    if let Some(per) = period {
+        for k in (0..D).filter(|&k| per.periodic(k)) {
+            wrap[k] = true;
+            lo[k] = per.lo[k];
+            span[k] = per.len[k];
+        }
+    }
+    // (with no reach, nothing pairs; an extent that overflowed has no grid)
+    let usable = reach_max > 0.0 && (0..D).all(|k| span[k].is_finite() && span[k] >= 0.0);
+    if !usable {
+        return None;
+    }
+    // The cell side: the cutoff with a margin for the rounding of the cell index (a
+    // wider cell only lets more particles in), grown until the grid holds at most
+    // about 8 cells a particle.
+    let max_cells = (8 * n + 64) as f64;
+    let mut c = 2.0 * reach_max * (1.0 + 1e-6);
+    let dims_for = |c: Real, k: usize| -> Real {
+        if wrap[k] {
+            (span[k] / c).floor().max(1.0)
+        } else {
+            (span[k] / c).floor() + 1.0
+        }
+    };
+    let dims: [usize; D] = loop {
+        let total: f64 = (0..D).map(|k| dims_for(c, k)).product();
+        if total <= max_cells {
+            break std::array::from_fn(|k| dims_for(c, k) as usize);
+        }
+        c *= (total / max_cells).powf(1.0 / D as f64) * 1.01;
+    };
+    let side: [Real; D] = std::array::from_fn(|k| {
+        if wrap[k] {
+            span[k] / dims[k] as Real
+        } else {
+            c
+        }
+    });
+    let ncell: usize = dims.iter().product();
+    let cell: Vec<u32> = x
+        .par_iter()
+        .with_min_len(4096)
+        .map(|p| {
+            (0..D).rev().fold(0, |acc, k| {
+                let t = ((p[k] - lo[k]) / side[k]).floor();
+                acc * dims[k] + (t.max(0.0) as usize).min(dims[k] - 1)
+            }) as u32
+        })
+        .collect();
+    // the active particles' cells, grown by one cell along each axis in turn (around
+    // the period on a periodic axis): the 3^D cells around each
+    let mut marked = vec![false; ncell];
+    for i in (0..n).filter(|&i| active(i)) {
+        marked[cell[i] as usize] = true;
+    }
+    let mut grown = vec![false; ncell];
+    let mut stride = 1;
+    for k in 0..D {
+        let d = dims[k];
+        for (c, g) in grown.iter_mut().enumerate() {
+            let a = (c / stride) % d;
+            let below = if a > 0 {
+                marked[c - stride]
+            } else {
+                wrap[k] && marked[c + (d - 1) * stride]
+            };
+            let above = if a + 1 < d {
+                marked[c + stride]
+            } else {
+                wrap[k] && marked[c - (d - 1) * stride]
+            };
+            *g = marked[c] | below | above;
+        }
+        std::mem::swap(&mut marked, &mut grown);
+        stride *= d;
+    }
+    Some(
+        (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&i| marked[cell[i] as usize] || active(i))
+            .map(|i| i as u32)
+            .collect(),
+    )
+}
+
+/// [`neighbor_pairs_active`] over the whole set.
+fn active_pairs_of<const D: usize>(
     x: &[Vector<D>],
     reach: &[Real],
     period: Option<&Period<D>>,
@@ -1062,6 +1204,33 @@ mod tests {
                 .filter(|&[i, j]| active[i as usize] || active[j as usize])
                 .collect();
             prop_assert_eq!(neighbor_pairs_active(&x, &reach, None, |i| active[i]), expect);
+        }
+
+        /// An active top over an inactive bed (a settling deposit whose lower layers
+        /// froze), with a few active particles deep in the bed: the search over the
+        /// top's band finds exactly the brute-force pairs with an active particle, in
+        /// a box and in a cell periodic in x and y.
+        #[test]
+        fn active_top_pairs_equal_filtered_brute_force(seed in 0u64..10_000, n in 0usize..500,
+                                                       ratio in 1.0f64..4.0, skin in 0.0f64..0.01,
+                                                       level in 0.0f64..1.0, thawed in 0usize..4,
+                                                       periodic: bool) {
+            let (x, reach) = cloud::<3>(seed, n, ratio, skin);
+            let active: Vec<bool> = (0..n)
+                .map(|k| x[k][2] > level || (thawed > 0 && k % 97 < thawed))
+                .collect();
+            let per = Period::new(&Vector::<3>::zeros(), &Vector::<3>::repeat(1.0), &[true, true, false]);
+            let all = if periodic {
+                brute_force_pairs_periodic(&x, &reach, &per)
+            } else {
+                brute_force_pairs(&x, &reach)
+            };
+            let expect: Vec<[u32; 2]> = all
+                .into_iter()
+                .filter(|&[i, j]| active[i as usize] || active[j as usize])
+                .collect();
+            let got = neighbor_pairs_active(&x, &reach, periodic.then_some(&per), |i| active[i]);
+            prop_assert_eq!(got, expect);
         }
 
         /// Periodic in x and y (3D) with a free z: the grid's pairs, across the seam

@@ -194,14 +194,19 @@ where
                 }
             });
         drop(old_order);
-        // The kept frozen run stays in front; the other pairs carry their state over,
-        // or start from zero with fresh law factors.
+        // The kept frozen run stays in front, its whole blocks in place (a deep frozen
+        // bed is not copied at each rebuild); the other pairs carry their state over,
+        // or start from zero with fresh law factors. `tail` holds the blocks from the
+        // frozen run's last partial block on.
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
         let old = &pr;
-        let blocks = Pairs::<D>::build_blocks(keep + ij.len(), |k| {
+        let kept_blocks = keep >> BLOCK_SHIFT;
+        let first = kept_blocks * BLOCK;
+        let tail = Pairs::<D>::build_blocks(keep + ij.len() - first, |t| {
+            let k = first + t;
             if k < keep {
                 return old.get(k);
             }
@@ -225,7 +230,18 @@ where
             });
             rec
         });
-        pr.blocks = blocks;
+        if kept_blocks == 0 {
+            pr.blocks = tail;
+        } else {
+            pr.blocks.truncate(kept_blocks);
+            let need = kept_blocks + tail.len();
+            if pr.blocks.capacity() < need {
+                // room for an eighth more, so that a list that grows a little at each
+                // rebuild is not moved each time
+                pr.blocks.reserve_exact(need + need / 8 - kept_blocks);
+            }
+            pr.blocks.extend(tail);
+        }
         drop(src);
         pr.ij.truncate(keep);
         pr.ij.extend_from_slice(&ij);
