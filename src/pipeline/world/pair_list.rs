@@ -34,17 +34,18 @@ impl<const D: usize> Pairs<D> {
         self.blocks[k >> BLOCK_SHIFT].get(k & (BLOCK - 1))
     }
 
-    /// Blocks for `len` pairs, pair k set to `fill(k)`, built in parallel: each
-    /// block is zeroed and filled by the thread that owns it. (Zeroed memory from the
-    /// allocator is no cheaper: the allocator reuses freed memory, which it then
-    /// clears on one thread. That took a third of a rebuild's block time on two
-    /// threads in a 4.3 pack.)
+    /// Blocks for `len` pairs (with room for `spare` blocks more), pair k set to
+    /// `fill(k)`, built in parallel: each block is zeroed and filled by the thread that
+    /// owns it. (Zeroed memory from the allocator is no cheaper: the allocator reuses
+    /// freed memory, which it then clears on one thread. That took a third of a
+    /// rebuild's block time on two threads in a 4.3 pack.)
     pub(super) fn build_blocks(
         len: usize,
+        spare: usize,
         fill: impl Fn(usize) -> PairRecord<D> + Sync,
     ) -> Vec<PairBlock<D>> {
         let n = len.div_ceil(BLOCK);
-        let mut blocks: Vec<PairBlock<D>> = Vec::with_capacity(n);
+        let mut blocks: Vec<PairBlock<D>> = Vec::with_capacity(n + spare);
         blocks.spare_capacity_mut()[..n]
             .par_iter_mut()
             .with_min_len(REBUILD_MIN_BLOCKS)
@@ -70,7 +71,7 @@ impl<const D: usize> Pairs<D> {
     /// Reorders every per-pair array: entry k takes the old entry `order[k]`.
     pub(super) fn permute(&mut self, order: &[u32]) {
         self.ij = order.iter().map(|&k| self.ij[k as usize]).collect();
-        self.blocks = Self::build_blocks(order.len(), |k| self.get(order[k] as usize));
+        self.blocks = Self::build_blocks(order.len(), 0, |k| self.get(order[k] as usize));
     }
 
     /// Checks the invariant that the unchecked indexing of the force loops relies on:
@@ -194,18 +195,31 @@ where
                 }
             });
         drop(old_order);
-        // The kept frozen run stays in front, its whole blocks in place (a deep frozen
-        // bed is not copied at each rebuild); the other pairs carry their state over,
-        // or start from zero with fresh law factors. `tail` holds the blocks from the
-        // frozen run's last partial block on.
+        // The kept frozen run stays in front; the other pairs carry their state over,
+        // or start from zero with fresh law factors. Where the blocks' allocation has
+        // room, the frozen run's whole blocks stay in place and only the rest (`tail`,
+        // from the frozen run's last partial block on) is built: a deep frozen bed is
+        // not copied at each rebuild. Otherwise the whole list is built anew, with an
+        // eighth to spare when part of it is frozen, so that a list that grows a
+        // little at each rebuild finds room the next time.
         let r = &self.p.r;
         let mass = &self.p.m;
         let mat = self.cfg.material;
         let (e_star, g_star) = (self.e_star, self.g_star);
         let old = &pr;
-        let kept_blocks = keep >> BLOCK_SHIFT;
-        let first = kept_blocks * BLOCK;
-        let tail = Pairs::<D>::build_blocks(keep + ij.len() - first, |t| {
+        let total = keep + ij.len();
+        let in_place = keep >= BLOCK && old.blocks.capacity() >= total.div_ceil(BLOCK);
+        let first = if in_place {
+            (keep >> BLOCK_SHIFT) * BLOCK
+        } else {
+            0
+        };
+        let spare = if keep > 0 && !in_place {
+            total.div_ceil(BLOCK) / 8
+        } else {
+            0
+        };
+        let tail = Pairs::<D>::build_blocks(total - first, spare, |t| {
             let k = first + t;
             if k < keep {
                 return old.get(k);
@@ -230,17 +244,11 @@ where
             });
             rec
         });
-        if kept_blocks == 0 {
-            pr.blocks = tail;
-        } else {
-            pr.blocks.truncate(kept_blocks);
-            let need = kept_blocks + tail.len();
-            if pr.blocks.capacity() < need {
-                // room for an eighth more, so that a list that grows a little at each
-                // rebuild is not moved each time
-                pr.blocks.reserve_exact(need + need / 8 - kept_blocks);
-            }
+        if in_place {
+            pr.blocks.truncate(first / BLOCK);
             pr.blocks.extend(tail);
+        } else {
+            pr.blocks = tail;
         }
         drop(src);
         pr.ij.truncate(keep);

@@ -1,0 +1,7 @@
+// Core clock estimate: a chain of dependent integer adds retires one a cycle.
+#include <stdio.h>
+#include <time.h>
+static double now(void){struct timespec t;clock_gettime(CLOCK_MONOTONIC,&t);return t.tv_sec+1e-9*t.tv_nsec;}
+int main(void){ double best=1e30; unsigned long x=0; long n=2000000000L;
+ for(int r=0;r<5;r++){ double t0=now(); for(long i=0;i<n;i+=8){ __asm__ volatile("add $1,%0\n\tadd $1,%0\n\tadd $1,%0\n\tadd $1,%0\n\tadd $1,%0\n\tadd $1,%0\n\tadd $1,%0\n\tadd $1,%0":"+r"(x)); } double t=now()-t0; if(t<best)best=t;}
+ printf("%.3f GHz (dependent adds; %lu)\n", n/best/1e9, x); return 0; }
