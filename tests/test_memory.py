@@ -1,5 +1,5 @@
-"""Memory per particle: the engine's state by group, exactly, and the peak resident set of
-a 20 000-sphere generation, under a bound twice the measured value
+"""Memory per particle: the engine's state by group, exactly, and the peak resident sets of
+a 20 000-sphere generation and of its analysis, each under a bound twice the measured value
 (`studies/memory_per_particle/`), so that a regression of 2x fails."""
 
 from __future__ import annotations
@@ -18,6 +18,11 @@ import granpack as gp
 #: the fast settings (about 20 000 spheres), bytes per particle: twice the 2 373 measured
 #: on 2026-12-03 (studies/memory_per_particle/results.md), rounded up.
 GENERATE_PEAK_BOUND = 4_800
+#: Peak resident set added by `microstructure` of that pack, bytes per particle: twice the
+#: 1 474 measured on 2026-12-04 (5 815-6 070 before the quadrature of the core window's
+#: volumes went in blocks and the bond order a harmonic at a time), rounded up. BLAS's
+#: fixed work buffer (about 33 MB, whatever the pack) is allocated before the count.
+ANALYSIS_PEAK_BOUND = 3_000
 
 
 def _engine_memory(container: str, base: float) -> tuple[dict, int]:
@@ -42,8 +47,9 @@ def test_each_particle_holds_the_state_of_the_walls_its_world_has(container, wal
     assert mem["pair_list"] == mem["pairs_count"] * 8 + blocks * 128 * (9 * 8 + 3 * 8)
 
 
-def test_a_20000_sphere_generation_stays_under_its_memory_bound(tmp_path):
-    """The peak resident set that generate adds, measured in a fresh process."""
+def test_a_20000_sphere_generation_and_its_analysis_stay_under_their_memory_bounds(tmp_path):
+    """The peak resident set that generate adds, then the one that microstructure adds,
+    measured in a fresh process."""
     code = textwrap.dedent(
         """
         import json
@@ -61,7 +67,15 @@ def test_a_20000_sphere_generation_stays_under_its_memory_bound(tmp_path):
         Path("/proc/self/clear_refs").write_text("5")
         start = kib("VmRSS:")
         pack = gp.generate(scene)
-        print(json.dumps({"n": len(pack), "peak": kib("VmHWM:") - start}))
+        peak = kib("VmHWM:") - start
+        import numpy as np
+
+        np.ones((4, 4)) @ np.ones((4, 4))  # BLAS's work buffer, a fixed size
+        Path("/proc/self/clear_refs").write_text("5")
+        start = kib("VmRSS:")
+        gp.microstructure(pack)
+        analysis = kib("VmHWM:") - start
+        print(json.dumps({"n": len(pack), "peak": peak, "analysis": analysis}))
         """
     )
     if not Path("/proc/self/clear_refs").exists():
@@ -73,3 +87,5 @@ def test_a_20000_sphere_generation_stays_under_its_memory_bound(tmp_path):
     assert 18_000 <= got["n"] <= 22_000
     per_particle = got["peak"] / got["n"]
     assert per_particle <= GENERATE_PEAK_BOUND, per_particle
+    analysis = got["analysis"] / got["n"]
+    assert analysis <= ANALYSIS_PEAK_BOUND, analysis

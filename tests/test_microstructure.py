@@ -526,3 +526,26 @@ def test_phi_centres_measures_the_height_at_the_highest_centre():
     area = 2 * np.pi * r * r
     assert m.phi == pytest.approx(area / (1.0 * (4 * r - 1e-6)))
     assert m.phi_centres == pytest.approx(area / (1.0 * (3 * r - 1e-6)))
+
+
+def test_the_volumes_in_the_window_do_not_depend_on_the_quadrature_block(monkeypatch):
+    """The sphere-box and sphere-cylinder quadratures go a block of spheres at a time; each
+    sphere's volume is the same to the bit in blocks of 3 as in one block, and the
+    volumes of spheres wholly inside are whole."""
+    from granpack.analysis import volumes
+
+    rng = np.random.default_rng(11)
+    x = rng.uniform(0.0, 1.0, (700, 3))
+    r = rng.uniform(0.02, 0.12, 700)
+    lo, hi = np.array([0.1, 0.15, 0.2]), np.array([0.9, 0.8, 0.85])
+    one_block = volumes.window_volumes(x, r, lo, hi)
+    one_cyl = volumes.cylinder_volumes(x, r, (0.5, 0.5), 0.4, 0.2, 0.85)
+    monkeypatch.setattr(volumes, "_QUAD_ROWS", 3)
+    np.testing.assert_array_equal(volumes.window_volumes(x, r, lo, hi), one_block)
+    np.testing.assert_array_equal(
+        volumes.cylinder_volumes(x, r, (0.5, 0.5), 0.4, 0.2, 0.85), one_cyl
+    )
+    inside = np.all((x - r[:, None] >= lo) & (x + r[:, None] <= hi), axis=1)
+    np.testing.assert_allclose(one_block[inside], 4.0 / 3.0 * np.pi * r[inside] ** 3, rtol=1e-15)
+    cut = ~inside & (one_block > 0)
+    assert 100 < np.sum(cut) and np.all(one_block[cut] < 4.0 / 3.0 * np.pi * r[cut] ** 3)

@@ -268,7 +268,7 @@ def microstructure(
         a_n_binned=None if binned_t is None else binned_t.a_n,
         a_t_binned=None if binned_t is None else binned_t.a_t,
     )
-    values.update(_beyond_the_paper(prep, values, n_slices, has_forces))
+    values.update(_beyond_the_paper(prep, pp, values, n_slices, has_forces))
     scene = getattr(prep.source, "scene", None)
     values["grading"] = realised_grading(
         r, d, inertia_2d=getattr(scene, "inertia_2d", None) or "disc"

@@ -41,11 +41,20 @@ def spherical_harmonics(l_deg: int, normals) -> np.ndarray:
     Condon-Shortley phase; stable to well past l = 12.
     """
     n = np.asarray(normals, dtype=float)
-    n = n / np.linalg.norm(n, axis=1)[:, None]
+    out = np.empty((n.shape[0], l_deg + 1), dtype=complex)
+    for m, column in _harmonic_columns(l_deg, n):
+        out[:, m] = column
+    return out
+
+
+def _harmonic_columns(l_deg: int, normals: np.ndarray):
+    """Yields (m, Y_lm(n) for every normal) for m = 0..l: `spherical_harmonics` a column at
+    a time, so that a caller that uses one order at a time never holds the whole table."""
+    n = normals / np.linalg.norm(normals, axis=1)[:, None]
     x = np.clip(n[:, 2], -1.0, 1.0)
     phi = np.arctan2(n[:, 1], n[:, 0])
     s = np.sqrt(np.maximum(0.0, 1.0 - x * x))
-    out = np.empty((n.shape[0], l_deg + 1), dtype=complex)
+    del n
     for m in range(l_deg + 1):
         # P_m^m = (-1)^m (2m-1)!! s^m, then up in l
         pmm = np.full_like(x, (-1.0) ** m * math.prod(range(1, 2 * m, 2)))
@@ -62,8 +71,7 @@ def spherical_harmonics(l_deg: int, normals) -> np.ndarray:
         norm = math.sqrt(
             (2 * l_deg + 1) / (4 * math.pi) * math.factorial(l_deg - m) / math.factorial(l_deg + m)
         )
-        out[:, m] = norm * plm * np.exp(1j * m * phi)
-    return out
+        yield m, norm * plm * np.exp(1j * m * phi)
 
 
 class BondOrder(NamedTuple):
@@ -110,7 +118,7 @@ class BondOrder(NamedTuple):
 #: Contacts per block when the bond correlation is summed: the temporaries then stay a
 #: few megabytes at any pack size, where the whole (contacts x orders) complex tables
 #: took about 1.8 KB a particle.
-_BLOCK = 1 << 16
+_BLOCK = 1 << 14
 
 
 def _column_sum(v: np.ndarray, columns: int) -> complex:
@@ -136,29 +144,30 @@ def bond_order(
     min_bonds = CRYSTAL_MIN_BONDS[d] if min_bonds is None else int(min_bonds)
     if d == 2:
         theta = np.arctan2(nrm[:, 1], nrm[:, 0])
-        y = np.exp(1j * l_deg * theta)[:, None]
+        columns = iter([(0, np.exp(1j * l_deg * theta))])
         w = np.ones(1)
         fac = 1.0
     else:
-        y = spherical_harmonics(l_deg, nrm) if nrm.shape[0] else np.zeros((0, l_deg + 1))
+        columns = _harmonic_columns(l_deg, nrm.reshape(-1, 3))
         w = np.full(l_deg + 1, 2.0)
         w[0] = 1.0  # orders m and -m have equal |q_lm|
         fac = 4.0 * math.pi / (2 * l_deg + 1)
     # j's bond is along -n: Y_lm(-n) = (-1)^l Y_lm(n)
     sign = (-1.0) ** l_deg
-    orders = y.shape[1]
+    orders = w.shape[0]
     qlm = np.empty((n, orders), dtype=complex)
     glm = np.empty(orders, dtype=complex)
     with np.errstate(invalid="ignore", divide="ignore"):
         # one order at a time, each bond's term in the order of (i ends, then j ends)
-        for m in range(orders):
-            ym = np.concatenate([y[:, m], y[:, m] * sign])
+        for m, y in columns:
+            ym = np.concatenate([y, y * sign])
+            del y
             qlm[:, m] = (
                 np.bincount(ends, weights=ym.real, minlength=n)
                 + 1j * np.bincount(ends, weights=ym.imag, minlength=n)
             ) / nb
             glm[m] = _column_sum(ym, orders) / ym.shape[0] if ym.shape[0] else 0.0
-        del y, ym
+        del ym
         norm2 = np.sum(w * np.abs(qlm) ** 2, axis=1)
         q = np.sqrt(fac * norm2)
         corr = np.empty(i.shape[0])

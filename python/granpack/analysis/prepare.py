@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from ..contacts import Contacts
 from .coordination import coordination_distribution, degrees, rattlers_iterative
 from .order import bond_order
 from .stress import contact_forces, k0, love_weber
@@ -68,12 +69,14 @@ def stress_slices(prep: System, edges: np.ndarray, forces, branches) -> np.ndarr
     return 0.5 * (out + np.transpose(out, (0, 2, 1)))
 
 
-def _beyond_the_paper(prep: System, values: dict, n_slices: int, has_forces: bool) -> dict:
+def _beyond_the_paper(
+    prep: System, pp: Contacts, values: dict, n_slices: int, has_forces: bool
+) -> dict:
     """Coordination distribution and rattlers, stress and K0, the strong and weak networks
-    and the force distribution, bond order."""
+    and the force distribution, bond order. `pp` is ``prep.contacts.particle_pairs()``,
+    which the caller already holds (a second copy would cost some 500 bytes a particle)."""
     n, d = prep.n, prep.d
     c = prep.contacts
-    pp = c.particle_pairs()
     n_c = len(pp)
     deg = degrees(pp.i, pp.j, n)
     p_z = coordination_distribution(deg)

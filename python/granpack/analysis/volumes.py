@@ -11,6 +11,11 @@ __all__ = ["window_volumes", "slab_volumes", "cylinder_volumes", "container_wind
 #: Gauss-Legendre nodes per smooth piece in the 3D sphere-box volume (see window_volumes).
 _QUAD_ORDER = 16
 
+#: Spheres integrated at a time: the quadrature holds about 20 arrays of (rows, 17 pieces,
+#: order) float64, some 45 KB a row, so that blocks of 512 cap it near 23 MB whatever the
+#: pack's size. Each row's sum is the same in any block, so the volumes do not depend on it.
+_QUAD_ROWS = 512
+
 
 def _p(x):
     """int_0^x sqrt(1 - t^2) dt for x in [-1, 1] (odd; P(1) = pi/4)."""
@@ -68,7 +73,6 @@ def _ball_box_volume(c, r, lo, hi, order):
         np.stack([x0 * x0 + y0 * y0, x0 * x0 + y1 * y1, x1 * x1 + y0 * y0, x1 * x1 + y1 * y1], 1)
     )
     dist = np.concatenate([d_lines, d_corners], 1)
-    e = (slice(None), None, None)
     vol, empty = _slice_quadrature(
         c[:, 2],
         r,
@@ -76,7 +80,13 @@ def _ball_box_volume(c, r, lo, hi, order):
         hi[2],
         dist,
         order,
-        lambda rho: _disc_rect_area(rho, x0[e], x1[e], y0[e], y1[e]),
+        lambda rho, rows: _disc_rect_area(
+            rho,
+            x0[rows, None, None],
+            x1[rows, None, None],
+            y0[rows, None, None],
+            y1[rows, None, None],
+        ),
     )
     return np.where(empty, 0.0, vol).reshape(k)
 
@@ -84,8 +94,9 @@ def _ball_box_volume(c, r, lo, hi, order):
 def _slice_quadrature(cz, r, z0, z1, dist, order, slice_area):
     """The volume of each sphere (centre heights cz, radii r; (K,)) between the heights z0
     and z1 inside a region whose horizontal slice at radius rho has the area
-    ``slice_area(rho)`` ((K, pieces, order) in, the same out), and whether the sphere
-    misses the slab (then the volume is not used).
+    ``slice_area(rho, rows)`` (rho (k, pieces, order) for the spheres ``rows``, a slice of
+    the K; the area of the same shape out), and whether the sphere misses the slab (then
+    the volume is not used). The spheres go in blocks of ``_QUAD_ROWS``.
 
     With the height t = r sin(theta) the slice is a disc of radius r cos(theta). The
     integrand is smooth in theta except where the slice circle reaches a distance of
@@ -93,6 +104,25 @@ def _slice_quadrature(cz, r, z0, z1, dist, order, slice_area):
     integral is split there and each piece mapped by theta = a + (b - a)(1 - cos u)/2, so
     that Gauss-Legendre with `order` nodes converges spectrally (see _ball_box_volume).
     """
+    k = len(cz)
+    vol = np.empty(k)
+    empty = np.empty(k, dtype=bool)
+    for start in range(0, k, _QUAD_ROWS):
+        rows = slice(start, min(k, start + _QUAD_ROWS))
+        vol[rows], empty[rows] = _slice_quadrature_rows(
+            cz[rows],
+            r[rows],
+            z0,
+            z1,
+            dist[rows],
+            order,
+            lambda rho, rows=rows: slice_area(rho, rows),
+        )
+    return vol, empty
+
+
+def _slice_quadrature_rows(cz, r, z0, z1, dist, order, slice_area):
+    """`_slice_quadrature` for one block of spheres, ``slice_area(rho)`` its slices' area."""
     t_lo = np.clip((z0 - cz) / r, -1.0, 1.0)
     t_hi = np.clip((z1 - cz) / r, -1.0, 1.0)
     a_lo, a_hi = np.arcsin(t_lo), np.arcsin(t_hi)
@@ -236,9 +266,8 @@ def cylinder_volumes(
         return out
     c, rc, sc = x[cut, 2], r[cut], s[cut]
     dist = np.stack([np.abs(big_r - sc), big_r + sc], 1)
-    e = (slice(None), None, None)
     out[cut], _ = _slice_quadrature(
-        c, rc, z0, z1, dist, order, lambda rho: _lens_area(rho, big_r, sc[e])
+        c, rc, z0, z1, dist, order, lambda rho, rows: _lens_area(rho, big_r, sc[rows, None, None])
     )
     return out
 
