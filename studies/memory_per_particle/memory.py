@@ -82,8 +82,9 @@ def measure(base: float, fast: bool, seed: int, tmp: Path) -> dict:
     arrays = [pack.positions, pack.radii, pack.velocities, pack.spins, pack.layer]
     out["pack_arrays"] = int(sum(a.nbytes for a in arrays))
     out["contact_arrays"] = int(sum(v.nbytes for v in vars(c).values() if hasattr(v, "nbytes")))
-    # BLAS allocates a fixed work buffer (about 33 MB) at its first product: it is the
-    # same at any N, so it is taken before the analysis's peak is counted
+    # BLAS allocates a work buffer at its first product (memray counts 33.5 MB; the
+    # resident part is what this measures): the same at any N, so it is taken before the
+    # analysis's peak is counted
     import numpy as np
 
     start = _reset_peak()

@@ -110,19 +110,14 @@ def _slice_quadrature(cz, r, z0, z1, dist, order, slice_area):
     for start in range(0, k, _QUAD_ROWS):
         rows = slice(start, min(k, start + _QUAD_ROWS))
         vol[rows], empty[rows] = _slice_quadrature_rows(
-            cz[rows],
-            r[rows],
-            z0,
-            z1,
-            dist[rows],
-            order,
-            lambda rho, rows=rows: slice_area(rho, rows),
+            cz[rows], r[rows], z0, z1, dist[rows], order, slice_area, rows
         )
     return vol, empty
 
 
-def _slice_quadrature_rows(cz, r, z0, z1, dist, order, slice_area):
-    """`_slice_quadrature` for one block of spheres, ``slice_area(rho)`` its slices' area."""
+def _slice_quadrature_rows(cz, r, z0, z1, dist, order, slice_area, rows):
+    """`_slice_quadrature` for the block of spheres `rows` (cz, r and dist already cut to
+    it); ``slice_area(rho, rows)`` is its slices' area."""
     t_lo = np.clip((z0 - cz) / r, -1.0, 1.0)
     t_hi = np.clip((z1 - cz) / r, -1.0, 1.0)
     a_lo, a_hi = np.arcsin(t_lo), np.arcsin(t_hi)
@@ -136,7 +131,7 @@ def _slice_quadrature_rows(cz, r, z0, z1, dist, order, slice_area):
     theta = ta + (tb - ta) * (0.5 * (1.0 - np.cos(u)))
     rho = r[:, None, None] * np.cos(theta)
     jac = (tb - ta) * (0.5 * np.sin(u) * wu) * rho  # dt = r cos(theta) dtheta
-    return np.sum(slice_area(rho) * jac, axis=(1, 2)), ~(a_hi > a_lo)
+    return np.sum(slice_area(rho, rows) * jac, axis=(1, 2)), ~(a_hi > a_lo)
 
 
 def window_volumes(positions, radii, lo, hi, order: int = _QUAD_ORDER) -> np.ndarray:
