@@ -43,3 +43,21 @@ def test_a_finished_write_replaces_the_file_whole(tmp_path):
     atomic_write(path, b"second, longer than the first")
     assert path.read_bytes() == b"second, longer than the first"
     assert [p.name for p in tmp_path.iterdir()] == ["report.md"]
+
+
+def test_a_writer_that_fails_half_way_keeps_the_old_file(tmp_path):
+    """A pack streams its archive into the temporary file: a failure after part of it
+    is written leaves the old file whole and no temporary."""
+    path = tmp_path / "pack.npz"
+    atomic_write(path, b"old contents")
+
+    def half_then_fail(f):
+        f.write(b"part of a new archive")
+        raise MemoryError
+
+    with pytest.raises(MemoryError):
+        atomic_write(path, half_then_fail)
+    assert path.read_bytes() == b"old contents"
+    assert [p.name for p in tmp_path.iterdir()] == ["pack.npz"]
+    atomic_write(path, lambda f: f.write(b"streamed"))
+    assert path.read_bytes() == b"streamed"

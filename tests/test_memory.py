@@ -91,3 +91,115 @@ def test_a_20000_sphere_generation_and_its_analysis_stay_under_their_memory_boun
     assert per_particle <= GENERATE_PEAK_BOUND, per_particle
     analysis = got["analysis"] / got["n"]
     assert analysis <= ANALYSIS_PEAK_BOUND, analysis
+
+
+def test_a_pack_is_saved_and_loaded_without_a_second_copy_of_itself(tmp_path):
+    """`Pack.save` streams its archive into the file and `load_pack` reads one array at
+    a time: each adds at most a quarter of the pack's own bytes to the resident set
+    (each added a whole copy, 100 %, before)."""
+    code = textwrap.dedent(
+        """
+        import json
+        from pathlib import Path
+
+        import numpy as np
+
+        import granpack as gp
+        from granpack.pack import load_pack
+
+        def kib(key):
+            for line in Path("/proc/self/status").read_text().splitlines():
+                if line.startswith(key):
+                    return int(line.split()[1]) * 1024
+
+        # a small periodic pack tiled to about 90 MB of arrays, so that the
+        # interpreter's own noise is small beside them
+        scene = gp.PackScene.preset("4.3").replace(
+            container="periodic", base=(0.5, 0.5), height=0.1
+        )
+        pack = gp.tile(gp.generate(scene.fast()), (25, 25))
+        size = sum(a.nbytes for a in (pack.positions, pack.radii, pack.velocities,
+                                      pack.spins, pack.layer))
+        size += sum(v.nbytes for v in pack.contacts.to_dict().values())
+        Path("/proc/self/clear_refs").write_text("5")
+        start = kib("VmRSS:")
+        pack.save("pack.npz")
+        save = kib("VmHWM:") - start
+        del pack
+        Path("/proc/self/clear_refs").write_text("5")
+        start = kib("VmRSS:")
+        again = load_pack("pack.npz")
+        load = kib("VmHWM:") - start - size
+        print(json.dumps({"size": size, "save": save, "load": load, "n": len(again)}))
+        """
+    )
+    if not Path("/proc/self/clear_refs").exists():
+        pytest.skip("needs Linux's /proc/self/clear_refs")
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path
+    )
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["size"] > 50_000_000, got
+    assert got["save"] <= 0.25 * got["size"], got
+    assert got["load"] <= 0.25 * got["size"], got
+
+
+_ARENAS = """
+import ctypes, os, sys, threading
+
+from granpack._malloc import one_arena
+
+set_here = one_arena() if sys.argv[1] == "one" else False
+libc = ctypes.CDLL(None)
+libc.malloc.restype = ctypes.c_void_p
+libc.fopen.restype = ctypes.c_void_p
+libc.malloc_info.argtypes = [ctypes.c_int, ctypes.c_void_p]
+libc.fclose.argtypes = [ctypes.c_void_p]
+together = threading.Barrier(4)
+
+
+def allocate():
+    libc.malloc(1 << 16)  # kept: the thread's arena holds it
+    together.wait()  # all four alive at once, so that none inherits another's arena
+
+
+threads = [threading.Thread(target=allocate) for _ in range(4)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+fp = libc.fopen(b"info.xml", b"w")
+libc.malloc_info(0, fp)
+libc.fclose(fp)
+heaps = open("info.xml").read().count("<heap nr=")
+print(set_here, os.environ.get("MALLOC_ARENA_MAX"), heaps)
+"""
+
+
+def test_the_command_gives_the_engine_threads_one_glibc_arena(tmp_path):
+    """`granpack._malloc.one_arena`, which the command calls first: threads that
+    allocate after it share the one arena (glibc's malloc_info lists one heap) and the
+    processes it starts inherit MALLOC_ARENA_MAX=1; without it, each thread gets its
+    own arena."""
+    import os
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        pytest.skip("glibc's malloc only")
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_ARENA_MAX"}
+
+    def run(mode: str) -> list[str]:
+        done = subprocess.run(
+            [sys.executable, "-c", _ARENAS, mode],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=tmp_path,
+            env=env,
+        )
+        return done.stdout.split()
+
+    assert run("one") == ["True", "1", "1"]
+    set_here, inherited, heaps = run("default")
+    assert (set_here, inherited) == ("False", "None")
+    assert int(heaps) >= 4  # the main arena and one for each thread

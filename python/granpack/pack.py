@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import json
 import lzma
 import math
@@ -19,7 +18,7 @@ import zlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -214,13 +213,13 @@ class Pack:
             meta["density"] = self.density
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
-        buf = io.BytesIO()
         # Stored, not deflated: float64 positions and forces barely compress (a 1e6-sphere
         # pack: 300 MB deflated at 14 MB/s), while a stored zip is written and read at
-        # disk speed. np.load reads both, so older files still load.
+        # disk speed. np.load reads both, so older files still load. The zip goes
+        # straight into the temporary file: built in memory first, it held a second
+        # copy of the pack (336 MB at 922 075 spheres) at the generation's peak.
         # (numpy's stub types the keyword arrays as its allow_pickle flag)
-        np.savez(buf, **arrays)  # type: ignore[arg-type]
-        return atomic_write(path, buf.getvalue())
+        return atomic_write(path, lambda f: np.savez(f, **arrays))  # type: ignore[arg-type]
 
 
 #: The temporary files of `atomic_write`: ``.<name>.<8 random characters>.tmp`` beside
@@ -294,9 +293,10 @@ def _member_text(z: zipfile.ZipFile, key: str) -> str:
     return a.tobytes().decode()
 
 
-def atomic_write(path: str | Path, data: bytes) -> Path:
-    """Writes bytes to `path` through a temporary file in the same folder and a rename,
-    so a reader never sees a half-written file."""
+def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -> Path:
+    """Writes `data` to `path` through a temporary file in the same folder and a rename,
+    so a reader never sees a half-written file. `data` is the bytes, or a function that
+    writes them to the open (binary, seekable) temporary file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -309,7 +309,10 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
     try:
         with os.fdopen(fd, "wb") as f:
-            f.write(data)
+            if callable(data):
+                data(f)
+            else:
+                f.write(data)
             f.flush()
             # mkstemp creates the file 0600; the result gets the mode any other new
             # file would, 0666 less the umask
@@ -345,7 +348,7 @@ def load_pack(path: str | Path) -> Pack:
         )
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        f = path.open("rb")
     except FileNotFoundError:
         raise FileFormatError(
             f"cannot read pack {path}: no such file", path=path, reason="no such file"
@@ -355,12 +358,15 @@ def load_pack(path: str | Path) -> Pack:
             f"cannot read pack {path}: {exc.strerror or exc}", path=path
         ) from None
     try:
-        # Parse from memory: a corrupt archive then leaves no file handle open.
-        z = np.load(io.BytesIO(raw), allow_pickle=False)
-        if not isinstance(z, np.lib.npyio.NpzFile):
-            raise ValueError("a single .npy array, not a pack archive")
-        with z:
-            data = {k: z[k] for k in z.files}
+        # Each array is read from the open file in turn (the `with` closes it whatever
+        # happens): read whole into memory first, the file stood beside its arrays, twice
+        # the pack at the peak of a load.
+        with f:
+            z = np.load(f, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):
+                raise ValueError("a single .npy array, not a pack archive")
+            with z:
+                data = {k: z[k] for k in z.files}
     except (
         zipfile.BadZipFile,
         zlib.error,

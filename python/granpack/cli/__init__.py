@@ -33,6 +33,7 @@ import sys
 from collections.abc import Sequence
 
 from .._console import Console
+from .._malloc import one_arena
 from .._outputs import LOCK_NAME as LOCK_NAME
 from .._validate import GranpackError
 
@@ -104,6 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs the ``granpack`` command with `argv` (default: ``sys.argv[1:]``); returns the
     exit status (0 ok, 1 failure, 2 bad input, 130 interrupted)."""
+    if argv is None:
+        # the command itself, not a caller in its own process: glibc's one arena (see
+        # granpack._malloc), before any engine thread starts
+        one_arena()
     parser = build_parser()
     args = parser.parse_args(argv)
     console = Console(getattr(args, "quiet", False))
