@@ -26,6 +26,17 @@ GENERATE_PEAK_BOUND = 4_800
 #: allocated before the count.
 ANALYSIS_PEAK_BOUND = 3_000
 
+#: The measuring processes' reader of /proc/self/status (bytes).
+_KIB = """
+from pathlib import Path
+
+
+def kib(key):
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(key):
+            return int(line.split()[1]) * 1024
+"""
+
 
 def _engine_memory(container: str, base: float) -> tuple[dict, int]:
     scene = gp.PackScene.preset("4.3").replace(container=container, base=(base, base), height=0.1)
@@ -52,17 +63,12 @@ def test_each_particle_holds_the_state_of_the_walls_its_world_has(container, wal
 def test_a_20000_sphere_generation_and_its_analysis_stay_under_their_memory_bounds(tmp_path):
     """The peak resident set that generate adds, then the one that microstructure adds,
     measured in a fresh process."""
-    code = textwrap.dedent(
+    code = _KIB + textwrap.dedent(
         """
         import json
         from pathlib import Path
 
         import granpack as gp
-
-        def kib(key):
-            for line in Path("/proc/self/status").read_text().splitlines():
-                if line.startswith(key):
-                    return int(line.split()[1]) * 1024
 
         scene = gp.PackScene.preset("4.3").replace(container="periodic", base=(1.5, 1.5))
         scene = scene.fast()
@@ -97,20 +103,13 @@ def test_a_pack_is_saved_and_loaded_without_a_second_copy_of_itself(tmp_path):
     """`Pack.save` streams its archive into the file and `load_pack` reads one array at
     a time: each adds at most a quarter of the pack's own bytes to the resident set
     (each added a whole copy, 100 %, before)."""
-    code = textwrap.dedent(
+    code = _KIB + textwrap.dedent(
         """
         import json
         from pathlib import Path
 
-        import numpy as np
-
         import granpack as gp
         from granpack.pack import load_pack
-
-        def kib(key):
-            for line in Path("/proc/self/status").read_text().splitlines():
-                if line.startswith(key):
-                    return int(line.split()[1]) * 1024
 
         # a small periodic pack tiled to about 90 MB of arrays, so that the
         # interpreter's own noise is small beside them

@@ -30,6 +30,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "_common"))
 
 from manifest import write_manifest  # noqa: E402
+from memory import _kib, _reset_peak  # noqa: E402  (this folder's memory.py)
 
 # name -> environment (glibc reads these at the process's first allocation)
 SETTINGS: dict[str, dict[str, str]] = {
@@ -43,14 +44,7 @@ SETTINGS: dict[str, dict[str, str]] = {
     },
 }
 
-_STATUS = Path("/proc/self/status")
-
-
-def _mib(key: str) -> float:
-    for line in _STATUS.read_text().splitlines():
-        if line.startswith(key):
-            return int(line.split()[1]) / 1024
-    raise RuntimeError(f"no {key} in /proc/self/status")
+_MIB = 2**20
 
 
 def measure(base: float, seed: int) -> dict:
@@ -58,18 +52,17 @@ def measure(base: float, seed: int) -> dict:
     import granpack as gp
 
     scene = gp.PackScene.preset("4.3").replace(container="periodic", base=(base, base), seed=seed)
-    Path("/proc/self/clear_refs").write_text("5")  # the peak restarts from here
-    start = _mib("VmRSS:")
+    start = _reset_peak()
     t = time.perf_counter()
     pack = gp.generate(scene.fast())
     out = {
         "n": len(pack),
         "seconds": time.perf_counter() - t,
-        "peak_mib": _mib("VmHWM:") - start,
-        "after_mib": _mib("VmRSS:") - start,
+        "peak_mib": (_kib("VmHWM:") - start) / _MIB,
+        "after_mib": (_kib("VmRSS:") - start) / _MIB,
     }
     ctypes.CDLL("libc.so.6").malloc_trim(0)
-    out["after_trim_mib"] = _mib("VmRSS:") - start
+    out["after_trim_mib"] = (_kib("VmRSS:") - start) / _MIB
     return out
 
 
