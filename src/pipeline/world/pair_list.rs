@@ -273,31 +273,34 @@ where
             (neighbor_pairs_periodic(&self.p.x, &reach, period), 0)
         };
         drop(reach);
-        // Old pairs that may survive, in (i, j) order: the active run, or everything.
-        let old_order: Vec<u32> = if partial {
-            (pr.n_frozen_pairs as u32..pr.ij.len() as u32).collect()
-        } else {
-            pr.sorted_order()
-        };
+        if !partial && pr.n_frozen_pairs > 0 {
+            // Everything thawed at once (freezing switched off): the old list's two
+            // runs become one run in (i, j) order, in place, so that it merges in place.
+            let order = pr.sorted_order();
+            pr.permute(&order);
+            pr.n_frozen_pairs = 0;
+        }
+        // Old pairs that may survive, one run in (i, j) order from `base` on: the
+        // active run, or the whole list.
+        let base = pr.n_frozen_pairs;
         // For each new pair, the old pair it continues (u32::MAX: a new contact): a
         // merge of the two sorted lists, in parallel chunks of the new one, each
         // starting where a binary search puts its first pair among the old ones.
         let mut src = vec![u32::MAX; ij.len()];
-        let old_ij = &pr.ij;
+        let old = &pr.ij[base..];
         src.par_chunks_mut(PAIR_CHUNK)
             .zip(ij.par_chunks(PAIR_CHUNK))
             .for_each(|(src, new)| {
-                let mut a = old_order.partition_point(|&o| old_ij[o as usize] < new[0]);
+                let mut a = old.partition_point(|o| *o < new[0]);
                 for (s, pair) in src.iter_mut().zip(new) {
-                    while a < old_order.len() && old_ij[old_order[a] as usize] < *pair {
+                    while a < old.len() && old[a] < *pair {
                         a += 1;
                     }
-                    if a < old_order.len() && old_ij[old_order[a] as usize] == *pair {
-                        *s = old_order[a];
+                    if a < old.len() && old[a] == *pair {
+                        *s = (base + a) as u32;
                     }
                 }
             });
-        drop(old_order);
         // The kept frozen run stays in front; the other pairs carry their state over,
         // or start from zero with fresh law factors.
         let r = &self.p.r;
@@ -326,24 +329,10 @@ where
         } else {
             0
         };
-        if partial || pr.n_frozen_pairs == 0 {
-            // The old pairs that may survive are one run sorted by (i, j), as the new
-            // ones are: the new list is merged into the old one's memory.
-            pr.merge_in_place(keep, &ij, &src, spare, fresh);
-        } else {
-            // Everything thawed at once: the old list's two runs interleave in (i, j)
-            // order, so the new list is built beside it.
-            let old = &pr;
-            let blocks = Pairs::<D>::build_blocks(total, 0, |k| match src[k] {
-                u32::MAX => fresh(ij[k]),
-                // a surviving pair: its history, and its factors (radii and masses
-                // never change)
-                o => old.get(o as usize),
-            });
-            pr.blocks = blocks;
-            pr.ij = ij;
-        }
-        drop(src);
+        // The old pairs that may survive are one run sorted by (i, j), as the new ones
+        // are: the new list is merged into the old one's memory.
+        pr.merge_in_place(keep, &ij, &src, spare, fresh);
+        drop((src, ij));
         pr.n_frozen_pairs = keep;
         self.pairs = pr;
         if partial {
