@@ -74,9 +74,7 @@ where
                     [new_index[i as usize], new_index[j as usize]]
                 })
                 .collect(),
-            blocks: Pairs::<D>::build_blocks(survivors.len(), 0, |k| {
-                old.get(survivors[k] as usize)
-            }),
+            blocks: Pairs::<D>::build_blocks(survivors.len(), |k| old.get(survivors[k] as usize)),
             ..Pairs::default()
         };
         self.pairs = pairs;
