@@ -302,6 +302,10 @@ class LayerPacker:
     def state(self) -> PackerState:
         """positions, velocities, spins, radii, layer, time."""
     def contacts(self) -> ContactArrays: ...
+    def finish(self) -> tuple[PackerState, ContactArrays]:
+        """The finished pack, as state() and contacts() give it, with the packer spent
+        to make it (the pair state freed as the contacts are written); every later
+        call raises RuntimeError."""
     def memory(self) -> dict[str, int]:
         """Bytes of the engine's state by group (particles, wall_contacts, pair_list,
         incidence) and of the layer loop's (layers), with particles_count and

@@ -758,8 +758,14 @@ def deposit(
             "top": float(done["height"]),
             "steps": done["steps"],
         }
-    state = packer.state()
-    contacts = Contacts.from_dict(packer.contacts())
+    height = float(packer.height)
+    # The engine is spent to build the pack: its pair state is freed as the contact
+    # table is written, so the two are never held whole at once (at a million spheres
+    # that is the generation's peak).
+    state, table = packer.finish()
+    del packer
+    contacts = Contacts.from_dict(table)
+    del table
     if trim is not None:
         r = np.asarray(state["radii"])
         solid = float(np.sum(np.pi * r**2 if scene.dim == 2 else 4 / 3 * np.pi * r**3))
@@ -772,7 +778,7 @@ def deposit(
         spins=state["spins"],
         layer=state["layer"],
         contacts=contacts,
-        height=float(packer.height),
+        height=height,
         layers=reports,
         wall_time=time.perf_counter() - t0,
         trim=trim,

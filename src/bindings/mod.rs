@@ -802,7 +802,25 @@ fn sample_radii<'py>(
 /// The layer loop (see `granpack.generate` for the documented Python API).
 #[pyclass(module = "granpack._core")]
 struct LayerPacker {
-    inner: PackInner,
+    /// None once `finish` has moved the pack out.
+    inner: Option<PackInner>,
+}
+
+impl LayerPacker {
+    fn packer(&self) -> PyResult<&PackInner> {
+        self.inner.as_ref().ok_or_else(spent)
+    }
+
+    fn packer_mut(&mut self) -> PyResult<&mut PackInner> {
+        self.inner.as_mut().ok_or_else(spent)
+    }
+}
+
+/// The error of a LayerPacker used after `finish`.
+fn spent() -> PyErr {
+    PyRuntimeError::new_err(
+        "the layer packer is finished: its state moved into the pack (LayerPacker.finish)",
+    )
 }
 
 #[pymethods]
@@ -817,25 +835,25 @@ impl LayerPacker {
             3 => PackInner::D3(Packer::new(spec.checked_config::<3>()?)?),
             other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
         };
-        Ok(LayerPacker { inner })
+        Ok(LayerPacker { inner: Some(inner) })
     }
 
     /// True once the pack has reached the desired height.
     #[getter]
-    fn done(&self) -> bool {
-        with_packer!(&self.inner, p, _D, p.done())
+    fn done(&self) -> PyResult<bool> {
+        Ok(with_packer!(self.packer()?, p, _D, p.done()))
     }
 
     #[getter]
-    fn height(&self) -> f64 {
-        with_packer!(&self.inner, p, _D, p.height())
+    fn height(&self) -> PyResult<f64> {
+        Ok(with_packer!(self.packer()?, p, _D, p.height()))
     }
 
     /// Places and settles one layer (GIL released); returns its report as a dict.
     /// Ctrl-C stops the layer within about 0.1 s (KeyboardInterrupt); the packer is
     /// then spent.
     fn next_layer<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let inner = &mut self.inner;
+        let inner = self.packer_mut()?;
         let mut raised = None;
         let rep = py.detach(|| {
             let mut poll = signal_poll(&mut raised);
@@ -855,7 +873,7 @@ impl LayerPacker {
     fn trim<'py>(&mut self, py: Python<'py>, height: f64) -> PyResult<Bound<'py, PyDict>> {
         // A height below every particle's top would leave an empty pack: refused, with
         // the range that keeps particles (the engine's own checks come first).
-        let (done, lowest) = with_packer!(&self.inner, p, D, {
+        let (done, lowest) = with_packer!(self.packer()?, p, D, {
             let v = <Dim<D> as Spatial<D>>::VERTICAL;
             let w = p.world();
             let lowest = w
@@ -878,7 +896,7 @@ impl LayerPacker {
             )
             .into());
         }
-        let inner = &mut self.inner;
+        let inner = self.packer_mut()?;
         let mut raised = None;
         let out = py.detach(|| {
             let mut poll = signal_poll(&mut raised);
@@ -889,7 +907,7 @@ impl LayerPacker {
                 let d = PyDict::new(py);
                 d.set_item("removed", removed)?;
                 d.set_item("steps", steps)?;
-                d.set_item("height", with_packer!(&self.inner, p, _D, p.height()))?;
+                d.set_item("height", with_packer!(self.packer()?, p, _D, p.height()))?;
                 Ok(d)
             }
             (None, Some(e)) => Err(e),
@@ -902,7 +920,7 @@ impl LayerPacker {
     /// particle's layer), with the particle and pair counts they are for.
     fn memory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        with_packer!(&self.inner, p, _D, {
+        with_packer!(self.packer()?, p, _D, {
             let w = p.world();
             for (name, bytes) in w.memory() {
                 d.set_item(name, bytes)?;
@@ -917,7 +935,7 @@ impl LayerPacker {
     /// Particle arrays: positions, radii, velocities, spins, layer.
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        with_packer!(&self.inner, p, _D, {
+        with_packer!(self.packer()?, p, _D, {
             let w = p.world();
             d.set_item("positions", vec_to_py(py, &w.positions_in_cell()))?;
             d.set_item("velocities", vec_to_py(py, w.velocities()))?;
@@ -934,9 +952,37 @@ impl LayerPacker {
     }
 
     fn contacts<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        with_packer!(&mut self.inner, p, _D, {
+        with_packer!(self.packer_mut()?, p, _D, {
             let c = p.world_mut().contacts()?;
             contacts_to_py(py, c)
+        })
+    }
+
+    /// The finished pack: (state, contacts), as `state()` and `contacts()` give them,
+    /// with the packer spent to make them (GIL released while the contacts are
+    /// written): the engine's pair state is freed as the contact table grows, so the
+    /// two are never held whole at once. Every later call raises RuntimeError.
+    fn finish<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+        let inner = self.inner.take().ok_or_else(spent)?;
+        dispatch!(PackInner, inner, p, _D, {
+            let done = py.detach(|| p.finish())?;
+            let st = done.state;
+            let d = PyDict::new(py);
+            d.set_item("positions", vec_to_py(py, &st.positions))?;
+            drop(st.positions);
+            d.set_item("velocities", vec_to_py(py, &st.velocities))?;
+            drop(st.velocities);
+            d.set_item("spins", ang_to_py(py, &st.spins))?;
+            drop(st.spins);
+            d.set_item("radii", Array1::from_vec(st.radii).into_pyarray(py))?;
+            let layers: Vec<i64> = done.layer.iter().map(|&l| l as i64).collect();
+            drop(done.layer);
+            d.set_item("layer", Array1::from_vec(layers).into_pyarray(py))?;
+            d.set_item("time", st.time)?;
+            Ok((d, contacts_to_py(py, done.contacts)?))
         })
     }
 }

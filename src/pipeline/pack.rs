@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::geometry::morton_order;
 use crate::math::{Dim, Real, Spatial, Vector};
 use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
-use crate::pipeline::world::{FreezeConfig, World, FREEZE_INTERVAL};
+use crate::pipeline::world::{Contacts, FinishedState, FreezeConfig, World, FREEZE_INTERVAL};
 pub use crate::scene::{PackConfig, RadiusLaw, MAX_ATTEMPTS, MAX_LAYERS, MAX_STEPS_PER_LAYER};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -40,6 +40,20 @@ pub struct LayerReport {
     pub wall_seconds: Real,
     /// Particles frozen at the end of the layer.
     pub frozen: usize,
+}
+
+/// What [`Packer::finish`] gives: the pack's arrays and its contacts in force.
+#[derive(Clone, Debug)]
+pub struct FinishedPack<const D: usize>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// Positions (wrapped into the periodic cell), velocities, spins, radii, time.
+    pub state: FinishedState<D>,
+    /// Layer index of each particle.
+    pub layer: Vec<u32>,
+    /// The contacts in force, as [`World::contacts`] gives them.
+    pub contacts: Contacts<D>,
 }
 
 /// Builds a pack layer by layer.
@@ -113,6 +127,18 @@ where
     /// Reports of the layers so far.
     pub fn reports(&self) -> &[LayerReport] {
         &self.reports
+    }
+
+    /// The finished pack: its contacts in force and its particle arrays, with each
+    /// particle's layer, the packer spent to make them (see [`World::into_finished`]:
+    /// the engine's state is freed as the contact table is written).
+    pub fn finish(self) -> Result<FinishedPack<D>> {
+        let (contacts, state) = self.world.into_finished()?;
+        Ok(FinishedPack {
+            state,
+            layer: self.layer_of,
+            contacts,
+        })
     }
 
     /// Places and settles one layer.

@@ -22,64 +22,217 @@ pub struct Contacts<const D: usize> {
     pub branch: Vec<Vector<D>>,
 }
 
+impl<const D: usize> Contacts<D> {
+    /// Empty columns with room for `n` contacts (untouched memory until written).
+    fn with_capacity(n: usize) -> Self {
+        Contacts {
+            i: Vec::with_capacity(n),
+            j: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+            overlap: Vec::with_capacity(n),
+            force_normal: Vec::with_capacity(n),
+            force_tangential: Vec::with_capacity(n),
+            branch: Vec::with_capacity(n),
+        }
+    }
+
+    /// Number of contacts.
+    pub fn len(&self) -> usize {
+        self.i.len()
+    }
+
+    /// True when there is no contact.
+    pub fn is_empty(&self) -> bool {
+        self.i.is_empty()
+    }
+
+    /// Appends one contact; `fv` is the whole force on j (N), split here into its normal
+    /// magnitude and tangential part.
+    fn push(&mut self, i: i64, j: i64, n: Vector<D>, d: Real, fv: Vector<D>, branch: Vector<D>) {
+        let fn_ = fv.dot(&n);
+        self.i.push(i);
+        self.j.push(j);
+        self.normal.push(n);
+        self.overlap.push(d);
+        self.force_normal.push(fn_.max(0.0));
+        self.force_tangential.push(fv - n * fn_);
+        self.branch.push(branch);
+    }
+
+    /// Reverses the order of the contacts, in place.
+    fn reverse(&mut self) {
+        self.i.reverse();
+        self.j.reverse();
+        self.normal.reverse();
+        self.overlap.reverse();
+        self.force_normal.reverse();
+        self.force_tangential.reverse();
+        self.branch.reverse();
+    }
+}
+
+/// The particle arrays of a world that has been spent (see [`World::into_finished`]).
+#[derive(Clone, Debug)]
+pub struct FinishedState<const D: usize>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// Centres, wrapped into the periodic cell where there is one (m).
+    pub positions: Vec<Vector<D>>,
+    /// Velocities (m/s).
+    pub velocities: Vec<Vector<D>>,
+    /// Angular velocities (rad/s).
+    pub spins: Vec<Ang<D>>,
+    /// Radii (m).
+    pub radii: Vec<Real>,
+    /// Simulated time (s).
+    pub time: Real,
+}
+
+/// Pairs between two frees of the list's tail in [`World::into_finished`]: 128 blocks,
+/// 1.5 MB of pair state in 3D.
+const FREE_EVERY: usize = 128 * BLOCK;
+
 impl<const D: usize> World<D>
 where
     Dim<D>: Spatial<D>,
 {
-    /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
-    /// (i, j) order, then wall contacts by particle and wall.
-    pub fn contacts(&mut self) -> Result<Contacts<D>> {
+    /// Appends the contact of pair `ij` with state `rec` (in force: overlap > 0).
+    fn push_pair_contact(&self, out: &mut Contacts<D>, ij: [u32; 2], rec: &PairRecord<D>) {
+        let [i, j] = ij;
+        let mut dx = self.p.x[j as usize] - self.p.x[i as usize];
+        if let Some(per) = &self.period {
+            dx = per.image(dx);
+        }
+        // the engine's normal, to the bit (see `pair_block` and `geometry_block`)
+        let n = dx * (1.0 / dx.norm());
+        out.push(i as i64, j as i64, n, rec.d, Vector::<D>::from(rec.f), dx);
+    }
+
+    /// Appends the contact of particle q with wall `wi`, if it is in force.
+    fn push_wall_contact(&self, out: &mut Contacts<D>, q: usize, wi: usize) {
+        let wall = &self.walls[wi];
+        let d = self.p.r[q] - wall.gap(&self.p.x[q]);
+        if d <= 0.0 {
+            return;
+        }
+        let n = wall.normal(&self.p.x[q]);
+        let fv = self.p.wall_force[q * self.walls.len() + wi];
+        let branch = n * (self.p.r[q] - 0.5 * d);
+        out.push(q as i64, -(wi as i64) - 1, n, d, fv, branch);
+    }
+
+    /// Brings the pair list and the forces up to date for the contacts.
+    fn contacts_ready(&mut self) -> Result<()> {
         if !self.list_valid {
             self.rebuild_pairs();
         }
         if !self.forces_valid && !self.is_empty() {
             self.compute_forces()?;
         }
+        Ok(())
+    }
+
+    /// The contacts in force at the last force evaluation (overlap > 0), pairs first in
+    /// (i, j) order, then wall contacts by particle and wall.
+    pub fn contacts(&mut self) -> Result<Contacts<D>> {
+        self.contacts_ready()?;
         let mut out = Contacts::<D>::default();
         let pr = &self.pairs;
         for k in pr.sorted_order() {
             let k = k as usize;
             let rec = pr.get(k);
-            if rec.d <= 0.0 {
-                continue;
+            if rec.d > 0.0 {
+                self.push_pair_contact(&mut out, pr.ij[k], &rec);
             }
-            let [i, j] = pr.ij[k];
-            let mut dx = self.p.x[j as usize] - self.p.x[i as usize];
-            if let Some(per) = &self.period {
-                dx = per.image(dx);
-            }
-            // the engine's normal, to the bit (see `pair_block` and `geometry_block`)
-            let n = dx * (1.0 / dx.norm());
-            let fv = Vector::<D>::from(rec.f);
-            let fn_ = fv.dot(&n);
-            out.i.push(i as i64);
-            out.j.push(j as i64);
-            out.normal.push(n);
-            out.overlap.push(rec.d);
-            out.force_normal.push(fn_.max(0.0));
-            out.force_tangential.push(fv - n * fn_);
-            out.branch.push(dx);
         }
         for q in 0..self.len() {
-            for (wi, wall) in self.walls.iter().enumerate() {
-                let s = wall.gap(&self.p.x[q]);
-                let d = self.p.r[q] - s;
-                if d <= 0.0 {
-                    continue;
-                }
-                let n = wall.normal(&self.p.x[q]);
-                let fv = self.p.wall_force[q * self.walls.len() + wi];
-                let fn_ = fv.dot(&n);
-                out.i.push(q as i64);
-                out.j.push(-(wi as i64) - 1);
-                out.normal.push(n);
-                out.overlap.push(d);
-                out.force_normal.push(fn_.max(0.0));
-                out.force_tangential.push(fv - n * fn_);
-                out.branch.push(n * (self.p.r[q] - 0.5 * d));
+            for wi in 0..self.walls.len() {
+                self.push_wall_contact(&mut out, q, wi);
             }
         }
         Ok(out)
+    }
+
+    /// The contacts in force, the same as [`World::contacts`] to the bit, and the
+    /// particle arrays, with the world spent to make them: the pair list is freed from
+    /// its end while the contacts are written, so the contact table never sits beside
+    /// the whole pair state (at a million spheres each is about 270 bytes a particle,
+    /// and together they set the peak of a pack's generation). The particle arrays
+    /// move out without a copy; everything else is dropped.
+    pub fn into_finished(self) -> Result<(Contacts<D>, FinishedState<D>)> {
+        self.into_finished_freeing(FREE_EVERY)
+    }
+
+    /// [`World::into_finished`], freeing the list's tail every `every` pairs (a
+    /// multiple of `BLOCK`; the tests free it at every block).
+    pub(super) fn into_finished_freeing(
+        mut self,
+        every: usize,
+    ) -> Result<(Contacts<D>, FinishedState<D>)> {
+        debug_assert!(every > 0 && every.is_multiple_of(BLOCK));
+        self.contacts_ready()?;
+        let mut pr = std::mem::take(&mut self.pairs);
+        // the incidence lists serve the gather alone
+        pr.i_frozen = Vec::new();
+        pr.i_active = Vec::new();
+        pr.j_start = Vec::new();
+        pr.j_inc = Vec::new();
+        if pr.n_frozen_pairs > 0 {
+            // one run in (i, j) order, in place (see `rebuild_pairs`)
+            let order = pr.sorted_order();
+            pr.permute(&order);
+            pr.n_frozen_pairs = 0;
+        }
+        let (n, nw, m) = (self.len(), self.walls.len(), pr.ij.len());
+        let in_pairs = (0..m).filter(|&k| pr.get(k).d > 0.0).count();
+        let on_walls = (0..n * nw)
+            .filter(|&e| {
+                let (q, wi) = (e / nw, e % nw);
+                self.p.r[q] > self.walls[wi].gap(&self.p.x[q])
+            })
+            .count();
+        let mut out = Contacts::<D>::with_capacity(in_pairs + on_walls);
+        // Written last to first and reversed at the end, so that the pair state behind
+        // the contacts written so far can go.
+        for q in (0..n).rev() {
+            for wi in (0..nw).rev() {
+                self.push_wall_contact(&mut out, q, wi);
+            }
+        }
+        for k in (0..m).rev() {
+            let rec = pr.get(k);
+            if rec.d > 0.0 {
+                self.push_pair_contact(&mut out, pr.ij[k], &rec);
+            }
+            if k.is_multiple_of(every) {
+                // Shrinking a large allocation hands its tail back to the system
+                // (glibc's realloc of a mapped chunk is an mremap, in place).
+                pr.blocks.truncate(k >> BLOCK_SHIFT);
+                pr.blocks.shrink_to_fit();
+                pr.ij.truncate(k);
+                pr.ij.shrink_to_fit();
+            }
+        }
+        drop(pr);
+        debug_assert_eq!(out.len(), in_pairs + on_walls);
+        out.reverse();
+        let positions = match &self.period {
+            Some(per) => {
+                let mut x = std::mem::take(&mut self.p.x);
+                x.iter_mut().for_each(|x| *x = per.wrap(*x));
+                x
+            }
+            None => std::mem::take(&mut self.p.x),
+        };
+        let state = FinishedState {
+            positions,
+            velocities: std::mem::take(&mut self.p.v),
+            spins: std::mem::take(&mut self.p.w),
+            radii: std::mem::take(&mut self.p.r),
+            time: self.time,
+        };
+        Ok((out, state))
     }
 }
 

@@ -60,7 +60,7 @@ mod tests;
 pub(crate) use boundary::{container_walls, Wall};
 pub use boundary::{Container, Period};
 pub use config::{Inertia2D, SimConfig};
-pub use contacts::{geometric_contacts, Contacts};
+pub use contacts::{geometric_contacts, Contacts, FinishedState};
 pub use freeze::{FreezeConfig, FREEZE_INTERVAL};
 pub use moving_walls::{ForceBalance, WallLoad};
 use pair_list::Pairs;

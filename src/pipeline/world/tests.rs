@@ -404,6 +404,61 @@ fn frozen_runs_keep_every_contact() {
     assert!(w.rebuilds() > 10);
 }
 
+/// A world spent for its finished pack gives the contacts `contacts()` gives and its
+/// own particle arrays, to the bit: with a frozen and an active run in the pair list
+/// and with one, in a box (wall contacts) and in a periodic cell (centres wrapped),
+/// the list's tail freed at every block.
+#[test]
+fn a_finished_world_gives_its_contacts_and_arrays() {
+    use rand::SeedableRng;
+    for periodic in [false, true] {
+        let mut cfg = falling_box(0.2);
+        if periodic {
+            cfg.container = Container::Periodic;
+        }
+        let mut w = World::new(cfg).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        let (x, r) = lattice(&mut rng, 6, 4, 0.015);
+        w.add_particles(&x, &r, None, None).unwrap();
+        w.set_freeze(Some(FreezeConfig {
+            below: 0.1,
+            speed: 1e-2,
+            force_ratio: 0.3,
+            interval: 10,
+        }))
+        .unwrap();
+        let mut runs = [false; 2];
+        for _ in 0..150 {
+            w.step_n(100).unwrap();
+            let (m, frozen) = w.pair_counts();
+            let two_runs = frozen > 0 && frozen < m;
+            let mut spent = w.clone();
+            let expect = spent.contacts().unwrap();
+            // more contacts than a block, so that the tail is freed midway
+            if runs[two_runs as usize] || expect.len() <= BLOCK {
+                continue;
+            }
+            runs[two_runs as usize] = true;
+            let (got, state) = spent.into_finished_freeing(BLOCK).unwrap();
+            for (a, b) in [(&got.i, &expect.i), (&got.j, &expect.j)] {
+                assert_eq!(a, b);
+            }
+            assert_eq!(got.normal, expect.normal);
+            assert_eq!(got.overlap, expect.overlap);
+            assert_eq!(got.force_normal, expect.force_normal);
+            assert_eq!(got.force_tangential, expect.force_tangential);
+            assert_eq!(got.branch, expect.branch);
+            assert!(got.j.iter().any(|&j| j < 0), "the floor's contacts");
+            assert_eq!(state.positions, w.positions_in_cell());
+            assert_eq!(state.velocities, w.velocities());
+            assert_eq!(state.spins, w.spins());
+            assert_eq!(state.radii, w.radii());
+            assert_eq!(state.time, w.time());
+        }
+        assert_eq!(runs, [true, true], "both list layouts were checked");
+    }
+}
+
 /// The one-sweep force pass gives the same bits as the two passes, on one and on
 /// three threads (three pieces, so particles with pairs in two pieces are gathered
 /// after the sweep), with a frozen bed that a second batch lands on and thaws.
