@@ -4,7 +4,9 @@
 //! The rebuild merges the new list into the old one's memory (`Pairs::merge_in_place`),
 //! so its peak should be the first build's; before that merge it held the old and the
 //! new pair state at once, a third more (1 211 against 907 bytes a particle at 573k).
-//! Prints bytes per particle from the process's peak resident set (VmHWM).
+//! Then the world is spent for its finished pack (`World::into_finished`: the contact
+//! table is written while the pair state is freed from its end), whose peak should stay
+//! the rebuild's. Prints bytes per particle from the process's peak resident set (VmHWM).
 #[path = "../benches/common/mod.rs"]
 mod common;
 
@@ -51,5 +53,16 @@ fn main() {
         before as f64 / 1024.0,
         per(peak),
         per(first)
+    );
+    let n = w.len();
+    let (contacts, state) = w.into_finished().expect("the finished pack");
+    let done = vm_hwm_kib();
+    println!(
+        "finished pack: {} contacts and {} spheres' arrays; peak RSS {:.1} MiB = {:.0} bytes \
+         per particle",
+        contacts.len(),
+        state.radii.len(),
+        done as f64 / 1024.0,
+        (done - before) as f64 * 1024.0 / n as f64
     );
 }
