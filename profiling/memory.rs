@@ -4,7 +4,8 @@
 //! The rebuild merges the new list into the old one's memory (`Pairs::merge_in_place`),
 //! so its peak should be the first build's; before that merge it held the old and the
 //! new pair state at once, a third more (1 211 against 907 bytes a particle at 573k).
-//! Then the world is spent for its finished pack (`World::into_finished`: the contact
+//! Then the top 5 % of the pack is removed in place (`World::remove_particles`, the flat
+//! top of a trimmed pack), and the world is spent for its finished pack (`World::into_finished`: the contact
 //! table is written while the pair state is freed from its end), whose peak should stay
 //! the rebuild's. Prints bytes per particle from the process's peak resident set (VmHWM).
 #[path = "../benches/common/mod.rs"]
@@ -42,7 +43,9 @@ fn main() {
     assert!(w.rebuilds() > rebuilds, "the list was rebuilt");
     let peak = vm_hwm_kib();
     let (pairs, _) = w.pair_counts();
-    let per = |kib: u64| (kib - before) as f64 * 1024.0 / w.len() as f64;
+    // bytes per particle of the whole pack, before its flat top
+    let n_all = w.len();
+    let per = |kib: u64| (kib - before) as f64 * 1024.0 / n_all as f64;
     println!(
         "{} spheres, {} pairs: engine state {:.0} bytes per particle; peak RSS {:.1} MiB \
          (baseline {:.1} MiB) = {:.0} bytes per particle ({:.0} after the first build)",
@@ -54,7 +57,18 @@ fn main() {
         per(peak),
         per(first)
     );
-    let n = w.len();
+    // the flat top of a trimmed pack: the spheres whose centre lies in the top 5 % go
+    let cut = 0.95 * top;
+    let keep: Vec<bool> = w.positions().iter().map(|p| p[2] <= cut).collect();
+    w.remove_particles(&keep).expect("the flat top");
+    w.step_n(1).expect("a step after the removal");
+    let trimmed = vm_hwm_kib();
+    println!(
+        "flat top: {} spheres left; peak RSS {:.1} MiB = {:.0} bytes per particle",
+        w.len(),
+        trimmed as f64 / 1024.0,
+        per(trimmed)
+    );
     let (contacts, state) = w.into_finished().expect("the finished pack");
     let done = vm_hwm_kib();
     println!(
@@ -63,6 +77,6 @@ fn main() {
         contacts.len(),
         state.radii.len(),
         done as f64 / 1024.0,
-        (done - before) as f64 * 1024.0 / n as f64
+        per(done)
     );
 }

@@ -178,12 +178,7 @@ where
         pr.i_active = Vec::new();
         pr.j_start = Vec::new();
         pr.j_inc = Vec::new();
-        if pr.n_frozen_pairs > 0 {
-            // one run in (i, j) order, in place (see `rebuild_pairs`)
-            let order = pr.sorted_order();
-            pr.permute(&order);
-            pr.n_frozen_pairs = 0;
-        }
+        pr.merge_runs();
         let (n, nw, m) = (self.len(), self.walls.len(), pr.ij.len());
         let in_pairs = (0..m).filter(|&k| pr.get(k).d > 0.0).count();
         let on_walls = (0..n * nw)

@@ -34,11 +34,10 @@ impl<const D: usize> Pairs<D> {
         self.blocks[k >> BLOCK_SHIFT].get(k & (BLOCK - 1))
     }
 
-    /// Blocks for `len` pairs, pair k set to
-    /// `fill(k)`, built in parallel: each block is zeroed and filled by the thread that
-    /// owns it. (Zeroed memory from the allocator is no cheaper: the allocator reuses
-    /// freed memory, which it then clears on one thread. That took a third of a
-    /// rebuild's block time on two threads in a 4.3 pack.)
+    /// Blocks for `len` pairs, pair k set to `fill(k)`, built beside any other list:
+    /// the tests' oracle for the moves the engine makes in place. Each block is zeroed
+    /// and filled by the thread that owns it.
+    #[cfg(test)]
     pub(super) fn build_blocks(
         len: usize,
         fill: impl Fn(usize) -> PairRecord<D> + Sync,
@@ -127,8 +126,8 @@ impl<const D: usize> Pairs<D> {
         let had = self.blocks.len();
         if n > had {
             self.blocks.reserve_exact(n - had + spare);
-            // SAFETY: as in `build_blocks`: the all-zero pattern is a valid block, and
-            // n <= capacity after the reserve.
+            // SAFETY: a PairBlock is arrays of f64 only (no padding, no pointers), so the
+            // all-zero pattern is a valid block (0.0); n <= capacity after the reserve.
             unsafe {
                 let tail = &mut self.blocks.spare_capacity_mut()[..n - had];
                 std::ptr::write_bytes(tail.as_mut_ptr(), 0, n - had);
@@ -174,6 +173,47 @@ impl<const D: usize> Pairs<D> {
         self.ij.truncate(keep);
         self.ij.extend_from_slice(ij);
         trim(&mut self.ij);
+    }
+
+    /// Sorts the two runs into one run in (i, j) order, in place (see `permute`).
+    pub(super) fn merge_runs(&mut self) {
+        if self.n_frozen_pairs > 0 {
+            let order = self.sorted_order();
+            self.permute(&order);
+            self.n_frozen_pairs = 0;
+        }
+    }
+
+    /// Keeps the pairs for which `renumber` gives new indices, in order, with their
+    /// state, in place: a kept pair only moves down, so moving them in increasing order
+    /// overwrites no state still to be read. The list must be one run; the incidence
+    /// lists are left to the next rebuild, which the caller forces.
+    pub(super) fn retain_in_place(&mut self, renumber: impl Fn([u32; 2]) -> Option<[u32; 2]>) {
+        debug_assert_eq!(self.n_frozen_pairs, 0);
+        let mut out = 0;
+        for k in 0..self.ij.len() {
+            if let Some(ij) = renumber(self.ij[k]) {
+                if out != k {
+                    let rec = self.get(k);
+                    self.set(out, &rec);
+                }
+                self.ij[out] = ij;
+                out += 1;
+            }
+        }
+        let n = out.div_ceil(BLOCK);
+        for k in out..(n * BLOCK).min(self.ij.len()) {
+            // lanes past the end hold zeros, as a block built anew
+            self.set(k, &PairRecord::default());
+        }
+        self.blocks.truncate(n);
+        trim(&mut self.blocks);
+        self.ij.truncate(out);
+        trim(&mut self.ij);
+        self.i_frozen = Vec::new();
+        self.i_active = Vec::new();
+        self.j_start = Vec::new();
+        self.j_inc = Vec::new();
     }
 
     /// Checks the invariant that the unchecked indexing of the force loops relies on:
@@ -272,12 +312,10 @@ where
             (neighbor_pairs_periodic(&self.p.x, &reach, period), 0)
         };
         drop(reach);
-        if !partial && pr.n_frozen_pairs > 0 {
+        if !partial {
             // Everything thawed at once (freezing switched off): the old list's two
             // runs become one run in (i, j) order, in place, so that it merges in place.
-            let order = pr.sorted_order();
-            pr.permute(&order);
-            pr.n_frozen_pairs = 0;
+            pr.merge_runs();
         }
         // Old pairs that may survive, one run in (i, j) order from `base` on: the
         // active run, or the whole list.
@@ -489,6 +527,27 @@ mod tests {
             let want = Pairs::<3> { ij: want_ij, blocks: want, ..Default::default() };
             prop_assert_eq!(&p.ij, &want.ij);
             prop_assert_eq!(lanes(&p), lanes(&want));
+        }
+
+        /// Keeping some pairs in place gives what a list built beside the old one of
+        /// the kept pairs gives: their states in order, renumbered, and zeros past the
+        /// end.
+        #[test]
+        fn retain_in_place_equals_a_build_beside(seed in 0u64..10_000, m in 0usize..900,
+                                                 survive in 0.0f64..1.0) {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let kept: Vec<bool> = (0..m).map(|_| rng.random::<f64>() < survive).collect();
+            let mut p = tagged_list(m);
+            p.retain_in_place(|[i, j]| kept[i as usize].then_some([j, i]));
+            let old: Vec<u32> = (0..m as u32).filter(|&k| kept[k as usize]).collect();
+            let want = Pairs::<3> {
+                ij: old.iter().map(|&k| [k + 1, k]).collect(),
+                blocks: Pairs::<3>::build_blocks(old.len(), |k| tagged(old[k])),
+                ..Default::default()
+            };
+            prop_assert_eq!(&p.ij, &want.ij);
+            prop_assert_eq!(lanes(&p), lanes(&want));
+            prop_assert!(p.j_inc.is_empty() && p.i_active.is_empty());
         }
     }
 }

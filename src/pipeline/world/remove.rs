@@ -2,7 +2,6 @@
 
 use super::*;
 
-/// Keeps the entries of `v` whose flag in `keep` is set, in order.
 /// Keeps the runs of `stride` entries whose flag in `keep` is set (a per-particle
 /// array with `stride` entries a particle).
 fn retain_runs<T: Copy>(v: &mut Vec<T>, keep: &[bool], stride: usize) {
@@ -55,29 +54,15 @@ where
         {
             *slot = next as u32;
         }
-        // The pairs of two kept particles, renumbered, in (i, j) order with their state:
-        // the next rebuild merges them with the new list as it does after any rebuild.
-        let order = self.pairs.sorted_order();
-        let survivors: Vec<u32> = order
-            .into_iter()
-            .filter(|&k| {
-                let [i, j] = self.pairs.ij[k as usize];
-                keep[i as usize] && keep[j as usize]
-            })
-            .collect();
-        let old = std::mem::take(&mut self.pairs);
-        let pairs = Pairs::<D> {
-            ij: survivors
-                .iter()
-                .map(|&k| {
-                    let [i, j] = old.ij[k as usize];
-                    [new_index[i as usize], new_index[j as usize]]
-                })
-                .collect(),
-            blocks: Pairs::<D>::build_blocks(survivors.len(), |k| old.get(survivors[k] as usize)),
-            ..Pairs::default()
-        };
-        self.pairs = pairs;
+        // The pairs of two kept particles, renumbered, in (i, j) order with their state,
+        // in place (a list built beside this one held two copies of the pair state at
+        // once): the next rebuild merges them with the new list as after any rebuild.
+        let pr = &mut self.pairs;
+        pr.merge_runs();
+        pr.retain_in_place(|[i, j]| {
+            let (a, b) = (new_index[i as usize], new_index[j as usize]);
+            (a != u32::MAX && b != u32::MAX).then_some([a, b])
+        });
 
         let p = &mut self.p;
         retain_by(&mut p.x, keep);
