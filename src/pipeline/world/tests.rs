@@ -364,6 +364,15 @@ fn falling_box(side: f64) -> SimConfig<3> {
     cfg
 }
 
+/// Freezing for a bed of `lattice` spheres in `falling_box`: below 0.1 m, slower than
+/// 1 cm/s, net force under 0.3 of the weight, checked every 10 steps.
+const BED_FREEZE: FreezeConfig = FreezeConfig {
+    below: 0.1,
+    speed: 1e-2,
+    force_ratio: 0.3,
+    interval: 10,
+};
+
 /// Freezing, thawing and the partial rebuilds that skip frozen pairs never lose a
 /// contact: after every few steps the contacts the world reports are exactly the
 /// overlapping pairs of a brute-force search, while a second batch of spheres lands
@@ -376,13 +385,7 @@ fn frozen_runs_keep_every_contact() {
     let mut batch = |z0: f64| lattice(&mut rng, 6, 3, z0);
     let (x, r) = batch(0.015);
     w.add_particles(&x, &r, None, None).unwrap();
-    w.set_freeze(Some(FreezeConfig {
-        below: 0.1,
-        speed: 1e-2,
-        force_ratio: 0.3,
-        interval: 10,
-    }))
-    .unwrap();
+    w.set_freeze(Some(BED_FREEZE)).unwrap();
     for _ in 0..1000 {
         w.step_n(10).unwrap();
         assert_contacts_are_the_overlaps(&mut w);
@@ -420,13 +423,7 @@ fn a_finished_world_gives_its_contacts_and_arrays() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
         let (x, r) = lattice(&mut rng, 6, 4, 0.015);
         w.add_particles(&x, &r, None, None).unwrap();
-        w.set_freeze(Some(FreezeConfig {
-            below: 0.1,
-            speed: 1e-2,
-            force_ratio: 0.3,
-            interval: 10,
-        }))
-        .unwrap();
+        w.set_freeze(Some(BED_FREEZE)).unwrap();
         let mut runs = [false; 2];
         for _ in 0..150 {
             w.step_n(100).unwrap();
@@ -482,9 +479,7 @@ fn force_sweep_equals_two_passes() {
             w.add_particles(&x1, &r1, None, None).unwrap();
             w.set_freeze(Some(FreezeConfig {
                 below: 0.15,
-                speed: 1e-2,
-                force_ratio: 0.3,
-                interval: 10,
+                ..BED_FREEZE
             }))
             .unwrap();
             w.step_n(6000).unwrap();
