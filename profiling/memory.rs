@@ -5,9 +5,10 @@
 //! so its peak should be the first build's; before that merge it held the old and the
 //! new pair state at once, a third more (1 211 against 907 bytes a particle at 573k).
 //! Then the top 5 % of the pack is removed in place (`World::remove_particles`, the flat
-//! top of a trimmed pack), and the world is spent for its finished pack (`World::into_finished`: the contact
-//! table is written while the pair state is freed from its end), whose peak should stay
-//! the rebuild's. Prints bytes per particle from the process's peak resident set (VmHWM).
+//! top of a trimmed pack), and the world is spent for its finished pack
+//! (`World::into_finished`: the contact table is written while the pair state is freed
+//! from its end); both peaks should stay the rebuild's. Prints bytes per particle from
+//! the process's peak resident set (VmHWM).
 #[path = "../benches/common/mod.rs"]
 mod common;
 

@@ -799,6 +799,28 @@ fn sample_radii<'py>(
     Ok(Array1::from_vec(r).into_pyarray(py).into_any())
 }
 
+/// The layer packer's state as `LayerPacker.state` and `finish` give it: positions,
+/// velocities, spins, radii, layer, time.
+fn packer_state_to_py<'py, const D: usize, A: AngOps>(
+    py: Python<'py>,
+    positions: &[Vector<D>],
+    velocities: &[Vector<D>],
+    spins: &[A],
+    radii: Vec<f64>,
+    layer: &[u32],
+    time: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("positions", vec_to_py(py, positions))?;
+    d.set_item("velocities", vec_to_py(py, velocities))?;
+    d.set_item("spins", ang_to_py(py, spins))?;
+    d.set_item("radii", Array1::from_vec(radii).into_pyarray(py))?;
+    let layer: Vec<i64> = layer.iter().map(|&l| l as i64).collect();
+    d.set_item("layer", Array1::from_vec(layer).into_pyarray(py))?;
+    d.set_item("time", time)?;
+    Ok(d)
+}
+
 /// The layer loop (see `granpack.generate` for the documented Python API).
 #[pyclass(module = "granpack._core")]
 struct LayerPacker {
@@ -934,21 +956,18 @@ impl LayerPacker {
 
     /// Particle arrays: positions, radii, velocities, spins, layer.
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
         with_packer!(self.packer()?, p, _D, {
             let w = p.world();
-            d.set_item("positions", vec_to_py(py, &w.positions_in_cell()))?;
-            d.set_item("velocities", vec_to_py(py, w.velocities()))?;
-            d.set_item("spins", ang_to_py(py, w.spins()))?;
-            d.set_item(
-                "radii",
-                Array1::from_vec(w.radii().to_vec()).into_pyarray(py),
-            )?;
-            let layers: Vec<i64> = p.layers().iter().map(|&l| l as i64).collect();
-            d.set_item("layer", Array1::from_vec(layers).into_pyarray(py))?;
-            d.set_item("time", w.time())?;
-        });
-        Ok(d)
+            packer_state_to_py(
+                py,
+                &w.positions_in_cell(),
+                w.velocities(),
+                w.spins(),
+                w.radii().to_vec(),
+                p.layers(),
+                w.time(),
+            )
+        })
     }
 
     fn contacts<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -970,18 +989,15 @@ impl LayerPacker {
         dispatch!(PackInner, inner, p, _D, {
             let done = py.detach(|| p.finish())?;
             let st = done.state;
-            let d = PyDict::new(py);
-            d.set_item("positions", vec_to_py(py, &st.positions))?;
-            drop(st.positions);
-            d.set_item("velocities", vec_to_py(py, &st.velocities))?;
-            drop(st.velocities);
-            d.set_item("spins", ang_to_py(py, &st.spins))?;
-            drop(st.spins);
-            d.set_item("radii", Array1::from_vec(st.radii).into_pyarray(py))?;
-            let layers: Vec<i64> = done.layer.iter().map(|&l| l as i64).collect();
-            drop(done.layer);
-            d.set_item("layer", Array1::from_vec(layers).into_pyarray(py))?;
-            d.set_item("time", st.time)?;
+            let d = packer_state_to_py(
+                py,
+                &st.positions,
+                &st.velocities,
+                &st.spins,
+                st.radii,
+                &done.layer,
+                st.time,
+            )?;
             Ok((d, contacts_to_py(py, done.contacts)?))
         })
     }

@@ -109,14 +109,18 @@ where
         out.push(i as i64, j as i64, n, rec.d, Vector::<D>::from(rec.f), dx);
     }
 
+    /// Overlap of particle q with wall `wi` (m); in contact when > 0.
+    fn wall_overlap(&self, q: usize, wi: usize) -> Real {
+        self.p.r[q] - self.walls[wi].gap(&self.p.x[q])
+    }
+
     /// Appends the contact of particle q with wall `wi`, if it is in force.
     fn push_wall_contact(&self, out: &mut Contacts<D>, q: usize, wi: usize) {
-        let wall = &self.walls[wi];
-        let d = self.p.r[q] - wall.gap(&self.p.x[q]);
+        let d = self.wall_overlap(q, wi);
         if d <= 0.0 {
             return;
         }
-        let n = wall.normal(&self.p.x[q]);
+        let n = self.walls[wi].normal(&self.p.x[q]);
         let fv = self.p.wall_force[q * self.walls.len() + wi];
         let branch = n * (self.p.r[q] - 0.5 * d);
         out.push(q as i64, -(wi as i64) - 1, n, d, fv, branch);
@@ -173,19 +177,12 @@ where
         debug_assert!(every > 0 && every.is_multiple_of(BLOCK));
         self.contacts_ready()?;
         let mut pr = std::mem::take(&mut self.pairs);
-        // the incidence lists serve the gather alone
-        pr.i_frozen = Vec::new();
-        pr.i_active = Vec::new();
-        pr.j_start = Vec::new();
-        pr.j_inc = Vec::new();
+        pr.drop_incidence();
         pr.merge_runs();
         let (n, nw, m) = (self.len(), self.walls.len(), pr.ij.len());
         let in_pairs = (0..m).filter(|&k| pr.get(k).d > 0.0).count();
         let on_walls = (0..n * nw)
-            .filter(|&e| {
-                let (q, wi) = (e / nw, e % nw);
-                self.p.r[q] > self.walls[wi].gap(&self.p.x[q])
-            })
+            .filter(|&e| self.wall_overlap(e / nw, e % nw) > 0.0)
             .count();
         let mut out = Contacts::<D>::with_capacity(in_pairs + on_walls);
         // Written last to first and reversed at the end, so that the pair state behind

@@ -210,6 +210,12 @@ impl<const D: usize> Pairs<D> {
         trim(&mut self.blocks);
         self.ij.truncate(out);
         trim(&mut self.ij);
+        self.drop_incidence();
+    }
+
+    /// Frees the incidence lists, which serve the gather alone (a rebuild makes them
+    /// again).
+    pub(super) fn drop_incidence(&mut self) {
         self.i_frozen = Vec::new();
         self.i_active = Vec::new();
         self.j_start = Vec::new();

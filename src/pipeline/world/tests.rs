@@ -437,9 +437,8 @@ fn a_finished_world_gives_its_contacts_and_arrays() {
             }
             runs[two_runs as usize] = true;
             let (got, state) = spent.into_finished_freeing(BLOCK).unwrap();
-            for (a, b) in [(&got.i, &expect.i), (&got.j, &expect.j)] {
-                assert_eq!(a, b);
-            }
+            assert_eq!(got.i, expect.i);
+            assert_eq!(got.j, expect.j);
             assert_eq!(got.normal, expect.normal);
             assert_eq!(got.overlap, expect.overlap);
             assert_eq!(got.force_normal, expect.force_normal);
