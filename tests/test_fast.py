@@ -97,6 +97,18 @@ def test_fast_settings_keep_physics_constants():
     assert gp.PackScene.preset("4.2").fast().settle_dt is None
 
 
+def test_fast_settings_keep_a_freeze_depth_the_scene_sets():
+    s = gp.PackScene.preset("4.3")
+    assert s.freeze_depth is None
+    assert s.fast().freeze_depth == gp.scene.FAST_FREEZE_LAYERS * s.h_layer
+    # a tall pack's bed frozen for good 4 h_layer down: fast() keeps both settings
+    tall = s.replace(height=1.5, freeze_depth=0.4, freeze_force=10.0).fast()
+    assert (tall.freeze_depth, tall.freeze_force) == (0.4, 10.0)
+    assert tall.settle_tol == gp.scene.FAST_SETTLE_TOL and tall.dt == s.fast().dt
+    # and fast() of a fast scene is the same scene
+    assert tall.fast() == tall and s.fast().fast() == s.fast()
+
+
 def ensemble(scene: gp.PackScene, core_margin: float, packs: int = 8):
     """phi and Z of `packs` packs (streams 0..packs-1), and their total DEM steps."""
     phi, z, steps = [], [], 0

@@ -468,19 +468,29 @@ class PackScene:
 
     def fast(self) -> PackScene:
         """The same scene with the fast settings: adaptive settling (settle_tol =
-        FAST_SETTLE_TOL), freezing below FAST_FREEZE_LAYERS layer thicknesses,
-        dt = FAST_DT_RAYLEIGH of the Rayleigh estimate (or the scene's dt, if larger:
-        the 2D presets keep theirs) and, once each layer has fallen, settle_dt =
-        FAST_SETTLE_DT_RAYLEIGH of it (unset where that is not larger than dt). The
-        physics constants are untouched; `studies/fast_vs_full/fast_vs_full.py` measures how far
-        the ensemble statistics move (see the README)."""
+        FAST_SETTLE_TOL), freezing below FAST_FREEZE_LAYERS layer thicknesses (or below
+        the scene's own ``freeze_depth``, where it sets one), dt = FAST_DT_RAYLEIGH of
+        the Rayleigh estimate (or the scene's dt, if larger: the 2D presets keep theirs)
+        and, once each layer has fallen, settle_dt = FAST_SETTLE_DT_RAYLEIGH of it
+        (unset where that is not larger than dt). The physics constants are untouched;
+        `studies/fast_vs_full/fast_vs_full.py` measures how far the ensemble statistics
+        move (see the README).
+
+        A scene's own ``freeze_depth`` and ``freeze_force`` are kept: a tall pack with
+        ``freeze_depth`` at 4 h_layer and ``freeze_force=10`` has a bed frozen for good
+        that far below the top (no landing thaws it), whose layers then cost the same at
+        any depth (docs/performance.md, "A tall pack")."""
         assert self.r_min is not None  # set by __post_init__
         crit = self.material.critical_time_step(self.r_min)
         dt = max(self.dt, FAST_DT_RAYLEIGH * crit)
         settle_dt = FAST_SETTLE_DT_RAYLEIGH * crit
         return self.replace(
             settle_tol=FAST_SETTLE_TOL,
-            freeze_depth=FAST_FREEZE_LAYERS * self.h_layer,
+            freeze_depth=(
+                FAST_FREEZE_LAYERS * self.h_layer
+                if self.freeze_depth is None
+                else self.freeze_depth
+            ),
             dt=dt,
             settle_dt=settle_dt if settle_dt > dt else None,
         )
