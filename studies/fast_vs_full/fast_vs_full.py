@@ -53,6 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
 from manifest import write_manifest  # noqa: E402
 
 import granpack as gp  # noqa: E402
+from granpack.analysis.coordination import degrees  # noqa: E402
 from granpack.pack import atomic_write  # noqa: E402
 
 FIFTHS = [f"z_fifth_{k}" for k in range(1, 6)]
@@ -90,8 +91,7 @@ def parse_set(items: list[str]) -> dict:
 
 def z_by_fifth(pack: gp.Pack) -> list[float]:
     """Mean particle-particle contacts per particle in each fifth of the pack height."""
-    pp = pack.contacts.particle_pairs()
-    count = np.bincount(pp.i, minlength=len(pack)) + np.bincount(pp.j, minlength=len(pack))
+    count = degrees(pack.contacts.i, pack.contacts.j, len(pack))
     fifth = np.minimum((5.0 * pack.positions[:, -1] / pack.height).astype(int), 4)
     return [
         float(count[fifth == b].mean()) if np.any(fifth == b) else float("nan") for b in range(5)

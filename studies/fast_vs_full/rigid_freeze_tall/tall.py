@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "_common"))
 from manifest import write_manifest  # noqa: E402
 
 import granpack as gp  # noqa: E402
+from granpack.analysis.coordination import degrees  # noqa: E402
 from granpack.pack import atomic_write  # noqa: E402
 
 BIN = 0.1  # m, the depth bins of Z
@@ -50,8 +51,7 @@ def scene_of(variant: str, height: float, depth: float) -> gp.PackScene:
 
 def z_by_depth(pack: gp.Pack, bins: int) -> list[float]:
     """Mean particle-particle contacts a sphere in each BIN of depth below the top."""
-    pp = pack.contacts.particle_pairs()
-    count = np.bincount(pp.i, minlength=len(pack)) + np.bincount(pp.j, minlength=len(pack))
+    count = degrees(pack.contacts.i, pack.contacts.j, len(pack))
     depth = pack.height - pack.positions[:, -1]
     b = np.minimum((depth / BIN).astype(int), bins - 1)
     return [float(count[b == k].mean()) if np.any(b == k) else float("nan") for k in range(bins)]
@@ -137,8 +137,7 @@ def compare(out: Path) -> None:
         lines.append("")
     for f in sorted(out.glob("*_layers.csv")):
         lay = pl.read_csv(f)
-        med = lay.group_by("layer").agg(pl.col("seconds").median(), pl.col("total").first())
-        med = med.sort("layer")
+        med = lay.group_by("layer").agg(pl.col("seconds").median()).sort("layer")
         lines += [
             f"Median seconds a layer, `{f.name}`: " + ", ".join(f"{s:.2f}" for s in med["seconds"]),
             "",
