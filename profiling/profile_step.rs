@@ -34,7 +34,13 @@ where
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1);
-    let mut w = common::settled_world::<D>(tiles, 20, 1);
+    // LAYERS=h stores the particles as a layer-by-layer pack does: bands of h (m) from
+    // the bottom up, each in its own Morton order.
+    let order = std::env::var("LAYERS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .map_or(common::StoreOrder::Morton, common::StoreOrder::Layers);
+    let mut w = common::settled_world_in::<D>(tiles, 20, 1, order);
     let start = std::time::Instant::now();
     w.step_n(steps).unwrap();
     let particle_steps = (steps * w.len() as u64).max(1) as f64;

@@ -90,6 +90,30 @@ pub fn settled_world<const D: usize>(tiles: usize, settle: u64, threads: usize) 
 where
     Dim<D>: Spatial<D>,
 {
+    settled_world_in(tiles, settle, threads, StoreOrder::Morton)
+}
+
+/// The order in which [`settled_world_in`] stores the particles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StoreOrder {
+    /// One Morton order over the whole pack (cells of 0.05 m).
+    Morton,
+    /// Horizontal bands of the given thickness (m), from the bottom up, each in its own
+    /// Morton order: the order a layer-by-layer pack stores its particles in, one band a
+    /// layer.
+    Layers(f64),
+}
+
+/// [`settled_world`] with the particles stored in `order`.
+pub fn settled_world_in<const D: usize>(
+    tiles: usize,
+    settle: u64,
+    threads: usize,
+    order: StoreOrder,
+) -> World<D>
+where
+    Dim<D>: Spatial<D>,
+{
     let file = if D == 3 {
         "liggghts/pack3d_final_xyzr.txt"
     } else {
@@ -116,7 +140,24 @@ where
         }
     }
     // granpack stores each layer in Morton order; give the peers' packs the same order.
-    let order = _core::geometry::morton_order(&x, 0.05);
+    let order = match order {
+        StoreOrder::Morton => _core::geometry::morton_order(&x, 0.05),
+        StoreOrder::Layers(h) => {
+            let band = |p: &Vector<D>| (p[D - 1] / h).floor().max(0.0) as usize;
+            let n_bands = x.iter().map(band).max().unwrap_or(0) + 1;
+            let mut order = Vec::with_capacity(x.len());
+            for b in 0..n_bands {
+                let idx: Vec<usize> = (0..x.len()).filter(|&k| band(&x[k]) == b).collect();
+                let xb: Vec<Vector<D>> = idx.iter().map(|&k| x[k]).collect();
+                order.extend(
+                    _core::geometry::morton_order(&xb, 0.05)
+                        .into_iter()
+                        .map(|k| idx[k]),
+                );
+            }
+            order
+        }
+    };
     let x: Vec<Vector<D>> = order.iter().map(|&k| x[k]).collect();
     let r: Vec<f64> = order.iter().map(|&k| r[k]).collect();
     let mut cfg = SimConfig::<D>::paper();

@@ -19,6 +19,7 @@
 //! - `integrate.rs`: the half kick and drift (step 1);
 //! - `forces.rs`: the pair pass and the gather (steps 3-5);
 //! - `freeze.rs`: freezing of settled particles;
+//! - `remove.rs`, `reorder.rs`: taking particles out, storing them in another order;
 //! - `contacts.rs`: the contacts in force, for export;
 //! - `energy.rs`: the energies and the run-time guards;
 //! - `team.rs`: the step's thread team.
@@ -53,6 +54,7 @@ mod moving_walls;
 mod pair_list;
 mod particles;
 mod remove;
+mod reorder;
 mod team;
 #[cfg(test)]
 mod tests;

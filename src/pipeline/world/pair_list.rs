@@ -68,7 +68,7 @@ impl<const D: usize> Pairs<D> {
 
     /// Sets the state of pair k.
     #[inline]
-    fn set(&mut self, k: usize, rec: &PairRecord<D>) {
+    pub(super) fn set(&mut self, k: usize, rec: &PairRecord<D>) {
         self.blocks[k >> BLOCK_SHIFT].set(k & (BLOCK - 1), rec);
     }
 
