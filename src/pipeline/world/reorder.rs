@@ -3,18 +3,34 @@
 
 use super::*;
 
-/// `v` gathered through `order` in runs of `stride` entries a particle: run k takes the
-/// old run `order[k]`.
-fn gather_runs<T: Copy + Send + Sync>(v: &mut Vec<T>, order: &[usize], stride: usize) {
-    if stride == 0 {
+/// Reorders `v` in place in runs of `stride` entries a particle: run k takes the old
+/// run `order[k]`. Each cycle of the permutation is followed once, holding one run
+/// aside (as `Pairs::permute` does), so the array is never copied whole; `done` is a
+/// bit a particle, cleared here.
+fn permute_runs<T: Copy>(v: &mut [T], order: &[usize], stride: usize, done: &mut [u64]) {
+    if stride == 0 || v.is_empty() {
         return;
     }
-    let old = std::mem::take(v);
-    let mut out = Vec::with_capacity(old.len());
-    for &o in order {
-        out.extend_from_slice(&old[o * stride..(o + 1) * stride]);
+    debug_assert_eq!(v.len(), order.len() * stride);
+    done.fill(0);
+    let mut held = v[..stride].to_vec();
+    for s in 0..order.len() {
+        if done[s / 64] >> (s % 64) & 1 == 1 || order[s] == s {
+            continue;
+        }
+        held.copy_from_slice(&v[s * stride..(s + 1) * stride]);
+        let mut k = s;
+        loop {
+            done[k / 64] |= 1 << (k % 64);
+            let o = order[k];
+            if o == s {
+                v[k * stride..(k + 1) * stride].copy_from_slice(&held);
+                break;
+            }
+            v.copy_within(o * stride..(o + 1) * stride, k * stride);
+            k = o;
+        }
     }
-    *v = out;
 }
 
 impl<const D: usize> World<D>
@@ -75,29 +91,34 @@ where
                 pr.set(k, &rec);
             }
         }
+        drop(new_index);
         let mut sorted: Vec<u32> = (0..pr.ij.len() as u32).collect();
         let ij = &pr.ij;
         sorted.par_sort_unstable_by_key(|&k| ij[k as usize]);
         pr.permute(&sorted);
         drop(sorted);
 
+        // The particle arrays in place, one after the other: at a million spheres a
+        // copy of the positions alone is 24 MB.
+        let mut done = vec![0u64; n.div_ceil(64)];
         let p = &mut self.p;
-        gather_runs(&mut p.x, order, 1);
-        gather_runs(&mut p.v, order, 1);
-        gather_runs(&mut p.f, order, 1);
-        gather_runs(&mut p.w, order, 1);
-        gather_runs(&mut p.t, order, 1);
-        gather_runs(&mut p.r, order, 1);
-        gather_runs(&mut p.m, order, 1);
-        gather_runs(&mut p.inv_m, order, 1);
-        gather_runs(&mut p.inv_i, order, 1);
-        gather_runs(&mut p.x_ref, order, 1);
-        gather_runs(&mut p.half_skin, order, 1);
-        gather_runs(&mut p.wall_hist, order, self.walls.len());
-        gather_runs(&mut p.wall_force, order, self.walls.len());
-        gather_runs(&mut p.frozen, order, 1);
-        gather_runs(&mut p.wall_mask, order, 1);
-        gather_runs(&mut p.wall_near, order, 1);
+        permute_runs(&mut p.x, order, 1, &mut done);
+        permute_runs(&mut p.v, order, 1, &mut done);
+        permute_runs(&mut p.f, order, 1, &mut done);
+        permute_runs(&mut p.w, order, 1, &mut done);
+        permute_runs(&mut p.t, order, 1, &mut done);
+        permute_runs(&mut p.r, order, 1, &mut done);
+        permute_runs(&mut p.m, order, 1, &mut done);
+        permute_runs(&mut p.inv_m, order, 1, &mut done);
+        permute_runs(&mut p.inv_i, order, 1, &mut done);
+        permute_runs(&mut p.x_ref, order, 1, &mut done);
+        permute_runs(&mut p.half_skin, order, 1, &mut done);
+        permute_runs(&mut p.wall_hist, order, self.walls.len(), &mut done);
+        permute_runs(&mut p.wall_force, order, self.walls.len(), &mut done);
+        permute_runs(&mut p.frozen, order, 1, &mut done);
+        permute_runs(&mut p.wall_mask, order, 1, &mut done);
+        permute_runs(&mut p.wall_near, order, 1, &mut done);
+        drop(done);
         // Both runs again (in (i, j) order) and the incidence lists the gather reads.
         self.partition_pairs();
         Ok(())
@@ -199,6 +220,26 @@ mod tests {
                 );
             }
             assert!(swapped > pairs / 4, "{swapped} of {pairs} swapped");
+        }
+    }
+
+    /// The permutation in place gives what gathering through the order gives, for runs
+    /// of one entry and of several (the wall state of a box: one run a particle).
+    #[test]
+    fn permutation_in_place_equals_a_gather() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for (n, stride) in [(1, 1), (7, 1), (300, 1), (300, 5), (1000, 3)] {
+            let mut order: Vec<usize> = (0..n).collect();
+            order.shuffle(&mut rng);
+            let v: Vec<u32> = (0..(n * stride) as u32).collect();
+            let gathered: Vec<u32> = order
+                .iter()
+                .flat_map(|&o| v[o * stride..(o + 1) * stride].iter().copied())
+                .collect();
+            let mut w = v.clone();
+            let mut done = vec![u64::MAX; n.div_ceil(64)];
+            permute_runs(&mut w, &order, stride, &mut done);
+            assert_eq!(w, gathered, "n {n} stride {stride}");
         }
     }
 
