@@ -144,6 +144,9 @@ THREAD_SCRIPT = textwrap.dedent(
             height=0.15, settle_time=0.4, settle_tol=1e-2, freeze_depth=0.02,
             freeze_speed=2e-2, freeze_force=0.5, settle_dt=6.5e-5,
         )
+    elif sys.argv[1] == "resorted":
+        # layers of 4 096 discs and more: the pack is re-sorted after each layer
+        scene = scene.replace(base=(5.5,), height=0.08, settle_time=0.35)
     p = gp.generate(scene)
     h = hashlib.sha256()
     c = p.contacts
@@ -154,16 +157,38 @@ THREAD_SCRIPT = textwrap.dedent(
 )
 
 
-@pytest.mark.parametrize("mode", ["paper", "fast"])
+@pytest.mark.parametrize("mode", ["paper", "fast", "resorted"])
 def test_bit_identical_on_one_and_two_threads(mode):
     """More than one parallel chunk (512 particles) so that threads really split work;
     in `fast` mode particles freeze, thaw and the pair list is partly rebuilt, and the
-    step changes to settle_dt once each layer has fallen."""
+    step changes to settle_dt once each layer has fallen; in `resorted` mode the layers
+    are large enough for the pack to be re-sorted into one Morton order after each."""
     out = outputs_on_threads(THREAD_SCRIPT, mode)
-    assert int(out["1"][0]) > 2 * 512
+    assert int(out["1"][0]) > (2 * 4096 if mode == "resorted" else 2 * 512)
     if mode == "fast":
         assert int(out["1"][1]) > 0, "some particles froze"
     assert out["1"] == out["2"]
+
+
+def test_a_pack_of_large_layers_is_stored_in_one_morton_order():
+    """Layers of 4 096 discs or more re-sort the whole pack into one Morton order after
+    each: the layers interleave in the arrays, each particle keeps its layer, and the
+    contact table names the particles it joins (each overlap is r_i + r_j - |x_j - x_i|
+    of the pack's own arrays)."""
+    scene = gp.PackScene.preset("4.1").replace(
+        r_mean=0.004, base=(5.5,), height=0.08, settle_time=0.35, dt=5e-5, seed=9
+    )
+    p = gp.generate(scene)
+    added = [r["added"] for r in p.layers]
+    assert len(added) >= 2 and min(added) >= 4096, added
+    assert np.bincount(p.layer).tolist() == added
+    assert np.any(np.diff(p.layer) < 0), "the layers do not interleave"
+    c = p.contacts
+    pp = c.j >= 0
+    i, j = c.i[pp], c.j[pp]
+    assert pp.sum() > len(p)
+    overlap = p.radii[i] + p.radii[j] - np.linalg.norm(p.positions[j] - p.positions[i], axis=1)
+    np.testing.assert_allclose(overlap, c.overlap[pp], rtol=0, atol=1e-12)
 
 
 def test_presets_carry_the_papers_numbers():
