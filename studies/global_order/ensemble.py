@@ -29,6 +29,7 @@ import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
 from manifest import write_manifest  # noqa: E402
+from paired import layer_medians, paired_row, table_head  # noqa: E402
 
 import granpack as gp  # noqa: E402
 from granpack.pack import atomic_write  # noqa: E402
@@ -100,27 +101,13 @@ def compare(out: Path) -> None:
         f"{len(streams)} pairs (streams {streams}); the smallest layer of any pack held "
         f"{min(r['smallest_layer'].min(), v['smallest_layer'].min())} spheres.",
         "",
-        "| quantity | layered mean | re-sorted mean | mean difference | its standard error "
-        "| difference / sd of layered |",
-        "|---|---|---|---|---|---|",
+        *table_head("layered", "re-sorted"),
     ]
     for q in ("seconds", *STATS):
-        a, b = r[q].to_numpy().astype(float), v[q].to_numpy().astype(float)
-        d = b - a
-        sd = a.std(ddof=1)
-        se = d.std(ddof=1) / np.sqrt(len(d))
-        lines.append(
-            f"| {q} | {a.mean():.5g} | {b.mean():.5g} | {d.mean():+.4g} "
-            f"| {se:.2g} | {d.mean() / sd if sd > 0 else float('nan'):+.2f} |"
-        )
+        lines.append(paired_row(q, r[q].to_numpy(), v[q].to_numpy()))
     lines.append("")
     for name in ("layered", "resorted"):
-        lay = pl.read_csv(out / f"{name}_layers.csv")
-        med = lay.group_by("layer").agg(pl.col("seconds").median()).sort("layer")
-        lines += [
-            f"Median seconds a layer, {name}: " + ", ".join(f"{s:.2f}" for s in med["seconds"]),
-            "",
-        ]
+        lines += [layer_medians(out / f"{name}_layers.csv", name), ""]
     atomic_write(out / "compare.md", "\n".join(lines).encode())
     print("\n".join(lines))
 

@@ -32,6 +32,7 @@ import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "_common"))
 from manifest import write_manifest  # noqa: E402
+from paired import layer_medians, paired_row, table_head  # noqa: E402
 
 import granpack as gp  # noqa: E402
 from granpack.analysis.coordination import degrees  # noqa: E402
@@ -117,31 +118,14 @@ def compare(out: Path) -> None:
         v = var.filter(pl.col("stream").is_in(streams))
         name = f.name.removesuffix("_packs.csv")
         lines += [f"## {name}: {len(streams)} packs (streams {streams})", ""]
-        lines += [
-            "| quantity | fast() mean | variant mean | mean difference | its standard error "
-            "| difference / sd of fast() |",
-            "|---|---|---|---|---|---|",
-        ]
+        lines += table_head("fast()", "variant")
         for q in ("seconds", "n", "height", *STATS, *depth_cols):
-            a, b = r[q].to_numpy(), v[q].to_numpy()
-            ok = ~(np.isnan(a) | np.isnan(b))
-            if ok.sum() < 2:
-                continue
-            d = b[ok] - a[ok]
-            sd = a[ok].std(ddof=1)
-            se = d.std(ddof=1) / np.sqrt(ok.sum())
-            lines.append(
-                f"| {q} | {a[ok].mean():.5g} | {b[ok].mean():.5g} | {d.mean():+.4g} "
-                f"| {se:.2g} | {d.mean() / sd if sd > 0 else float('nan'):+.2f} |"
-            )
+            row = paired_row(q, r[q].to_numpy(), v[q].to_numpy())
+            if row is not None:
+                lines.append(row)
         lines.append("")
     for f in sorted(out.glob("*_layers.csv")):
-        lay = pl.read_csv(f)
-        med = lay.group_by("layer").agg(pl.col("seconds").median()).sort("layer")
-        lines += [
-            f"Median seconds a layer, `{f.name}`: " + ", ".join(f"{s:.2f}" for s in med["seconds"]),
-            "",
-        ]
+        lines += [layer_medians(f, f"`{f.name}`"), ""]
     atomic_write(out / "compare.md", "\n".join(lines).encode())
     print("\n".join(lines))
 
