@@ -22,10 +22,13 @@ pub const FREEZE_RELAX: Real = 0.1;
 /// Particles in a layer from which the layer loop re-sorts the whole pack into one
 /// Morton order after placing it (`World::reorder`), instead of appending the layer in
 /// its own Morton order. The step then reads a sphere's contacts with the layer below
-/// near its own instead of a layer's state away: at 572 928 spheres in bands of 52 000
-/// it took 64-72 ns a particle-step on two threads against 88-93, at 80 568 in bands of
-/// 7 300 40 against 45, at 8 952 in bands of 800 the same (`studies/global_order/`).
-/// Smaller layers keep their order, and their packs their bits.
+/// near its own instead of a layer's state away. Medians of three rounds, ns a
+/// particle-step on two threads, one order against bands of a layer
+/// (`studies/global_order/`): 74.1 against 97.0 at 572 928 spheres in bands of 52 000,
+/// 65.9 against 75.6 at 223 800 (20 000), 44.9 against 47.4 at 80 568 (7 300), within
+/// the rounds' spread either way below that. 4 096 is where a layer's state (about 600
+/// bytes a sphere) outgrows 2 MiB of L2. Smaller layers keep their order, and their
+/// packs their bits.
 pub const RESORT_MIN_LAYER: usize = 4096;
 
 /// What one layer did.
