@@ -1,5 +1,7 @@
-//! Repeats the pair search, for profilers: on the peers' settled 3D pack, or with
-//! `-- ratio R` on the size-ratio benchmark's pack at size ratio R (lognormal law).
+//! Repeats the pair search, for profilers: on the peers' settled 3D pack (`TILES=k`:
+//! tiled k x k, as `profile_step`'s; `PERIODIC=1`: searched as a periodic cell over its
+//! horizontal extent, as a periodic pack's pair list is), or with `-- ratio R` on the size-ratio
+//! benchmark's pack at size ratio R (lognormal law).
 #[path = "../benches/common/mod.rs"]
 mod common;
 
@@ -11,7 +13,11 @@ fn main() {
     };
     let (x, reach) = match ratio {
         None => {
-            let w = common::settled_world::<3>(1, 20, 1);
+            let tiles = std::env::var("TILES")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(1);
+            let w = common::settled_world::<3>(tiles, 20, 1);
             // reach: radius plus a half skin of 0.5 mm
             let reach: Vec<f64> = w.radii().iter().map(|r| r + 0.0005).collect();
             (w.positions().to_vec(), reach)
@@ -25,15 +31,29 @@ fn main() {
             (w.positions().to_vec(), reach)
         }
     };
+    let periodic = std::env::var("PERIODIC").is_ok_and(|v| v == "1");
+    let period = periodic.then(|| {
+        let mut lo = x[0];
+        let mut hi = x[0];
+        for p in &x {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        // a period a little wider than the extent, so that every centre lies inside
+        _core::geometry::Period::lateral(&lo, &hi.add_scalar(1e-3))
+    });
+    // about 3e6 particle-searches, at least 3
+    let reps = (3_000_000 / x.len()).max(3);
     let t = std::time::Instant::now();
     let mut n = 0;
-    for _ in 0..300 {
-        n += _core::geometry::neighbor_pairs(&x, &reach).len();
+    for _ in 0..reps {
+        n += _core::geometry::neighbor_pairs_periodic(&x, &reach, period.as_ref()).len();
     }
     println!(
-        "{} particles, {} pairs, {:.3} ms per search",
+        "{} particles, {} pairs, {:.3} ms per search, {:.1} ns a particle",
         x.len(),
-        n / 300,
-        t.elapsed().as_secs_f64() * 1e3 / 300.0
+        n / reps,
+        t.elapsed().as_secs_f64() * 1e3 / reps as f64,
+        t.elapsed().as_secs_f64() * 1e9 / (reps * x.len()) as f64
     );
 }

@@ -44,12 +44,7 @@ impl<const D: usize> CellGrid<D> {
     /// wraps around. Positions must lie in [lo, lo + L) on the periodic axes.
     pub fn build_with(x: &[Vector<D>], min_cell: Real, period: Option<&Period<D>>) -> Self {
         let n = x.len();
-        let mut lo = Vector::<D>::repeat(Real::INFINITY);
-        let mut hi = Vector::<D>::repeat(Real::NEG_INFINITY);
-        for p in x {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
+        let (mut lo, mut hi) = bounds(x);
         if n == 0 {
             lo = Vector::<D>::zeros();
             hi = Vector::<D>::zeros();
@@ -106,7 +101,8 @@ impl<const D: usize> CellGrid<D> {
         let ncell: usize = dims.iter().product();
         // each particle's cell once (the sort reads its key twice)
         let cell_of: Vec<u32> = x
-            .iter()
+            .par_iter()
+            .with_min_len(PAR_MIN)
             .map(|p| {
                 let c = cell_coords(p, &lo, &cells, &dims);
                 (0..D).rev().fold(0, |acc, k| acc * dims[k] + c[k]) as u32
@@ -139,11 +135,35 @@ impl<const D: usize> CellGrid<D> {
     /// cells of a row along that axis are adjacent in `members`: one contiguous run per
     /// row, no per-cell bookkeeping.
     #[inline]
-    pub fn for_each_row(&self, p: &Vector<D>, mut f: impl FnMut(std::ops::Range<usize>)) {
-        if self.wrap.iter().any(|&w| w) {
+    pub fn for_each_row(&self, p: &Vector<D>, f: impl FnMut(std::ops::Range<usize>)) {
+        let c = cell_coords(p, &self.lo, &self.cell, &self.dims);
+        if self.wraps_around(&c) {
             return self.for_each_row_wrapped(p, f);
         }
-        let c = cell_coords(p, &self.lo, &self.cell, &self.dims);
+        self.for_each_row_of(&c, f);
+    }
+
+    /// Whether the stencil of 3^D cells around cell `c` crosses a periodic edge of the
+    /// grid. A cell at least one cell away from the edges of every periodic axis, on an
+    /// axis of five cells or more, does not: its rows are those of a bounded grid.
+    #[inline]
+    fn wraps_around(&self, c: &[usize; D]) -> bool {
+        (0..D).any(|k| self.wrap[k] && (self.dims[k] < 5 || c[k] == 0 || c[k] + 1 >= self.dims[k]))
+    }
+
+    /// Whether every particle in the 3^D cells around position `p` lies less than half
+    /// a period from `p` along each periodic axis, so that the minimum image of their
+    /// separation is the separation itself, up to the sign of a zero component (each
+    /// component within two cells of at most a fifth of the period; see
+    /// [`Period::image`]). True on a grid without periodic axes.
+    #[inline]
+    pub fn plain_separations(&self, p: &Vector<D>) -> bool {
+        !self.wraps_around(&cell_coords(p, &self.lo, &self.cell, &self.dims))
+    }
+
+    /// [`for_each_row`](Self::for_each_row) around cell `c`, where no row wraps.
+    #[inline]
+    fn for_each_row_of(&self, c: &[usize; D], mut f: impl FnMut(std::ops::Range<usize>)) {
         let x_lo = c[0].saturating_sub(1);
         let x_hi = (c[0] + 1).min(self.dims[0] - 1);
         // Offsets along the other axes: 3^(D-1) rows.
@@ -346,6 +366,35 @@ impl<const D: usize> CellGrid<D> {
             }
         }
     }
+}
+
+/// Particles per work item of the grid's parallel passes (the results do not depend
+/// on it): below a few thousand a pass is not worth a thread.
+const PAR_MIN: usize = 4096;
+
+/// The componentwise least and greatest of `x` (infinite bounds, inverted, for none).
+/// Min and max are exact, so the parallel reduction gives the serial result.
+fn bounds<const D: usize>(x: &[Vector<D>]) -> (Vector<D>, Vector<D>) {
+    x.par_iter()
+        .with_min_len(PAR_MIN)
+        .fold(
+            || {
+                (
+                    Vector::<D>::repeat(Real::INFINITY),
+                    Vector::<D>::repeat(Real::NEG_INFINITY),
+                )
+            },
+            |(lo, hi), p| (lo.inf(p), hi.sup(p)),
+        )
+        .reduce(
+            || {
+                (
+                    Vector::<D>::repeat(Real::INFINITY),
+                    Vector::<D>::repeat(Real::NEG_INFINITY),
+                )
+            },
+            |(l1, h1), (l2, h2)| (l1.inf(&l2), h1.sup(&h2)),
+        )
 }
 
 /// The cell coordinates of position `p` in a grid with lower corner `lo`, cells of side
@@ -877,9 +926,17 @@ fn search<const D: usize>(
     if x.len() < 2 {
         return Vec::new();
     }
-    let reach_max = reach.iter().cloned().fold(0.0, Real::max);
+    let reach_max = reach
+        .par_iter()
+        .with_min_len(PAR_MIN)
+        .cloned()
+        .reduce(|| 0.0, Real::max);
     if let Some(per) = period {
-        let reach_min = reach.iter().cloned().fold(Real::INFINITY, Real::min);
+        let reach_min = reach
+            .par_iter()
+            .with_min_len(PAR_MIN)
+            .cloned()
+            .reduce(|| Real::INFINITY, Real::min);
         if let Some((xg, left)) = unwrap_gaps(x, per, 2.0 * reach_max, reach_min) {
             let cell = search_cell(&xg, reach, reach_max, left.as_ref());
             return search_in(
@@ -931,11 +988,23 @@ fn unwrap_gaps<const D: usize>(
             continue;
         }
         let w = len / BINS as Real;
-        let mut occupied = vec![false; BINS];
-        for p in x {
-            let b = ((p[k] - lo) / w).clamp(0.0, (BINS - 1) as Real) as usize;
-            occupied[b] = true;
-        }
+        let occupied = x
+            .par_chunks(PAR_MIN)
+            .map(|chunk| {
+                let mut occ = vec![false; BINS];
+                for p in chunk {
+                    let b = ((p[k] - lo) / w).clamp(0.0, (BINS - 1) as Real) as usize;
+                    occ[b] = true;
+                }
+                occ
+            })
+            .reduce(
+                || vec![false; BINS],
+                |mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(a, b)| *a |= b);
+                    a
+                },
+            );
         // the longest circular run of empty bins, from just after an occupied one
         let Some(first) = occupied.iter().position(|&o| o) else {
             continue;
@@ -1017,8 +1086,20 @@ fn search_in<const D: usize>(
     // Positions and reaches copied in cell order: a row of cells is then one contiguous
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
-    let xs: Vec<Vector<D>> = members.iter().map(|&j| x[j as usize]).collect();
-    let reach_s: Vec<Real> = members.iter().map(|&j| reach[j as usize]).collect();
+    // A separation is its own minimum image away from the grid's periodic edges
+    // (`CellGrid::plain_separations`), where the grid's positions are the particles'
+    // own: positions shifted by a period (`unwrap_gaps`) keep `sep`'s image everywhere.
+    let plain_near = !shifted;
+    let xs: Vec<Vector<D>> = members
+        .par_iter()
+        .with_min_len(PAR_MIN)
+        .map(|&j| x[j as usize])
+        .collect();
+    let reach_s: Vec<Real> = members
+        .par_iter()
+        .with_min_len(PAR_MIN)
+        .map(|&j| reach[j as usize])
+        .collect();
     const CHUNK: usize = 1024;
     // per chunk: the pairs taken from their lower end, and from their upper end
     type Found = (Vec<[u32; 2]>, Vec<[u32; 2]>);
@@ -1066,29 +1147,28 @@ fn search_in<const D: usize>(
                     });
                     down.extend(below[..wb].iter().map(|&j| [j, i as u32]));
                 } else if from(i) {
-                    // Branch-free: every candidate is written to the next slot, and the
-                    // count advances only for a small partner above i within the cutoff
-                    // (a branch there went either way and mispredicted).
-                    grid.for_each_row(&gi, |run| {
-                        if mine.len() < w + run.len() {
-                            mine.resize(w + run.len(), 0);
-                        }
-                        for ((&j, xj), &reach_j) in members[run.clone()]
-                            .iter()
-                            .zip(&xs[run.clone()])
-                            .zip(&reach_s[run])
-                        {
-                            let ju = j as usize;
-                            let cut = reach_i + reach_j;
-                            let near =
-                                (sep(xj - xi).norm_squared() < cut * cut) & (reach_j <= half_cell);
-                            mine[w] = j;
-                            w += (near & (ju > i)) as usize;
-                            if near & (ju < i) && lower(ju) {
-                                down.push([j, i as u32]);
-                            }
-                        }
-                    });
+                    let mut small = Partners {
+                        i,
+                        xi,
+                        reach_i,
+                        half_cell,
+                        members,
+                        xs: &xs,
+                        reach_s: &reach_s,
+                        mine: &mut mine,
+                        w,
+                        down: &mut down,
+                    };
+                    // Away from the periodic edges the image's rounding per
+                    // component is skipped, with the same squared distances bit for
+                    // bit (the bounded rows and the plain separation cost about half
+                    // of the wrapped ones).
+                    if plain_near && grid.plain_separations(&gi) {
+                        grid.for_each_row(&gi, |run| small.visit(run, |d| d, &lower));
+                    } else {
+                        grid.for_each_row(&gi, |run| small.visit(run, &sep, &lower));
+                    }
+                    w = small.w;
                 }
                 let mine = &mut mine[..w];
                 mine.sort_unstable();
@@ -1120,6 +1200,56 @@ fn search_in<const D: usize>(
         }
     }
     out
+}
+
+/// A small particle's search: its partners of higher index (`mine`, `w` of them so
+/// far) and the pairs it takes from their upper end (`down`).
+struct Partners<'a, const D: usize> {
+    i: usize,
+    xi: Vector<D>,
+    reach_i: Real,
+    half_cell: Real,
+    members: &'a [u32],
+    xs: &'a [Vector<D>],
+    reach_s: &'a [Real],
+    mine: &'a mut Vec<u32>,
+    w: usize,
+    down: &'a mut Vec<[u32; 2]>,
+}
+
+impl<const D: usize> Partners<'_, D> {
+    /// Tests the candidates of one run of cells, with separations `sep(x_j - x_i)`.
+    /// Branch-free: every candidate is written to the next slot, and the count
+    /// advances only for a small partner above i within the cutoff (a branch there went
+    /// either way and mispredicted).
+    #[inline(always)]
+    fn visit(
+        &mut self,
+        run: std::ops::Range<usize>,
+        sep: impl Fn(Vector<D>) -> Vector<D>,
+        lower: impl Fn(usize) -> bool,
+    ) {
+        let (i, xi, reach_i, half_cell) = (self.i, self.xi, self.reach_i, self.half_cell);
+        let mut w = self.w;
+        if self.mine.len() < w + run.len() {
+            self.mine.resize(w + run.len(), 0);
+        }
+        for ((&j, xj), &reach_j) in self.members[run.clone()]
+            .iter()
+            .zip(&self.xs[run.clone()])
+            .zip(&self.reach_s[run])
+        {
+            let ju = j as usize;
+            let cut = reach_i + reach_j;
+            let near = (sep(xj - xi).norm_squared() < cut * cut) & (reach_j <= half_cell);
+            self.mine[w] = j;
+            w += (near & (ju > i)) as usize;
+            if near & (ju < i) && lower(ju) {
+                self.down.push([j, i as u32]);
+            }
+        }
+        self.w = w;
+    }
 }
 
 /// The O(N^2) reference for [`neighbor_pairs`] (tests and oracles only).

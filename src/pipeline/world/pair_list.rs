@@ -306,7 +306,12 @@ where
                 .with_min_len(REBUILD_MIN_PARTICLES)
                 .for_each(|x| *x = per.wrap(*x));
         }
-        let reach: Vec<Real> = p.r.iter().zip(&p.half_skin).map(|(r, h)| r + h).collect();
+        let reach: Vec<Real> =
+            p.r.par_iter()
+                .zip(p.half_skin.par_iter())
+                .with_min_len(REBUILD_MIN_PARTICLES)
+                .map(|(r, h)| r + h)
+                .collect();
         let partial = self.n_frozen > 0;
         let mut pr = std::mem::take(&mut self.pairs);
         let period = self.period.as_ref();
