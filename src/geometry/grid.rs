@@ -162,17 +162,12 @@ impl<const D: usize> CellGrid<D> {
         (0..D).any(|k| self.wrap[k] && (self.dims[k] < 5 || c[k] == 0 || c[k] + 1 >= self.dims[k]))
     }
 
-    /// Whether every particle in the 3^D cells around position `p` lies less than half
-    /// a period from `p` along each periodic axis, so that the minimum image of their
-    /// separation is the separation itself, up to the sign of a zero component (each
-    /// component within two cells of at most a fifth of the period; see
-    /// [`Period::image`]). True on a grid without periodic axes.
-    #[inline]
-    pub fn plain_separations(&self, p: &Vector<D>) -> bool {
-        self.plain_separations_at(&self.coords(p))
-    }
-
-    /// [`plain_separations`](Self::plain_separations) around cell `c`.
+    /// Whether every particle in the 3^D cells around cell `c` lies less than half a
+    /// period from any position in `c` along each periodic axis, so that the minimum
+    /// image of their separation is the separation itself, up to the sign of a zero
+    /// component (each component within two cells of at most a fifth of the period;
+    /// see [`Period::image`]): the stencil does not wrap. True on a grid without
+    /// periodic axes.
     #[inline]
     pub(crate) fn plain_separations_at(&self, c: &[usize; D]) -> bool {
         !self.wraps_around(c)
@@ -522,12 +517,7 @@ fn near_active<const D: usize>(
         return None;
     }
     let reach_max = reach.iter().cloned().fold(0.0, Real::max);
-    let mut lo = Vector::<D>::repeat(Real::INFINITY);
-    let mut hi = Vector::<D>::repeat(Real::NEG_INFINITY);
-    for p in x {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
+    let (mut lo, hi) = bounds(x);
     let mut span = hi - lo;
     let mut wrap = [false; D];
     if let Some(per) = period {
@@ -691,12 +681,7 @@ fn search_cell<const D: usize>(
         return search_cell_wide(x, reach, reach_max, reach_min, period);
     }
     // candidates per unit volume: the particles over their bounding box
-    let mut lo = x[0];
-    let mut hi = x[0];
-    for p in x {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
+    let (lo, hi) = bounds(x);
     let mut volume = 1.0;
     for k in 0..D {
         volume *= (hi[k] - lo[k]).max(coarse);
@@ -776,12 +761,7 @@ fn search_cell_wide<const D: usize>(
     let n = x.len();
     let nr = n as Real;
     let coarse = 2.0 * reach_max;
-    let mut lo = x[0];
-    let mut hi = x[0];
-    for p in x {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
+    let (lo, hi) = bounds(x);
     // the grid's extent per axis: the centres', or the whole period on a periodic axis
     let mut ext = [0.0 as Real; D];
     let mut wrap = [false; D];
@@ -1106,7 +1086,7 @@ fn search_in<const D: usize>(
     // stretch of each, read in sequence instead of gathered through the indices.
     let members = grid.members();
     // A separation is its own minimum image away from the grid's periodic edges
-    // (`CellGrid::plain_separations`), where the grid's positions are the particles'
+    // (`CellGrid::plain_separations_at`), where the grid's positions are the particles'
     // own: positions shifted by a period (`unwrap_gaps`) keep `sep`'s image everywhere.
     let plain_near = !shifted;
     let xs: Vec<Vector<D>> = members
