@@ -8,7 +8,9 @@
 //!
 //! `TILES=k` steps k x k tiled copies of the 3D pack instead (`common::settled_world`:
 //! 3 gives 80 568 spheres, 8 gives 572 928), settled 20 steps on one thread: the step
-//! once its state no longer fits the last-level cache.
+//! once its state no longer fits the last-level cache. `PERIODIC=1` puts the tiles in a
+//! cell periodic over their horizontal extent (an even `TILES` meets its mirror images
+//! across the cell's edges).
 #[path = "../benches/common/mod.rs"]
 mod common;
 
@@ -40,7 +42,13 @@ where
         .ok()
         .and_then(|s| s.parse().ok())
         .map_or(common::StoreOrder::Morton, common::StoreOrder::Layers);
-    let mut w = common::settled_world_in::<D>(tiles, 20, 1, order);
+    // PERIODIC=1: the tiles in a cell periodic over their horizontal extent, no side walls
+    let container = if std::env::var("PERIODIC").is_ok_and(|v| v == "1") {
+        _core::pipeline::Container::Periodic
+    } else {
+        _core::pipeline::Container::Box
+    };
+    let mut w = common::settled_world_with::<D>(tiles, 20, 1, order, container);
     let start = std::time::Instant::now();
     w.step_n(steps).unwrap();
     let particle_steps = (steps * w.len() as u64).max(1) as f64;

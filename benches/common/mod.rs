@@ -114,6 +114,22 @@ pub fn settled_world_in<const D: usize>(
 where
     Dim<D>: Spatial<D>,
 {
+    settled_world_with(tiles, settle, threads, order, Container::Box)
+}
+
+/// [`settled_world_in`] in `container`: the box of walls, or (`Container::Periodic`) a
+/// cell periodic over the tiles' horizontal extent, where an even `tiles` meets each
+/// tile's mirror image across the cell's edges as it does across the inner seams.
+pub fn settled_world_with<const D: usize>(
+    tiles: usize,
+    settle: u64,
+    threads: usize,
+    order: StoreOrder,
+    container: Container,
+) -> World<D>
+where
+    Dim<D>: Spatial<D>,
+{
     let file = if D == 3 {
         "liggghts/pack3d_final_xyzr.txt"
     } else {
@@ -165,6 +181,7 @@ where
     let mut hi = Vector::<D>::repeat(tiles as f64);
     hi[D - 1] = f64::INFINITY;
     cfg.walls = Some((Vector::<D>::zeros(), hi));
+    cfg.container = container;
     let mut w = World::new(cfg).unwrap();
     w.add_particles(&x, &r, None, None).unwrap();
     let pool = rayon::ThreadPoolBuilder::new()

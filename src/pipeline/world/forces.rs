@@ -632,20 +632,6 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
 }
 }
 
-/// A raw pointer that may cross threads: the force sweep writes disjoint particles
-/// through it (see [`gather_one`]).
-struct SyncPtr<T>(*mut T);
-impl<T> Clone for SyncPtr<T> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-impl<T> Copy for SyncPtr<T> {}
-// SAFETY: the users of a SyncPtr access disjoint elements from different threads (each
-// use states why).
-unsafe impl<T> Send for SyncPtr<T> {}
-unsafe impl<T> Sync for SyncPtr<T> {}
-
 /// The law's settings for one pass.
 struct LawPass {
     consts: LawConsts,

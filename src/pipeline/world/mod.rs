@@ -69,6 +69,28 @@ use pair_list::Pairs;
 use particles::Particles;
 use team::{Disjoint, Team};
 
+/// A raw pointer that may cross threads: the force sweep writes disjoint particles
+/// through it (see `forces::gather_one`), the rebuild's merge disjoint pair states.
+struct SyncPtr<T>(*mut T);
+impl<T> Clone for SyncPtr<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for SyncPtr<T> {}
+impl<T> SyncPtr<T> {
+    /// The pointer (a method, so that a closure captures the whole SyncPtr, which may
+    /// cross threads, and not its field, which may not).
+    #[inline(always)]
+    fn ptr(self) -> *mut T {
+        self.0
+    }
+}
+// SAFETY: the users of a SyncPtr access disjoint elements from different threads (each
+// use states why).
+unsafe impl<T> Send for SyncPtr<T> {}
+unsafe impl<T> Sync for SyncPtr<T> {}
+
 /// Most steps one call may ask for (1e10: hours for a handful of particles, far more
 /// for a pack); beyond it a request is refused by name before any step is taken.
 pub const MAX_STEPS_PER_CALL: u64 = 10_000_000_000;
