@@ -157,12 +157,14 @@ impl<const D: usize> Pairs<D> {
                 .map(|g| {
                     let (lo, hi) = group_span(&runs[g.clone()]);
                     let mut buf = Vec::new();
-                    for &(k, o, len) in &runs[g.clone()] {
-                        for t in 0..len as usize {
-                            let o = o as usize + t;
-                            if o < lo || o >= hi {
-                                buf.push((k as usize + t, self.get(o)));
-                            }
+                    for run in &runs[g.clone()] {
+                        // the run's sources before and after the part among the group's
+                        // destinations
+                        let (k, o, end) =
+                            (run.0 as usize, run.1 as usize, (run.1 + run.2) as usize);
+                        let (_, a, len) = inside(run, lo, hi);
+                        for s in (o..a.min(end)).chain((a + len).max(o)..end) {
+                            buf.push((k + (s - o), self.get(s)));
                         }
                     }
                     buf
@@ -186,14 +188,8 @@ impl<const D: usize> Pairs<D> {
             } else {
                 group_span(runs)
             };
-            let inside = |&(k, o, len): &(u32, u32, u32)| {
-                // the part of the run whose sources lie among the group's destinations
-                let (o, len) = (o as usize, len as usize);
-                let (a, b) = (o.clamp(lo, hi), (o + len).clamp(lo, hi));
-                (k as usize + (a - o), a, b - a)
-            };
             for run in runs {
-                let (k, o, len) = inside(run);
+                let (k, o, len) = inside(run, lo, hi);
                 if o > k {
                     // SAFETY: the blocks hold both ranges (n blocks, grown above; the old
                     // pairs below `had` blocks); the order reads every state of the group
@@ -203,7 +199,7 @@ impl<const D: usize> Pairs<D> {
                 }
             }
             for run in runs.iter().rev() {
-                let (k, o, len) = inside(run);
+                let (k, o, len) = inside(run, lo, hi);
                 if o < k {
                     // SAFETY: as above.
                     unsafe { move_run(base.ptr(), o, k, len) };
@@ -363,6 +359,14 @@ fn run_groups(runs: &[(u32, u32, u32)], groups: usize) -> Vec<std::ops::Range<us
     }
     out.push(start..runs.len());
     out
+}
+
+/// The part of run `(k, o, len)` whose sources lie in `lo..hi` (a group's destinations),
+/// as `(k', o', len')`: new pairs `k'..k' + len'` continue old pairs `o'..o' + len'`.
+fn inside(&(k, o, len): &(u32, u32, u32), lo: usize, hi: usize) -> (usize, usize, usize) {
+    let (o, len) = (o as usize, len as usize);
+    let (a, b) = (o.clamp(lo, hi), (o + len).clamp(lo, hi));
+    (k as usize + (a - o), a, b - a)
 }
 
 /// The destinations `lo..hi` of a group of runs (empty: `0..0`).
