@@ -4,10 +4,14 @@ a reference pack by pack."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
 import polars as pl
+
+#: What `make_packs` records of each pack, beside its stream and seconds.
+STATS = ("n", "phi", "z", "a_r", "a_n")
 
 HEADER = (
     "| quantity | {ref} mean | {var} mean | mean difference | its standard error "
@@ -44,3 +48,76 @@ def layer_medians(path: Path, label: str) -> str:
     lay = pl.read_csv(path)
     med = lay.group_by("layer").agg(pl.col("seconds").median()).sort("layer")
     return f"Median seconds a layer, {label}: " + ", ".join(f"{s:.2f}" for s in med["seconds"])
+
+
+def make_packs(out: Path, build: str, scene, packs: int, seed: int) -> None:
+    """Makes packs 0..`packs`-1 of `scene` (a `PackScene`; stream k for pack k) and
+    appends one row a pack to OUT/<build>_packs.csv (N, phi, Z, |a^r|, |a^n|, seconds)
+    and the layers' seconds to OUT/<build>_layers.csv, both written after every pack, so
+    that a run cut off keeps what it made; a pack already in the file is not made again."""
+    import granpack as gp
+    from granpack.pack import atomic_write
+
+    out.mkdir(parents=True, exist_ok=True)
+    packs_csv, layers_csv = out / f"{build}_packs.csv", out / f"{build}_layers.csv"
+    rows = pl.read_csv(packs_csv).to_dicts() if packs_csv.exists() else []
+    layers = pl.read_csv(layers_csv).to_dicts() if layers_csv.exists() else []
+    done = {r["stream"] for r in rows}
+    for k in range(packs):
+        if k in done:
+            continue
+        t0 = time.perf_counter()
+        pack = gp.generate(scene.replace(seed=seed, stream=k))
+        seconds = time.perf_counter() - t0
+        m = gp.microstructure(pack)
+        rows.append(
+            {
+                "build": build,
+                "seed": seed,
+                "stream": k,
+                "n": len(pack),
+                "smallest_layer": min(rep["added"] for rep in pack.layers),
+                "seconds": seconds,
+                "phi": pack.phi,
+                "z": m.z,
+                "a_r": float(np.linalg.norm(m.a_r)),
+                "a_n": float(np.linalg.norm(m.a_n)),
+            }
+        )
+        layers.extend(
+            {"stream": k, "layer": i, "total": rep["total"], "seconds": rep["wall_seconds"]}
+            for i, rep in enumerate(pack.layers)
+        )
+        atomic_write(packs_csv, pl.DataFrame(rows).write_csv().encode())
+        atomic_write(layers_csv, pl.DataFrame(layers).write_csv().encode())
+        line = f"{build} stream {k}: N {len(pack)} phi {pack.phi:.4f} Z {m.z:.3f} {seconds:.1f} s"
+        print(line, flush=True)
+
+
+def compare_builds(out: Path, ref: str, var: str, title: str, labels: tuple[str, str]) -> str:
+    """The paired table of the packs of builds `ref` and `var` in OUT (made by
+    `make_packs`), over the streams both made, with each build's median seconds a layer;
+    written to OUT/compare.md under `title`, with `labels` naming the two builds."""
+    from granpack.pack import atomic_write
+
+    r = pl.read_csv(out / f"{ref}_packs.csv").sort("stream")
+    v = pl.read_csv(out / f"{var}_packs.csv").sort("stream")
+    streams = sorted(set(r["stream"]) & set(v["stream"]))
+    r = r.filter(pl.col("stream").is_in(streams))
+    v = v.filter(pl.col("stream").is_in(streams))
+    lines = [
+        f"# {title}",
+        "",
+        f"{len(streams)} pairs (streams {streams}); the smallest layer of any pack held "
+        f"{min(r['smallest_layer'].min(), v['smallest_layer'].min())} spheres.",
+        "",
+        *table_head(*labels),
+    ]
+    for q in ("seconds", *STATS):
+        lines.append(paired_row(q, r[q].to_numpy(), v[q].to_numpy()))
+    lines.append("")
+    for name in (ref, var):
+        lines += [layer_medians(out / f"{name}_layers.csv", name), ""]
+    text = "\n".join(lines)
+    atomic_write(out / "compare.md", text.encode())
+    return text

@@ -21,20 +21,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
-
-import numpy as np
-import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
 from manifest import write_manifest  # noqa: E402
-from paired import layer_medians, paired_row, table_head  # noqa: E402
+from paired import compare_builds, make_packs  # noqa: E402
 
 import granpack as gp  # noqa: E402
-from granpack.pack import atomic_write  # noqa: E402
-
-STATS = ("n", "phi", "z", "a_r", "a_n")
 
 
 def scene(side: float) -> gp.PackScene:
@@ -43,73 +36,19 @@ def scene(side: float) -> gp.PackScene:
 
 
 def run(a: argparse.Namespace) -> None:
-    a.out.mkdir(parents=True, exist_ok=True)
-    packs_csv, layers_csv = a.out / f"{a.build}_packs.csv", a.out / f"{a.build}_layers.csv"
-    rows = pl.read_csv(packs_csv).to_dicts() if packs_csv.exists() else []
-    layers = pl.read_csv(layers_csv).to_dicts() if layers_csv.exists() else []
-    done = {r["stream"] for r in rows}
     write_manifest(
         a.out,
         seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"},
         extra={"side_m": a.side, "build": a.build, "granpack": gp.__file__},
         name=f"manifest_{a.build}.json",
     )
-    sc = scene(a.side)
-    for k in range(a.packs):
-        if k in done:
-            continue
-        t0 = time.perf_counter()
-        pack = gp.generate(sc.replace(seed=a.seed, stream=k))
-        seconds = time.perf_counter() - t0
-        m = gp.microstructure(pack)
-        rows.append(
-            {
-                "build": a.build,
-                "seed": a.seed,
-                "stream": k,
-                "n": len(pack),
-                "smallest_layer": min(rep["added"] for rep in pack.layers),
-                "seconds": seconds,
-                "phi": pack.phi,
-                "z": m.z,
-                "a_r": float(np.linalg.norm(m.a_r)),
-                "a_n": float(np.linalg.norm(m.a_n)),
-            }
-        )
-        layers.extend(
-            {"stream": k, "layer": i, "total": rep["total"], "seconds": rep["wall_seconds"]}
-            for i, rep in enumerate(pack.layers)
-        )
-        atomic_write(packs_csv, pl.DataFrame(rows).write_csv().encode())
-        atomic_write(layers_csv, pl.DataFrame(layers).write_csv().encode())
-        print(
-            f"{a.build} stream {k}: N {len(pack)} phi {pack.phi:.4f} Z {m.z:.3f} {seconds:.1f} s",
-            flush=True,
-        )
+    make_packs(a.out, a.build, scene(a.side), a.packs, a.seed)
 
 
 def compare(out: Path) -> None:
     """Paired differences of the re-sorted packs from the layered ones."""
-    ref = pl.read_csv(out / "layered_packs.csv").sort("stream")
-    var = pl.read_csv(out / "resorted_packs.csv").sort("stream")
-    streams = sorted(set(ref["stream"]) & set(var["stream"]))
-    r = ref.filter(pl.col("stream").is_in(streams))
-    v = var.filter(pl.col("stream").is_in(streams))
-    lines = [
-        "# One Morton order over the whole pack, against a Morton order a layer",
-        "",
-        f"{len(streams)} pairs (streams {streams}); the smallest layer of any pack held "
-        f"{min(r['smallest_layer'].min(), v['smallest_layer'].min())} spheres.",
-        "",
-        *table_head("layered", "re-sorted"),
-    ]
-    for q in ("seconds", *STATS):
-        lines.append(paired_row(q, r[q].to_numpy(), v[q].to_numpy()))
-    lines.append("")
-    for name in ("layered", "resorted"):
-        lines += [layer_medians(out / f"{name}_layers.csv", name), ""]
-    atomic_write(out / "compare.md", "\n".join(lines).encode())
-    print("\n".join(lines))
+    title = "One Morton order over the whole pack, against a Morton order a layer"
+    print(compare_builds(out, "layered", "resorted", title, ("layered", "re-sorted")))
 
 
 def main(argv: list[str] | None = None) -> None:
