@@ -9,8 +9,8 @@ where
 {
     /// Step part 1: the first half kick and the drift of every particle that is not
     /// frozen (`FROZEN`: some are), and of the spins with `TORQUE` (rotations and
-    /// friction on). Returns whether the pair list may miss a contact now (see
-    /// [`Travel`]), or a position turned non-finite.
+    /// friction on). Returns whether a particle has moved more than its half skin since
+    /// the last rebuild (or turned non-finite).
     pub(super) fn kick_drift<const TORQUE: bool, const FROZEN: bool>(
         &mut self,
         team: &mut Team,
@@ -20,35 +20,45 @@ where
         let ld = self.local_damping;
         let p = &mut self.p;
         let len = p.x.len();
-        let per = self.period.as_ref();
-        let (xs, vs, ws, xrs) = (
+        let (xs, vs, ws) = (
             Disjoint::new(&mut p.x),
             Disjoint::new(&mut p.v),
             Disjoint::new(&mut p.w),
-            Disjoint::new(&mut p.x_ref),
         );
-        let (fs, ims, hs, fzs, ts, iis) = (&p.f, &p.inv_m, &p.half_skin, &p.frozen, &p.t, &p.inv_i);
+        let (fs, ims, xrs, hs, fzs, ts, iis) = (
+            &p.f,
+            &p.inv_m,
+            &p.x_ref,
+            &p.half_skin,
+            &p.frozen,
+            &p.t,
+            &p.inv_i,
+        );
         team.map_reduce(
             len.div_ceil(TEAM_CHUNK),
-            Travel::NONE,
+            false,
             |c, _| {
                 let r = c * TEAM_CHUNK..(c * TEAM_CHUNK + TEAM_CHUNK).min(len);
                 // SAFETY: the items' ranges are disjoint.
-                let (x, v, w, xr) = unsafe {
+                let (x, v, w) = unsafe {
                     (
                         xs.range(r.clone()),
                         vs.range(r.clone()),
                         ws.range(r.clone()),
-                        xrs.range(r.clone()),
                     )
                 };
-                let (f, im, h) = (&fs[r.clone()], &ims[r.clone()], &hs[r.clone()]);
+                let (f, im, xr, h) = (
+                    &fs[r.clone()],
+                    &ims[r.clone()],
+                    &xrs[r.clone()],
+                    &hs[r.clone()],
+                );
                 let (fz, t, ii) = (&fzs[r.clone()], &ts[r.clone()], &iis[r]);
                 kick_drift_chunk::<D, TORQUE, FROZEN>(
-                    KickDrift { x, v, w, xr },
+                    KickDrift { x, v, w },
                     f,
                     im,
-                    per,
+                    xr,
                     h,
                     fz,
                     t,
@@ -58,70 +68,8 @@ where
                     ld,
                 )
             },
-            Travel::merge,
+            |a, b| a | b,
         )
-        .list_stale()
-    }
-}
-
-/// How far the particles have travelled since the last rebuild, against their half
-/// skins: enough to tell whether the pair list may miss a contact.
-///
-/// A pair (i, j) left out of the list was at least h_i + h_j from contact at the
-/// rebuild, so it can touch only once d_i + d_j > h_i + h_j, with d the distance a
-/// particle has travelled since. With e = d - h (the excess over the half skin), the
-/// list holds every contact while the two largest excesses sum to at most zero. That
-/// lets one particle run past its own skin by the smallest margin any other has left:
-/// at scale, where some particle always moves, the first to cross its skin no longer
-/// sets off a rebuild of the whole list on its own. The walls' near flags are set
-/// within 3 h of contact (see `rebuild_pairs`), and d <= 2 h is kept for every
-/// particle as well. Which step rebuilds does not change a force: pairs out of
-/// contact add exact zeros.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Travel {
-    /// The largest excess d - h (m).
-    first: Real,
-    /// The second largest (m).
-    second: Real,
-    /// Some particle beyond 2 h (the walls' margin), or a non-finite position.
-    beyond: bool,
-}
-
-impl Travel {
-    /// No particle: nothing travelled.
-    const NONE: Travel = Travel {
-        first: Real::NEG_INFINITY,
-        second: Real::NEG_INFINITY,
-        beyond: false,
-    };
-
-    /// Takes a particle that travelled `d2` squared (m^2) with half skin `h` (m).
-    #[inline(always)]
-    fn add(&mut self, d2: Real, h: Real) {
-        // The skin a hair short: a wrapped particle's reference moved by a period in
-        // floating point, which may round its distance by an ulp of the cell.
-        let h = h * (1.0 - 1e-9);
-        // written so that NaN also trips it
-        self.beyond |= d2.is_nan() | (d2 > 4.0 * h * h);
-        let e = d2.sqrt() - h;
-        let low = e.min(self.first);
-        self.first = self.first.max(e);
-        self.second = self.second.max(low);
-    }
-
-    /// Both chunks' particles together (exact: maxima and minima do not round).
-    fn merge(a: Travel, b: Travel) -> Travel {
-        let low = a.first.min(b.first);
-        Travel {
-            first: a.first.max(b.first),
-            second: a.second.max(b.second).max(low),
-            beyond: a.beyond | b.beyond,
-        }
-    }
-
-    /// Whether the list may miss a contact.
-    fn list_stale(&self) -> bool {
-        self.beyond || self.first + self.second > 0.0
     }
 }
 
@@ -133,8 +81,6 @@ where
     x: &'a mut [Vector<D>],
     v: &'a mut [Vector<D>],
     w: &'a mut [Ang<D>],
-    /// The positions at the last rebuild, moved with a particle that wraps.
-    xr: &'a mut [Vector<D>],
 }
 
 crate::cpu::multiversion! {
@@ -144,7 +90,7 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
     s: KickDrift<D>,
     f: &[Vector<D>],
     im: &[Real],
-    per: Option<&Period<D>>,
+    xr: &[Vector<D>],
     h: &[Real],
     fz: &[bool],
     t: &[Ang<D>],
@@ -152,17 +98,15 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
     dt: Real,
     half: Real,
     ld: Real,
-) -> Travel where [Dim<D>: Spatial<D>] [D, TORQUE, FROZEN] {
-    let mut moved = Travel::NONE;
+) -> bool where [Dim<D>: Spatial<D>] [D, TORQUE, FROZEN] {
+    let mut moved = false;
     // Every chunk slice cut to one length: the loop then runs without bounds checks.
     let n = s.x.len();
-    let (x, v, w, xr) = (&mut s.x[..n], &mut s.v[..n], &mut s.w[..n], &mut s.xr[..n]);
-    let (f, im, h, fz) = (&f[..n], &im[..n], &h[..n], &fz[..n]);
+    let (x, v, w) = (&mut s.x[..n], &mut s.v[..n], &mut s.w[..n]);
+    let (f, im, xr, h, fz) = (&f[..n], &im[..n], &xr[..n], &h[..n], &fz[..n]);
     let (t, ii) = (&t[..n], &ii[..n]);
     for k in 0..n {
         if FROZEN && fz[k] {
-            // a frozen particle keeps what it travelled before it froze
-            moved.add((x[k] - xr[k]).norm_squared(), h[k]);
             continue;
         }
         if ld > 0.0 {
@@ -171,70 +115,13 @@ fn kick_drift_chunk [const D: usize, const TORQUE: bool, const FROZEN: bool] (
             v[k] += f[k] * (im[k] * half);
         }
         x[k] += v[k] * dt;
-        if let Some(per) = per {
-            // A particle that leaves a periodic cell re-enters it on the drift that
-            // takes it out, whatever the pair list does: positions, and so every
-            // separation's rounding, do not depend on when the list is rebuilt (nor
-            // on the skin). Its reference moves with it.
-            let inside = per.wrap(x[k]);
-            if inside != x[k] {
-                xr[k] += inside - x[k];
-                x[k] = inside;
-            }
-        }
-        moved.add((x[k] - xr[k]).norm_squared(), h[k]);
+        // written so that NaN also trips it
+        let d2 = (x[k] - xr[k]).norm_squared();
+        moved |= d2.is_nan() | (d2 > h[k] * h[k]);
         if TORQUE {
             w[k] += t[k] * (ii[k] * half);
         }
     }
     moved
 }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Travel;
-    use crate::math::Real;
-    use proptest::prelude::*;
-
-    proptest! {
-        /// The two largest excesses, gathered chunk by chunk in any split, say that
-        /// the list may miss a contact exactly when some two particles have together
-        /// travelled more than their half skins, or one more than twice its own.
-        #[test]
-        fn travel_equals_the_pairwise_test(
-            moves in prop::collection::vec((0.0..3.0f64, 0.1..1.0f64), 0..40),
-            split in 0usize..40,
-        ) {
-            let h_of = |h: Real| h * (1.0 - 1e-9);
-            let d2h: Vec<(Real, Real)> = moves.iter().map(|&(f, h)| ((f * h) * (f * h), h)).collect();
-            let split = split.min(d2h.len());
-            let mut a = Travel::NONE;
-            let mut b = Travel::NONE;
-            for &(d2, h) in &d2h[..split] {
-                a.add(d2, h);
-            }
-            for &(d2, h) in &d2h[split..] {
-                b.add(d2, h);
-            }
-            let got = Travel::merge(b, a).list_stale();
-            let mut want = d2h.iter().any(|&(d2, h)| d2.sqrt() > 2.0 * h_of(h));
-            for (i, &(di2, hi)) in d2h.iter().enumerate() {
-                for &(dj2, hj) in &d2h[i + 1..] {
-                    want |= di2.sqrt() + dj2.sqrt() > h_of(hi) + h_of(hj);
-                }
-            }
-            prop_assert_eq!(got, want);
-        }
-    }
-
-    /// A non-finite position asks for the rebuild that finds it.
-    #[test]
-    fn a_nan_position_is_stale() {
-        let mut t = Travel::NONE;
-        t.add(0.0, 1.0);
-        t.add(Real::NAN, 1.0);
-        t.add(0.0, 1.0);
-        assert!(t.list_stale());
-    }
 }
