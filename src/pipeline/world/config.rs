@@ -36,9 +36,8 @@ pub struct SimConfig<const D: usize> {
     /// Each particle has a skin of its own, chosen at each rebuild from its speed so
     /// that it lasts about [`SKIN_STEPS`] steps, within [`SKIN_FLOOR`] of this and
     /// this: falling particles keep the wide skin while the resting bed under them
-    /// tests few pairs. In the box and the cylinder it never changes a result; in a
-    /// periodic cell positions wrap into the cell at each rebuild, which it times, so
-    /// there it moves the last bits.
+    /// tests few pairs. Never changes a result, only the speed: it sets when the list
+    /// is rebuilt, and no force or position depends on that.
     pub skin_ratio: Real,
     /// Largest overlap tolerated, as a fraction of the smaller radius, before the run
     /// stops as unstable (-). Default 0.5.

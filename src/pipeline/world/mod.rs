@@ -3,7 +3,8 @@
 //!
 //! One step reads like the algorithm (rapier's `collision_pipeline`):
 //! 1. half kick and drift (velocity Verlet),
-//! 2. rebuild the pair list if some particle has moved more than its half skin,
+//! 2. rebuild the pair list if it may miss a contact (two particles have together
+//!    travelled more than their half skins, see `integrate::Travel`),
 //! 3. pair forces (one pass over the pair list, each pair independent; the law runs
 //!    over blocks of consecutive pairs, `dynamics::block`),
 //! 4. gather forces per particle (fixed order: no atomics, no order-dependent sums),

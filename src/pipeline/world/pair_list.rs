@@ -493,9 +493,8 @@ where
             .with_min_len(REBUILD_MIN_PARTICLES)
             .for_each(|(h, v)| *h = (v.norm() * steps).clamp(lo, hi));
         if let Some(per) = &self.period {
-            // Positions wrap into the cell here, where the skin check restarts from them
-            // (x_ref below): between rebuilds they stray at most a half skin beyond it,
-            // and the pair geometry takes the minimum image anyway.
+            // Positions are wrapped into the cell by the drift that takes them out
+            // (`integrate`); this catches those set or added outside it.
             p.x.par_iter_mut()
                 .with_min_len(REBUILD_MIN_PARTICLES)
                 .for_each(|x| *x = per.wrap(*x));
@@ -583,9 +582,9 @@ where
             self.partition_pairs();
         }
         self.p.x_ref.copy_from_slice(&self.p.x);
-        // No particle moves more than its h before the next rebuild, so only walls
-        // within r + h can be touched meanwhile (r + 2h for margin): the gather skips
-        // the others.
+        // No particle moves more than 2 h before the next rebuild (`Travel`), so only
+        // walls within r + 2 h can be touched meanwhile (r + 3 h for margin): the
+        // gather skips the others.
         // While walls move, their reach grows by `wall_margin`, and a wall that has
         // moved that far since this rebuild asks for the next one (`moving_walls`).
         let (p, walls, margin) = (&mut self.p, &self.walls, self.wall_margin);
@@ -599,9 +598,9 @@ where
                 *near = 0;
                 for (wi, wall) in walls.iter().enumerate() {
                     let reach = if margin > 0.0 {
-                        r + 2.0 * h + margin
+                        r + 3.0 * h + margin
                     } else {
-                        r + 2.0 * h
+                        r + 3.0 * h
                     };
                     if wall.gap(x) < reach {
                         *near |= 1 << wi;

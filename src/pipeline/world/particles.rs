@@ -17,8 +17,8 @@ pub(super) struct Particles<const D: usize, A> {
     /// Position at the last pair-list rebuild (skin check).
     pub(super) x_ref: Vec<Vector<D>>,
     /// Half skin h (m) chosen at the last rebuild: the list holds every pair within
-    /// h_i + h_j of contact, so it stays valid while no particle has moved more than
-    /// its own h.
+    /// h_i + h_j of contact, so it stays valid while no two particles have together
+    /// travelled more than h_i + h_j (see `integrate::Travel`).
     pub(super) half_skin: Vec<Real>,
     /// Tangential history and last force on each wall, one entry per wall the world
     /// has (particle q's against wall w at `q * n_walls + w`): a periodic cell stores
