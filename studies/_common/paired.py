@@ -121,3 +121,43 @@ def compare_builds(out: Path, ref: str, var: str, title: str, labels: tuple[str,
     text = "\n".join(lines)
     atomic_write(out / "compare.md", text.encode())
     return text
+
+
+def periodic_ensemble_main(
+    argv: list[str] | None,
+    doc: str,
+    builds: tuple[str, str],
+    out: Path,
+    title: str,
+    labels: tuple[str, str],
+) -> None:
+    """The command line of a study that pits two builds of granpack against each other on
+    packs of 4.3 with `fast()` in a periodic cell: ``--build NAME`` makes the packs of the
+    build imported (`make_packs`; `builds` = (reference, variant)), ``--compare OUT``
+    writes the paired table (`compare_builds`, with `title` and `labels`)."""
+    import argparse
+
+    from manifest import write_manifest
+
+    ref, var = builds
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--build", choices=[var, ref], default=var)
+    ap.add_argument("--side", type=float, default=2.5, help="side of the periodic cell (m)")
+    ap.add_argument("--packs", type=int, default=10)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=out)
+    ap.add_argument("--compare", type=Path, help="only compare the runs in this folder")
+    a = ap.parse_args(argv)
+    if a.compare:
+        print(compare_builds(a.compare, ref, var, title, labels))
+        return
+    import granpack as gp
+
+    write_manifest(
+        a.out,
+        seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"},
+        extra={"side_m": a.side, "build": a.build, "granpack": gp.__file__},
+        name=f"manifest_{a.build}.json",
+    )
+    sc = gp.PackScene.preset("4.3").replace(container="periodic", base=(a.side, a.side)).fast()
+    make_packs(a.out, a.build, sc, a.packs, a.seed)

@@ -19,51 +19,24 @@ OUT/compare.md.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
-from manifest import write_manifest  # noqa: E402
-from paired import compare_builds, make_packs  # noqa: E402
+from paired import periodic_ensemble_main  # noqa: E402
 
-import granpack as gp  # noqa: E402
-
-
-def scene(side: float) -> gp.PackScene:
-    """4.3 with `fast()` in a periodic cell of side `side` (m)."""
-    return gp.PackScene.preset("4.3").replace(container="periodic", base=(side, side)).fast()
-
-
-def run(a: argparse.Namespace) -> None:
-    write_manifest(
-        a.out,
-        seeds={"seed": a.seed, "streams": f"0-{a.packs - 1}"},
-        extra={"side_m": a.side, "build": a.build, "granpack": gp.__file__},
-        name=f"manifest_{a.build}.json",
-    )
-    make_packs(a.out, a.build, scene(a.side), a.packs, a.seed)
-
-
-def compare(out: Path) -> None:
-    """Paired differences of the re-sorted packs from the layered ones."""
-    title = "One Morton order over the whole pack, against a Morton order a layer"
-    print(compare_builds(out, "layered", "resorted", title, ("layered", "re-sorted")))
+TITLE = "One Morton order over the whole pack, against a Morton order a layer"
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--build", choices=["resorted", "layered"], default="resorted")
-    ap.add_argument("--side", type=float, default=2.5, help="side of the periodic cell (m)")
-    ap.add_argument("--packs", type=int, default=10)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=Path("bench-global-order"))
-    ap.add_argument("--compare", type=Path, help="only compare the runs in this folder")
-    a = ap.parse_args(argv)
-    if a.compare:
-        compare(a.compare)
-    else:
-        run(a)
+    periodic_ensemble_main(
+        argv,
+        __doc__,
+        ("layered", "resorted"),
+        Path("bench-global-order"),
+        TITLE,
+        ("layered", "re-sorted"),
+    )
 
 
 if __name__ == "__main__":
