@@ -8,8 +8,11 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 out=${1:?usage: run.sh OUT_DIR}
 mkdir -p "$out"
-fast=--fast
-[ "${SETTINGS:-fast}" = paper ] && fast=
+case "${SETTINGS:-fast}" in
+    fast) fast=--fast ;;
+    paper) fast= ;;
+    *) echo "SETTINGS must be fast or paper, not ${SETTINGS}" >&2; exit 2 ;;
+esac
 /usr/bin/time -v -o "$out/generate.time" \
     granpack generate "$here/scene.toml" $fast --no-figures --out "$out/rve" \
     > "$out/generate.log" 2>&1

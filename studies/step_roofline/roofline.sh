@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The settled 3D step against the machine's limits, on one core: the core's clock (a
-# chain of dependent register adds), the bandwidth of a STREAM triad and copy at three working
-# sets (inside L2/L3, inside L3, in memory), the step's instructions (callgrind on
+# chain of dependent register adds), the bandwidth of a STREAM triad and copy at three
+# working sets (inside L2/L3, inside L3, in memory), the step's instructions (callgrind on
 # profile_step 100 and 300, which run 120 and 320 steps: the difference is 200 steps) and
 # its wall time (profile_step 300 and 1300 on core 1, three times each: 1 000 steps apart).
 # Run from the repository root: bash studies/step_roofline/roofline.sh
