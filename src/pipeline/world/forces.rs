@@ -425,10 +425,10 @@ impl Gathered {
     }
 }
 
-/// The pair pass over pairs `range` of the list on the team, [`TEAM_BLOCKS`] blocks
-/// per item, each thread with its own scratch block (`scratch[slot]`, added here
-/// when the team has more threads than `scratch` has blocks). Returns the first pair
-/// too deep.
+/// The pair pass over pairs `range` of the list on the team, in items of
+/// [`TEAM_PAIRS`] pairs (a run of whole [`LANES`] within one block), each thread with
+/// its own scratch (`scratch[slot]`, added here when the team has more threads than
+/// `scratch` has entries). Returns the first pair too deep.
 ///
 /// # Safety
 /// No thread writes a velocity or spin meanwhile (see [`pair_block`]).
@@ -447,25 +447,24 @@ where
     if scratch.len() < team.threads() {
         scratch.resize_with(team.threads(), Box::default);
     }
-    let (b_first, b_end) = (range.start >> BLOCK_SHIFT, range.end.div_ceil(BLOCK));
-    let (blks, geos) = (Disjoint::new(blocks), Disjoint::new(scratch));
+    assert!(range.end <= blocks.len() * BLOCK);
+    let first = range.start & !(TEAM_PAIRS - 1);
+    let blks = SyncPtr(blocks.as_mut_ptr());
+    let geos = Disjoint::new(scratch);
     team.map_reduce(
-        (b_end - b_first).div_ceil(TEAM_BLOCKS),
+        (range.end.saturating_sub(first)).div_ceil(TEAM_PAIRS),
         None,
         |c, slot| {
             // SAFETY: a slot is one thread's for the whole phase.
             let g = unsafe { geos.one(slot) };
-            let mut bad = None;
-            let b0 = b_first + c * TEAM_BLOCKS;
-            for bi in b0..(b0 + TEAM_BLOCKS).min(b_end) {
-                let base = bi * BLOCK;
-                let lanes = range.start.saturating_sub(base)..(range.end - base).min(BLOCK);
-                // SAFETY: the items' blocks are disjoint; the rest as the caller
-                // guarantees.
-                let b = unsafe { pair_block(blks.one(bi), g, base, lanes, ij, pin, law) };
-                bad = bad.or(b);
-            }
-            bad
+            // an item lies within one block: BLOCK is a multiple of TEAM_PAIRS
+            let k0 = first + c * TEAM_PAIRS;
+            let (bi, base) = (k0 >> BLOCK_SHIFT, k0 & !(BLOCK - 1));
+            let lanes = range.start.max(k0) - base..range.end.min(k0 + TEAM_PAIRS) - base;
+            // SAFETY: block bi exists (asserted above); the items' lanes are disjoint,
+            // and pair_block makes no reference to the whole block; the rest as the
+            // caller guarantees.
+            unsafe { pair_block(blks.ptr().add(bi), g, base, lanes, ij, pin, law) }
         },
         // the first pair too deep: items come in list order
         |a: Option<usize>, b| a.or(b),
@@ -601,7 +600,7 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
             if !lanes.is_empty() {
                 // SAFETY: the pairs of this piece involve no particle gathered before
                 // the sweep has passed them (below).
-                let b = unsafe { pair_block(&mut own[bi], g, base, lanes, ij, pin, law) };
+                let b = unsafe { pair_block(&raw mut own[bi], g, base, lanes, ij, pin, law) };
                 s.bad_pair = s.bad_pair.or(b);
             }
             done
@@ -656,16 +655,18 @@ where
 }
 
 crate::cpu::multiversion! {
-/// The pair pass over lanes `lanes` of one block (pairs `base + lanes` of the list):
-/// each pair's particle data gathered into the scratch block `g`, then the geometry
-/// and the law vectorised over the lanes, which write the pairs' state in place.
-/// Returns the first pair too deep (list index). Compiled for each instruction-set
-/// level (see [`crate::cpu`]).
+/// The pair pass over lanes `lanes` of one block (pairs `base + lanes` of the list),
+/// [`LANES`] at a time: each pair's particle data gathered into the scratch `g`, then
+/// the geometry and the law vectorised over the lanes, which write the pairs' state in
+/// place. Returns the first pair too deep (list index). Compiled for each
+/// instruction-set level (see [`crate::cpu`]).
 ///
 /// # Safety
-/// No thread writes the velocity or spin of a particle of these pairs meanwhile.
+/// `blk` points to a block whose lanes `lanes` nothing else reads or writes meanwhile
+/// (no reference to the whole block is made: other threads may own its other lanes),
+/// and no thread writes the velocity or spin of a particle of these pairs.
 unsafe fn pair_block [const D: usize] (
-    blk: &mut PairBlock<D>,
+    blk: *mut PairBlock<D>,
     g: &mut Geometry<D>,
     base: usize,
     lanes: std::ops::Range<usize>,
@@ -673,11 +674,46 @@ unsafe fn pair_block [const D: usize] (
     p: &PairIn<D>,
     law: &LawPass,
 ) -> Option<usize> where [Dim<D>: Spatial<D>] [D] {
+    let mut bad = None;
+    let mut off = lanes.start & !(LANES - 1);
+    while off < lanes.end {
+        let lo = lanes.start.max(off) - off;
+        let hi = (lanes.end - off).min(LANES);
+        // SAFETY: as the caller guarantees.
+        let b = unsafe { pair_lanes(blk, g, base, off, lo..hi, ij, p, law) };
+        bad = bad.or(b);
+        off += LANES;
+    }
+    bad
+}
+}
+
+/// [`pair_block`] for the scratch's lanes `lanes`, which are the block's lanes `off +
+/// lanes` (`off`: a multiple of [`LANES`]).
+///
+/// # Safety
+/// As for [`pair_block`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+unsafe fn pair_lanes<const D: usize>(
+    blk: *mut PairBlock<D>,
+    g: &mut Geometry<D>,
+    base: usize,
+    off: usize,
+    lanes: std::ops::Range<usize>,
+    ij: &[[u32; 2]],
+    p: &PairIn<D>,
+    law: &LawPass,
+) -> Option<usize>
+where
+    Dim<D>: Spatial<D>,
+{
     let (lo, hi) = (lanes.start, lanes.end);
     let rot = law.rot;
+    let first = base + off;
     // What each pair's geometry needs, gathered from the two particles; the arithmetic
-    // runs vectorised over the block.
-    for (l, &[i, j]) in (lo..hi).zip(&ij[base + lo..base + hi]) {
+    // runs vectorised over the lanes.
+    for (l, &[i, j]) in (lo..hi).zip(&ij[first + lo..first + hi]) {
         let (i, j) = (i as usize, j as usize);
         // SAFETY: pair-list indices are below the particle count (see `at`); the
         // caller guarantees that nobody writes v and w of i and j now.
@@ -691,8 +727,8 @@ unsafe fn pair_block [const D: usize] (
                 *p.v.0.add(j),
             )
         };
-        // l < BLOCK; the mask says so to the compiler
-        let l = l & (BLOCK - 1);
+        // l < LANES; the mask says so to the compiler
+        let l = l & (LANES - 1);
         let (mut dx, dv) = (xj - xi, vj - vi);
         if let Some(per) = &p.period {
             dx = per.image(dx);
@@ -716,15 +752,17 @@ unsafe fn pair_block [const D: usize] (
     if too_deep {
         // the first pair too deep (rare: the step is then refused)
         let ratio = |l: usize| law.max_ratio * g.r[0][l].min(g.r[1][l]);
-        bad = (lo..hi).find(|&l| g.d[l] > ratio(l)).map(|l| base + l);
+        bad = (lo..hi).find(|&l| g.d[l] > ratio(l)).map(|l| first + l);
     }
-    if contact {
-        law_block(blk, g, lo..hi, &law.consts, law.dt, law.torques);
-    } else {
-        clear_lanes(blk, lo..hi);
+    // SAFETY: these lanes of blk are ours (caller).
+    unsafe {
+        if contact {
+            law_block(blk, g, lo..hi, off, &law.consts, law.dt, law.torques);
+        } else {
+            clear_lanes(blk, off + lo..off + hi);
+        }
     }
     bad
-}
 }
 
 /// What the gather reads: particle data, the pair list's index ranges, walls and

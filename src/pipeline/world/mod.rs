@@ -33,7 +33,7 @@
 
 use crate::dynamics::block::{
     clear_lanes, geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors,
-    PairRecord, BLOCK, BLOCK_SHIFT,
+    PairRecord, BLOCK, BLOCK_SHIFT, LANES,
 };
 use crate::dynamics::{hertz_mindlin, Material, PairParams};
 use crate::error::{check_range, BlowupKind, Error, Result};
@@ -71,7 +71,8 @@ use particles::Particles;
 use team::{Disjoint, Team};
 
 /// A raw pointer that may cross threads: the force sweep writes disjoint particles
-/// through it (see `forces::gather_one`), the rebuild's merge disjoint pair states.
+/// through it (see `forces::gather_one`), the pair pass disjoint lanes of the pair
+/// blocks (`forces::pair_pass`), the rebuild's merge disjoint pair states.
 struct SyncPtr<T>(*mut T);
 impl<T> Clone for SyncPtr<T> {
     fn clone(&self) -> Self {
@@ -105,16 +106,18 @@ const PAIR_CHUNK: usize = 4096;
 /// nanoseconds per particle: below this a hand-off to another thread costs more than
 /// it saves). Results do not depend on it.
 const REBUILD_MIN_PARTICLES: usize = 4096;
-/// Least pair blocks per rayon work item when the rebuild fills the blocks (results
-/// do not depend on it).
-const REBUILD_MIN_BLOCKS: usize = 8;
+/// Least pair blocks per rayon work item when the rebuild fills the blocks: 1 024
+/// pairs or more (results do not depend on it).
+const REBUILD_MIN_BLOCKS: usize = 1024_usize.div_ceil(BLOCK);
 /// Particles per item of the step's team loops (kick and drift, gather; see `team`).
 /// Small enough that a layer of a few hundred particles splits between threads, large
 /// enough that claiming an item (one atomic add) is noise. Results do not depend on it.
 const TEAM_CHUNK: usize = 256;
-/// Pair blocks per item of the step's pair pass on the team (results do not depend
-/// on it).
-const TEAM_BLOCKS: usize = 2;
+/// Pairs per item of the step's pair pass on the team: a power of two, a multiple of
+/// [`LANES`] that divides [`BLOCK`] (results do not depend on it).
+const TEAM_PAIRS: usize = if BLOCK < 256 { BLOCK } else { 256 };
+const _: () = assert!(TEAM_PAIRS.is_power_of_two() && TEAM_PAIRS.is_multiple_of(LANES));
+const _: () = assert!(BLOCK.is_multiple_of(TEAM_PAIRS));
 
 /// Steps that a particle's adaptive skin lasts at its own speed (see
 /// [`SimConfig::skin_ratio`]). A rebuild of a dense pack costs about as much as two or

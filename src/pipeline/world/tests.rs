@@ -463,8 +463,8 @@ fn force_sweep_equals_two_passes() {
     use rand::SeedableRng;
     let cfg = falling_box(0.4);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let (x1, r1) = lattice(&mut rng, 12, 4, 0.015);
-    let (x2, r2) = lattice(&mut rng, 12, 4, 0.2);
+    let (x1, r1) = lattice(&mut rng, 12, 8, 0.015);
+    let (x2, r2) = lattice(&mut rng, 12, 4, 0.35);
     let run = |sweep: bool, threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
