@@ -4,9 +4,9 @@
 //! A per-contact loop is bound by latency: each contact is one dependent chain of
 //! square roots and divisions. Here the pair list keeps its per-pair state in
 //! [`PairBlock`]s of [`BLOCK`] consecutive pairs, one array per component. The pair
-//! pass writes each pair's geometry and relative velocity into a [`Geometry`] scratch
-//! block, then [`law_block`] runs the same Hertz-Mindlin law as
-//! [`hertz_mindlin_coefs`](super::hertz_mindlin_coefs) over the whole block with
+//! pass writes the geometry and relative velocity of [`LANES`] pairs of a block at a
+//! time into a [`Geometry`] scratch, then [`law_block`] runs the same Hertz-Mindlin law
+//! as [`hertz_mindlin_coefs`](super::hertz_mindlin_coefs) over those lanes with
 //! selects instead of branches: pairs apart (overlap <= 0) are masked to zero rather
 //! than compacted out. The compiler vectorises the loops, the chains of different
 //! pairs overlap, and the results land in the pairs' own lanes with no scatter.

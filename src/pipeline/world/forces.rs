@@ -1,6 +1,6 @@
-//! Forces: the pair pass (each pair's particle data gathered into a scratch block, then
-//! the geometry and the law vectorised over the block, which write each pair's state in
-//! place), the per-particle gather with walls and body forces (and, during a step, the
+//! Forces: the pair pass (the particle data of a run of pairs gathered into a scratch,
+//! then the geometry and the law vectorised over the run, which write each pair's state
+//! in place), the per-particle gather with walls and body forces (and, during a step, the
 //! second half kick), and the freezing decisions that need every particle's net force.
 //! Small scenes run the pair pass and the gather as two passes; large ones as one sweep
 //! that gathers each particle as soon as its pairs are done (`SWEEP_MIN_BYTES`).

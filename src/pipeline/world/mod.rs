@@ -162,8 +162,8 @@ where
     /// Pair state (bytes) from which the force pass runs as one sweep (see
     /// `forces::SWEEP_MIN_BYTES`; the tests lower it to check that both ways agree).
     sweep_min_bytes: usize,
-    /// The pair pass's scratch block, one per team slot (see `team`), kept between
-    /// steps: 15 KB each in 3D.
+    /// The pair pass's scratch ([`LANES`] pairs), one per team slot (see `team`), kept
+    /// between steps: 15 KB each in 3D.
     scratch: Vec<Box<Geometry<D>>>,
     /// Speed of each wall along its outward normal (m/s), seen by the contact law:
     /// zero for walls at rest (see `moving_walls`).
