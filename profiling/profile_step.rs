@@ -10,7 +10,9 @@
 //! 3 gives 80 568 spheres, 8 gives 572 928), settled 20 steps on one thread: the step
 //! once its state no longer fits the last-level cache. `PERIODIC=1` puts the tiles in a
 //! cell periodic over their horizontal extent (an even `TILES` meets its mirror images
-//! across the cell's edges).
+//! across the cell's edges). The tiles are stored in one row-major order over the whole
+//! pack, as the layer loop stores a large pack; `ORDER=morton` stores them in one Morton
+//! order instead, `LAYERS=h` in bands of h (m), each in its own Morton order.
 #[path = "../benches/common/mod.rs"]
 mod common;
 
@@ -41,7 +43,13 @@ where
     let order = std::env::var("LAYERS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .map_or(common::StoreOrder::Morton, common::StoreOrder::Layers);
+        .map_or(common::StoreOrder::RowMajor, common::StoreOrder::Layers);
+    // ORDER=morton: one Morton order over the whole pack instead of the row-major one
+    let order = if std::env::var("ORDER").is_ok_and(|v| v == "morton") {
+        common::StoreOrder::Morton
+    } else {
+        order
+    };
     // PERIODIC=1: the tiles in a cell periodic over their horizontal extent, no side walls
     let container = if std::env::var("PERIODIC").is_ok_and(|v| v == "1") {
         _core::pipeline::Container::Periodic

@@ -90,13 +90,17 @@ pub fn settled_world<const D: usize>(tiles: usize, settle: u64, threads: usize) 
 where
     Dim<D>: Spatial<D>,
 {
-    settled_world_in(tiles, settle, threads, StoreOrder::Morton)
+    settled_world_in(tiles, settle, threads, StoreOrder::RowMajor)
 }
 
 /// The order in which [`settled_world_in`] stores the particles.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StoreOrder {
-    /// One Morton order over the whole pack (cells of 0.05 m).
+    /// One row-major order over the whole pack (cells of 2 r_max): the order in which
+    /// the layer loop stores a pack whose layers hold 4 096 particles or more.
+    RowMajor,
+    /// One Morton order over the whole pack (cells of 0.05 m), which the layer loop
+    /// used before the row-major one.
     Morton,
     /// Horizontal bands of the given thickness (m), from the bottom up, each in its own
     /// Morton order: the order a layer-by-layer pack stores its particles in, one band a
@@ -155,8 +159,12 @@ where
             }
         }
     }
-    // granpack stores each layer in Morton order; give the peers' packs the same order.
+    // granpack re-sorts a large pack after each layer; give the peers' packs its order.
     let order = match order {
+        StoreOrder::RowMajor => {
+            let r_max = r.iter().copied().fold(0.0, f64::max);
+            _core::geometry::row_major_order(&x, 2.0 * r_max)
+        }
         StoreOrder::Morton => _core::geometry::morton_order(&x, 0.05),
         StoreOrder::Layers(h) => {
             let band = |p: &Vector<D>| (p[D - 1] / h).floor().max(0.0) as usize;

@@ -1599,6 +1599,44 @@ pub fn morton_order<const D: usize>(x: &[Vector<D>], cell: Real) -> Vec<usize> {
     keys.into_iter().map(|(_, i)| i).collect()
 }
 
+/// A permutation that visits the points row by row through cells of side `cell` (m):
+/// in 3D the cells ordered by (y, z, x), x fastest; in 2D by (y, x), x fastest (y is
+/// vertical in 2D, z in 3D); ties broken by index.
+///
+/// Why not [`morton_order`]: the settled step streams each sphere's pairs and reads its
+/// partners' state where they lie. In this order a sphere's partners lie in its own row
+/// of cells and in the rows beside it, a few runs that move through memory in step with
+/// it, which the hardware prefetchers follow; a Z-curve puts some partners across its
+/// coarse boundaries, far from the sphere in memory. On 0.5-1 million spheres the step
+/// took 14-18 % less on one core in this order (`studies/row_order/`). The axis order is
+/// measured: a horizontal axis fastest (the longest runs), the vertical in the middle
+/// in 3D (at 0.9 million spheres in a cell 11 m wide and 0.5 m high, (y, z, x) 125 ns a
+/// particle-step, (z, y, x) 135, (x, y, z) with z fastest 135, Morton 155).
+pub fn row_major_order<const D: usize>(x: &[Vector<D>], cell: Real) -> Vec<usize> {
+    if x.is_empty() {
+        return Vec::new();
+    }
+    let mut lo = x[0];
+    for p in x {
+        lo = lo.inf(p);
+    }
+    // slowest to fastest
+    let axes: &[usize] = if D == 3 { &[1, 2, 0] } else { &[1, 0] };
+    let mut keys: Vec<(u64, usize)> = x
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = axes.iter().fold(0u64, |key, &k| {
+                let c = ((p[k] - lo[k]) / cell).clamp(0.0, 2_097_151.0) as u64;
+                (key << 21) | c
+            });
+            (key, i)
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter().map(|(_, i)| i).collect()
+}
+
 #[cfg(test)]
 mod morton_tests {
     use super::*;
@@ -1626,5 +1664,43 @@ mod morton_tests {
         let mut first: Vec<usize> = p[..4].to_vec();
         first.sort();
         assert_eq!(first, vec![0, 1, 8, 9]);
+    }
+
+    /// A 3D lattice of 4 x 3 x 2 cells, shuffled: the order visits it by (y, z, x), x
+    /// fastest, whatever the input order; points sharing a cell keep their index order.
+    #[test]
+    fn row_major_order_visits_y_then_z_then_x() {
+        let mut pts = Vec::new();
+        for k in 0..24 {
+            let (xi, yi, zi) = (k % 4, (k / 4) % 3, k / 12);
+            pts.push(Vector::<3>::new(
+                xi as f64 + 0.5,
+                yi as f64 + 0.5,
+                zi as f64 + 0.5,
+            ));
+        }
+        // a fixed shuffle (a stride coprime to 24) and one twin of point 0's cell
+        let mut x: Vec<Vector<3>> = (0..24).map(|k| pts[(k * 7) % 24]).collect();
+        x.push(pts[0] + Vector::<3>::new(0.1, 0.1, 0.1));
+        let order = row_major_order(&x, 1.0);
+        let cells: Vec<(i64, i64, i64)> = order
+            .iter()
+            .map(|&i| (x[i][1] as i64, x[i][2] as i64, x[i][0] as i64))
+            .collect();
+        let mut sorted = cells.clone();
+        sorted.sort();
+        assert_eq!(cells, sorted);
+        // the twin (index 24) follows the original of its cell (index 0)
+        assert_eq!(order[..2], [0, 24]);
+        let mut s = order.clone();
+        s.sort();
+        assert_eq!(s, (0..25).collect::<Vec<_>>());
+        // 2D: y (vertical) slowest, x fastest
+        let x2: Vec<Vector<2>> = [(1.5, 0.5), (0.5, 1.5), (0.5, 0.5), (1.5, 1.5)]
+            .iter()
+            .map(|&(a, b)| Vector::<2>::new(a, b))
+            .collect();
+        assert_eq!(row_major_order(&x2, 1.0), vec![2, 0, 1, 3]);
+        assert!(row_major_order::<3>(&[], 1.0).is_empty());
     }
 }

@@ -3,7 +3,7 @@
 //! desired height.
 
 use crate::error::{Error, Result};
-use crate::geometry::morton_order;
+use crate::geometry::{morton_order, row_major_order};
 use crate::math::{Dim, Real, Spatial, Vector};
 use crate::pipeline::rsa::{place_layer_polled, LayerSpec};
 use crate::pipeline::world::{Contacts, FinishedState, FreezeConfig, World, FREEZE_INTERVAL};
@@ -19,16 +19,17 @@ const POLL_EVERY: Duration = Duration::from_millis(100);
 /// thawed (see [`PackConfig::freeze_depth`]).
 pub const FREEZE_RELAX: Real = 0.1;
 
-/// Particles in a layer from which the layer loop re-sorts the whole pack into one
-/// Morton order after placing it (`World::reorder`), instead of appending the layer in
-/// its own Morton order. The step then reads a sphere's contacts with the layer below
-/// near its own instead of a layer's state away. Medians of three rounds, ns a
-/// particle-step on two threads, one order against bands of a layer
-/// (`studies/global_order/`): 74.1 against 97.0 at 572 928 spheres in bands of 52 000,
-/// 65.9 against 75.6 at 223 800 (20 000), 44.9 against 47.4 at 80 568 (7 300), within
-/// the rounds' spread either way below that. 4 096 is where a layer's state (about 600
-/// bytes a sphere) outgrows 2 MiB of L2. Smaller layers keep their order, and their
-/// packs their bits.
+/// Particles in a layer from which the layer loop re-sorts the whole pack into one order
+/// after placing it (`World::reorder`), instead of appending the layer in its own
+/// Morton order. The step then reads a sphere's contacts with the layer below near its
+/// own instead of a layer's state away. Medians of three rounds, ns a particle-step on
+/// two threads, one Morton order against bands of a layer (`studies/global_order/`):
+/// 74.1 against 97.0 at 572 928 spheres in bands of 52 000, 65.9 against 75.6 at 223 800
+/// (20 000), 44.9 against 47.4 at 80 568 (7 300), within the rounds' spread either way
+/// below that. 4 096 is where a layer's state (about 600 bytes a sphere) outgrows 2 MiB
+/// of L2. The order is [`row_major_order`], which took a further 8-18 % off the step
+/// from 67 000 to a million spheres (`studies/row_order/`). Smaller layers keep their
+/// order, and their packs their bits.
 pub const RESORT_MIN_LAYER: usize = 4096;
 
 /// What one layer did.
@@ -236,8 +237,8 @@ where
         if added >= RESORT_MIN_LAYER {
             // Stored layer by layer, a sphere's contacts with the layer below sit a whole
             // layer's state away from its own, beyond the caches once a layer is this
-            // large: one Morton order over the whole pack keeps them near.
-            let order = morton_order(
+            // large: one order over the whole pack keeps them near.
+            let order = row_major_order(
                 &self.world.positions_in_cell(),
                 2.0 * self.cfg.radii.r_max(),
             );
@@ -470,7 +471,7 @@ mod tests {
         }
     }
 
-    /// Layers of at least RESORT_MIN_LAYER discs re-sort the whole pack into one Morton
+    /// Layers of at least RESORT_MIN_LAYER discs re-sort the whole pack into one row-major
     /// order (the layers interleave in memory), and the pack is the same bit for bit on
     /// one and two threads, freezing and thawing included.
     #[test]
