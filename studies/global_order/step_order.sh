@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The settled 3D step with the particles stored as a layer-by-layer pack stores them
 # (bands of 0.045 m from the bottom up, each in its own Morton order: LAYERS=0.045) and
-# in one Morton order over the whole pack (the benchmarks' order, and the layer loop's
-# from RESORT_MIN_LAYER particles a layer), at 8 952, 35 808, 80 568, 223 800 and
+# in one Morton order over the whole pack (ORDER=morton: the benchmarks' order, and the
+# layer loop's from RESORT_MIN_LAYER particles a layer, until the row-major order of
+# studies/row_order/ replaced it), at 8 952, 35 808, 80 568, 223 800 and
 # 572 928 spheres (profile_step TILES=1, 2, 3, 5, 8), on one and two threads, three
 # rounds, the two orders alternately. Run from the repository root:
 #   bash studies/global_order/step_order.sh studies/global_order/step
@@ -18,9 +19,10 @@ step=target/release/examples/profile_step
       for th in 1 2; do
         for order in layers morton; do
           layers=""
-          [ "$order" = layers ] && layers=0.045
+          morton=morton
+          [ "$order" = layers ] && layers=0.045 && morton=
           printf 'round %s TILES=%s threads=%s order=%s steps=%s: ' "$r" "$t" "$th" "$order" "$s"
-          LAYERS=$layers TILES=$t RAYON_NUM_THREADS=$th "$step" "$s" 2>&1 | tr '\n' ' '
+          ORDER=$morton LAYERS=$layers TILES=$t RAYON_NUM_THREADS=$th "$step" "$s" 2>&1 | tr '\n' ' '
           echo
         done
       done

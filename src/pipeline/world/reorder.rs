@@ -1,5 +1,5 @@
-//! Storing the particles in another order: a pack re-sorted into one Morton order when
-//! its layers are too large for the caches (see `Packer`).
+//! Storing the particles in another order: a pack re-sorted into one row-major order of
+//! cells when its layers are too large for the caches (see `Packer`).
 
 use super::*;
 
@@ -48,8 +48,8 @@ where
     ///
     /// The step reads each particle's pairs where its first particle stores them, so a
     /// pack stored layer by layer reads a sphere's contacts with the layer below a
-    /// whole layer's state away: the layer loop re-sorts large packs into one Morton
-    /// order with this.
+    /// whole layer's state away: the layer loop re-sorts large packs into one
+    /// row-major order of cells with this.
     pub fn reorder(&mut self, order: &[usize]) -> Result<()> {
         let n = self.len();
         if order.len() != n {
