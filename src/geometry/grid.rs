@@ -1609,11 +1609,12 @@ pub fn morton_order<const D: usize>(x: &[Vector<D>], cell: Real) -> Vec<usize> {
 /// partners' state where they lie. In this order a sphere's partners lie in its own row
 /// of cells and in the rows beside it, a few runs that move through memory in step with
 /// it, which the hardware prefetchers follow; a Z-curve puts some partners across its
-/// coarse boundaries, far from the sphere in memory. On 0.5-1 million spheres the step
-/// took 14-18 % less on one core in this order (`studies/row_order/`). The axis order is
-/// measured: a horizontal axis fastest (the longest runs), the vertical in the middle
-/// in 3D (at 0.9 million spheres in a cell 11 m wide and 0.5 m high, (y, z, x) 125 ns a
-/// particle-step, (z, y, x) 135, (x, y, z) with z fastest 135, Morton 155).
+/// coarse boundaries, far from the sphere in memory. At 0.57 and 1.08 million spheres
+/// the step took 20 % less on one core in this order and 23 % less on two
+/// (`studies/row_order/`). The axis order is measured: a horizontal axis fastest (the
+/// longest runs), the vertical in the middle in 3D (at 0.9 million spheres in a cell
+/// 11 m wide and 0.5 m high, (y, z, x) 125-128 ns a particle-step, (z, y, x) 135, (y,
+/// x, z) with z fastest 134-136, Morton 155).
 pub fn row_major_order<const D: usize>(x: &[Vector<D>], cell: Real) -> Vec<usize> {
     let Some(lo) = lower_corner(x) else {
         return Vec::new();

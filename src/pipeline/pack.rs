@@ -27,9 +27,9 @@ pub const FREEZE_RELAX: Real = 0.1;
 /// 74.1 against 97.0 at 572 928 spheres in bands of 52 000, 65.9 against 75.6 at 223 800
 /// (20 000), 44.9 against 47.4 at 80 568 (7 300), within the rounds' spread either way
 /// below that. 4 096 is where a layer's state (about 600 bytes a sphere) outgrows 2 MiB
-/// of L2. The order is [`row_major_order`], which took a further 8-18 % off the step
-/// from 67 000 to a million spheres (`studies/row_order/`). Smaller layers keep their
-/// order, and their packs their bits.
+/// of L2. The order is [`row_major_order`], which took a further 12-21 % off the
+/// settled step from 80 000 to a million spheres (`studies/row_order/`). Smaller layers
+/// keep their order, and their packs their bits.
 pub const RESORT_MIN_LAYER: usize = 4096;
 
 /// What one layer did.
