@@ -32,6 +32,15 @@ pub const FREEZE_RELAX: Real = 0.1;
 /// keep their order, and their packs their bits.
 pub const RESORT_MIN_LAYER: usize = 4096;
 
+/// Simulated time (s) between two checks of an adaptive settle: of the layer's kinetic
+/// energy, and of the height while the last layer finishes its settle_time.
+const SETTLE_CHECK: Real = 0.01;
+
+/// Steps of `dt` (s) between two checks of an adaptive settle ([`SETTLE_CHECK`]).
+fn settle_chunk(dt: Real) -> u64 {
+    ((SETTLE_CHECK / dt).round() as u64).max(1)
+}
+
 /// What one layer did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerReport {
@@ -271,11 +280,10 @@ where
             // An adaptive settle may stop a layer while its top particles still roll:
             // harmless below, where the next layer lands on them anyway, but the last
             // layer is the pack's free surface, so it gets the whole settle_time.
-            if !self.world.step_n_polled(rest, POLL_EVERY, poll)? {
+            let Some(ran) = self.finish_last_layer(rest, poll)? else {
                 return self.stop();
-            }
-            steps += rest;
-            self.height = self.measure_height();
+            };
+            steps += ran;
         }
         if self.done() && self.world.n_frozen() > 0 {
             // Frozen contacts kept the forces they had when they froze, before the
@@ -364,6 +372,33 @@ where
             .fold(0.0, Real::max)
     }
 
+    /// The rest of `settle_time` (`rest` steps) for a layer that an adaptive settle left
+    /// at or above the target height, measured every [`SETTLE_CHECK`] of simulated time.
+    /// The height the settle saw may be a sphere still in flight: once the measured
+    /// height falls below the target the layer is not the last after all, and the rest
+    /// ends there, as every layer below the last ends at its adaptive stop (the next
+    /// layer lands on it). Returns the steps run, or None when `poll` stopped them.
+    fn finish_last_layer(
+        &mut self,
+        rest: u64,
+        poll: &mut dyn FnMut() -> bool,
+    ) -> Result<Option<u64>> {
+        let chunk = settle_chunk(self.world.config().dt);
+        let mut ran = 0u64;
+        while ran < rest {
+            let n = chunk.min(rest - ran);
+            if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
+                return Ok(None);
+            }
+            ran += n;
+            self.height = self.measure_height();
+            if !self.done() {
+                break;
+            }
+        }
+        Ok(Some(ran))
+    }
+
     /// Runs the jamming stage of one layer: at `sim.dt` until the new layer has had time
     /// to fall through its slab, then at `settle_dt` (when set) for the rest of
     /// `settle_time`, ending early once the layer is quiet (`settle_tol`). Returns
@@ -396,8 +431,7 @@ where
                 w.kinetic_energy() / (moving as Real) < tol * scale
             })
         };
-        // Checked every 0.01 s of simulated time.
-        let chunk = |dt: Real| ((0.01 / dt).round() as u64).max(1);
+        let chunk = settle_chunk;
         let mut steps = 0u64;
         while steps < total {
             let n = chunk(dt).min(total - steps);
