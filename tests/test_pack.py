@@ -197,6 +197,22 @@ def test_a_pack_of_large_layers_is_stored_in_one_row_major_order():
     np.testing.assert_allclose(overlap, c.overlap[pp], rtol=0, atol=1e-12)
 
 
+def test_a_layer_that_stops_above_the_height_but_settles_below_it_is_not_the_last():
+    """With adaptive settling the last layer runs its whole settle_time. 4.3 `fast()`
+    with seed 5 is a pack whose eleventh layer stops at or above the 0.5 m target while
+    its top still settles: it runs on past its adaptive stop, the height falls below the
+    target, and it ends there (not the last); a twelfth layer follows and is the one that
+    runs the whole settle_time, then the final relax."""
+    s = gp.PackScene.preset("4.3").replace(seed=5).fast()
+    p = gp.generate(s)
+    *early, before, last = p.layers
+    whole = last["steps"] - round(0.1 / s.settle_dt)  # the last layer's settle_time
+    assert len(p.layers) == 12
+    assert before["height"] < s.height <= last["height"]
+    # past its adaptive stop (the layers below stop at it), short of the whole second
+    assert max(r["steps"] for r in early[1:]) < before["steps"] < whole, (before, whole)
+
+
 def test_presets_carry_the_papers_numbers():
     p41, p42, p43, p44 = (gp.PackScene.preset(k) for k in ("4.1", "4.2", "4.3", "4.4"))
     for s in (p41, p42, p43, p44):

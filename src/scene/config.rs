@@ -48,7 +48,10 @@ pub struct PackConfig<const D: usize> {
     /// End a layer's jamming run early once its kinetic energy per moving particle has
     /// fallen below `tol` times m g r (mean mass and radius); `settle_time` is then the
     /// upper bound. The last layer (the free surface) always runs the whole
-    /// `settle_time`. None (default): the paper's fixed `settle_time`.
+    /// `settle_time`: a layer the adaptive stop leaves at or above the target height runs
+    /// on, and ends there only if its height falls below the target on the way (it was
+    /// not the last; the next layer lands on it). None (default): the paper's fixed
+    /// `settle_time`.
     pub settle_tol: Option<Real>,
     /// Time step (s) for the rest of a layer's jamming run once the new layer has had
     /// time to fall through its slab (sqrt(2 h_layer / g) after it is placed), and for
