@@ -279,8 +279,15 @@ where
         if self.done() && rest > 0 {
             // An adaptive settle may stop a layer while its top particles still roll:
             // harmless below, where the next layer lands on them anyway, but the last
-            // layer is the pack's free surface, so it gets the whole settle_time.
-            let Some(ran) = self.finish_last_layer(rest, poll)? else {
+            // layer is the pack's free surface, so it gets the whole settle_time. The
+            // height the settle saw may be a sphere still in flight: once the height
+            // falls below the target the layer is not the last after all, and the rest
+            // ends there, as every layer below the last ends at its adaptive stop.
+            let below_target = |p: &mut Self| {
+                p.height = p.measure_height();
+                !p.done()
+            };
+            let Some(ran) = self.step_until(rest, poll, below_target)? else {
                 return self.stop();
             };
             steps += ran;
@@ -372,27 +379,24 @@ where
             .fold(0.0, Real::max)
     }
 
-    /// The rest of `settle_time` (`rest` steps) for a layer that an adaptive settle left
-    /// at or above the target height, measured every [`SETTLE_CHECK`] of simulated time.
-    /// The height the settle saw may be a sphere still in flight: once the measured
-    /// height falls below the target the layer is not the last after all, and the rest
-    /// ends there, as every layer below the last ends at its adaptive stop (the next
-    /// layer lands on it). Returns the steps run, or None when `poll` stopped them.
-    fn finish_last_layer(
+    /// Runs up to `total` steps at the world's dt in pieces of [`SETTLE_CHECK`] of
+    /// simulated time, ending after the first piece for which `stop` answers true.
+    /// Returns the steps run, or None when `poll` stopped them.
+    fn step_until(
         &mut self,
-        rest: u64,
+        total: u64,
         poll: &mut dyn FnMut() -> bool,
+        mut stop: impl FnMut(&mut Self) -> bool,
     ) -> Result<Option<u64>> {
         let chunk = settle_chunk(self.world.config().dt);
         let mut ran = 0u64;
-        while ran < rest {
-            let n = chunk.min(rest - ran);
+        while ran < total {
+            let n = chunk.min(total - ran);
             if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
                 return Ok(None);
             }
             ran += n;
-            self.height = self.measure_height();
-            if !self.done() {
+            if stop(self) {
                 break;
             }
         }
@@ -431,10 +435,9 @@ where
                 w.kinetic_energy() / (moving as Real) < tol * scale
             })
         };
-        let chunk = settle_chunk;
         let mut steps = 0u64;
         while steps < total {
-            let n = chunk(dt).min(total - steps);
+            let n = settle_chunk(dt).min(total - steps);
             if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
                 return Ok(None);
             }
@@ -453,17 +456,9 @@ where
         };
         self.world.set_dt(dt2)?;
         let total2 = ((self.cfg.settle_time - t) / dt2).round() as u64;
-        let mut steps2 = 0u64;
-        while steps2 < total2 {
-            let n = chunk(dt2).min(total2 - steps2);
-            if !self.world.step_n_polled(n, POLL_EVERY, poll)? {
-                return Ok(None);
-            }
-            steps2 += n;
-            if quiet(&self.world) {
-                break;
-            }
-        }
+        let Some(steps2) = self.step_until(total2, poll, |p| quiet(&p.world))? else {
+            return Ok(None);
+        };
         Ok(Some((steps + steps2, t + steps2 as Real * dt2)))
     }
 
