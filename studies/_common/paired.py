@@ -50,11 +50,12 @@ def layer_medians(path: Path, label: str) -> str:
     return f"Median seconds a layer, {label}: " + ", ".join(f"{s:.2f}" for s in med["seconds"])
 
 
-def make_packs(out: Path, build: str, scene, packs: int, seed: int) -> None:
+def make_packs(out: Path, build: str, scene, packs: int, seed: int, extra=None) -> None:
     """Makes packs 0..`packs`-1 of `scene` (a `PackScene`; stream k for pack k) and
-    appends one row a pack to OUT/<build>_packs.csv (N, phi, Z, |a^r|, |a^n|, seconds)
-    and the layers' seconds to OUT/<build>_layers.csv, both written after every pack, so
-    that a run cut off keeps what it made; a pack already in the file is not made again."""
+    appends one row a pack to OUT/<build>_packs.csv (N, phi, Z, |a^r|, |a^n|, seconds,
+    and the columns that `extra(pack)`, when given, returns as a dict) and the layers'
+    seconds to OUT/<build>_layers.csv, both written after every pack, so that a run cut
+    off keeps what it made; a pack already in the file is not made again."""
     import granpack as gp
     from granpack.pack import atomic_write
 
@@ -82,6 +83,7 @@ def make_packs(out: Path, build: str, scene, packs: int, seed: int) -> None:
                 "z": m.z,
                 "a_r": float(np.linalg.norm(m.a_r)),
                 "a_n": float(np.linalg.norm(m.a_n)),
+                **(extra(pack) if extra else {}),
             }
         )
         layers.extend(

@@ -8,9 +8,12 @@ a sphere in flight above the target keeps its bits; the others must stay in the 
     python ensemble.py --build after --out OUT
     python ensemble.py --compare OUT
 
-Each run writes OUT/<build>_packs.csv, a row a pack (N, phi, Z, |a^r|, |a^n|, the wall
-seconds, the particle-steps, the steps of each layer and a digest of the positions),
-rewritten after every pack so that a run cut off keeps what it made, and a manifest.
+Each run writes `paired.make_packs`'s files (OUT/<build>_packs.csv, a row a pack: N, phi,
+Z, |a^r|, |a^n|, the wall seconds, and here also the particle-steps, the steps of each
+layer and a digest of the positions; OUT/<build>_layers.csv), rewritten after every pack
+so that a run cut off keeps what it made, and a manifest. (The committed CSVs were
+written by this study's own loop before it used `make_packs`: the same columns, without
+`smallest_layer` and the layers' file.)
 """
 
 from __future__ import annotations
@@ -18,14 +21,13 @@ from __future__ import annotations
 import argparse
 import hashlib
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
-from paired import STATS, paired_row, table_head  # noqa: E402
+from paired import STATS, make_packs, paired_row, table_head  # noqa: E402
 
 
 def digest(x: np.ndarray) -> str:
@@ -33,41 +35,15 @@ def digest(x: np.ndarray) -> str:
     return hashlib.sha256(np.ascontiguousarray(x).tobytes()).hexdigest()[:16]
 
 
-def make(out: Path, build: str, packs: int, seed: int) -> None:
-    import granpack as gp
-    from granpack.pack import atomic_write
-
-    path = out / f"{build}_packs.csv"
-    rows = pl.read_csv(path).to_dicts() if path.exists() else []
-    done = {r["stream"] for r in rows}
-    scene = gp.PackScene.preset("4.3").fast()
-    for k in range(packs):
-        if k in done:
-            continue
-        t0 = time.perf_counter()
-        pack = gp.generate(scene.replace(seed=seed, stream=k))
-        seconds = time.perf_counter() - t0
-        m = gp.microstructure(pack)
-        steps = [rep["steps"] for rep in pack.layers]
-        rows.append(
-            {
-                "build": build,
-                "seed": seed,
-                "stream": k,
-                "n": len(pack),
-                "layers": len(steps),
-                "seconds": seconds,
-                "particle_steps": sum(rep["steps"] * rep["total"] for rep in pack.layers),
-                "steps": " ".join(map(str, steps)),
-                "digest": digest(pack.positions),
-                "phi": pack.phi,
-                "z": m.z,
-                "a_r": float(np.linalg.norm(m.a_r)),
-                "a_n": float(np.linalg.norm(m.a_n)),
-            }
-        )
-        atomic_write(path, pl.DataFrame(rows).write_csv().encode())
-        print(f"{build} stream {k}: N {len(pack)} phi {pack.phi:.4f} {seconds:.1f} s", flush=True)
+def bookkeeping(pack) -> dict:
+    """What this study records of a pack beside `paired.make_packs`'s columns: its layer
+    count, its particle-steps, each layer's steps and a digest of its positions."""
+    return {
+        "layers": len(pack.layers),
+        "particle_steps": sum(rep["steps"] * rep["total"] for rep in pack.layers),
+        "steps": " ".join(str(rep["steps"]) for rep in pack.layers),
+        "digest": digest(pack.positions),
+    }
 
 
 def compare(out: Path) -> str:
@@ -141,7 +117,8 @@ def main(argv: list[str] | None = None) -> None:
         extra={"build": a.build, "granpack": gp.__file__, "scene": "preset 4.3, fast()"},
         name=f"manifest_{a.build}.json",
     )
-    make(a.out, a.build, a.packs, a.seed)
+    scene = gp.PackScene.preset("4.3").fast()
+    make_packs(a.out, a.build, scene, a.packs, a.seed, extra=bookkeeping)
 
 
 if __name__ == "__main__":
