@@ -5,7 +5,7 @@
 # absent), stored in rows of cells as the layer loop stores a large pack. Three rounds;
 # in each, every size on one thread (pinned to core 1) and then on two, so that a drift
 # of the machine reaches every figure alike. Each size must print one checksum on one
-# and two threads. Run from the repository root (about 10 minutes):
+# and two threads. Run from the repository root (about a minute, the build aside):
 #   bash studies/step_against_n/run.sh studies/step_against_n
 set -euo pipefail
 out=${1:?results folder}
