@@ -40,14 +40,14 @@ out = Path(sys.argv[1])
 ns = defaultdict(list)
 sums = defaultdict(set)
 line_re = re.compile(
-    r"TILES=(\d+) steps=\d+ threads=(\d): ([\d.]+) ns a particle-step (\d+) particles"
+    r"TILES=\d+ steps=\d+ threads=(\d): ([\d.]+) ns a particle-step (\d+) particles"
     r".*checksum (\w+)"
 )
 for line in (out / "timings.txt").read_text().splitlines():
     m = line_re.search(line)
     if m is None:
         sys.exit(f"unexpected line: {line}")
-    tiles, threads, t, n, digest = m.groups()
+    threads, t, n, digest = m.groups()
     ns[(int(n), int(threads))].append(float(t))
     sums[int(n)].add(digest)
 bad = {n: d for n, d in sums.items() if len(d) != 1}
