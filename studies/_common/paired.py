@@ -42,6 +42,15 @@ def paired_row(q: str, a: np.ndarray, b: np.ndarray) -> str | None:
     )
 
 
+def common_streams(a: pl.DataFrame, b: pl.DataFrame) -> tuple[pl.DataFrame, pl.DataFrame, list]:
+    """The rows of `a` and `b` (tables of packs with a column `stream`) for the streams both
+    hold, each sorted by stream, and those streams in order: pack k of one beside pack k
+    of the other, for `paired_row`."""
+    streams = sorted(set(a["stream"]) & set(b["stream"]))
+    keep = pl.col("stream").is_in(streams)
+    return a.filter(keep).sort("stream"), b.filter(keep).sort("stream"), streams
+
+
 def layer_medians(path: Path, label: str) -> str:
     """The median seconds of each layer over the packs of a `*_layers.csv` (columns
     layer, seconds), as one line."""
@@ -102,11 +111,9 @@ def compare_builds(out: Path, ref: str, var: str, title: str, labels: tuple[str,
     written to OUT/compare.md under `title`, with `labels` naming the two builds."""
     from granpack.pack import atomic_write
 
-    r = pl.read_csv(out / f"{ref}_packs.csv").sort("stream")
-    v = pl.read_csv(out / f"{var}_packs.csv").sort("stream")
-    streams = sorted(set(r["stream"]) & set(v["stream"]))
-    r = r.filter(pl.col("stream").is_in(streams))
-    v = v.filter(pl.col("stream").is_in(streams))
+    r, v, streams = common_streams(
+        pl.read_csv(out / f"{ref}_packs.csv"), pl.read_csv(out / f"{var}_packs.csv")
+    )
     lines = [
         f"# {title}",
         "",

@@ -27,7 +27,7 @@ import numpy as np
 import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_common"))
-from paired import STATS, make_packs, paired_row, table_head  # noqa: E402
+from paired import STATS, common_streams, make_packs, paired_row, table_head  # noqa: E402
 
 
 def digest(x: np.ndarray) -> str:
@@ -49,11 +49,9 @@ def bookkeeping(pack) -> dict:
 def compare(out: Path) -> str:
     from granpack.pack import atomic_write
 
-    a = pl.read_csv(out / "before_packs.csv").sort("stream")
-    b = pl.read_csv(out / "after_packs.csv").sort("stream")
-    streams = sorted(set(a["stream"]) & set(b["stream"]))
-    a = a.filter(pl.col("stream").is_in(streams))
-    b = b.filter(pl.col("stream").is_in(streams))
+    a, b, streams = common_streams(
+        pl.read_csv(out / "before_packs.csv"), pl.read_csv(out / "after_packs.csv")
+    )
     same = (a["digest"] == b["digest"]).to_numpy()
     changed = [s for s, k in zip(streams, same, strict=True) if not k]
     lines = [

@@ -32,7 +32,7 @@ import polars as pl
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "_common"))
 from manifest import write_manifest  # noqa: E402
-from paired import layer_medians, paired_row, table_head  # noqa: E402
+from paired import common_streams, layer_medians, paired_row, table_head  # noqa: E402
 
 import granpack as gp  # noqa: E402
 from granpack.analysis.coordination import degrees  # noqa: E402
@@ -108,14 +108,11 @@ def run(a: argparse.Namespace) -> None:
 
 def compare(out: Path) -> None:
     """Paired differences of each rigid variant from `fast`, and the layers' seconds."""
-    ref = pl.read_csv(out / "fast_packs.csv").sort("stream")
+    ref = pl.read_csv(out / "fast_packs.csv")
     lines = ["# The bed frozen for good below a depth, against `fast()`, pack by pack", ""]
     depth_cols = [c for c in ref.columns if c.startswith("z_depth_")]
     for f in sorted(out.glob("rigid_*_packs.csv")):
-        var = pl.read_csv(f).sort("stream")
-        streams = sorted(set(ref["stream"]) & set(var["stream"]))
-        r = ref.filter(pl.col("stream").is_in(streams))
-        v = var.filter(pl.col("stream").is_in(streams))
+        r, v, streams = common_streams(ref, pl.read_csv(f))
         name = f.name.removesuffix("_packs.csv")
         lines += [f"## {name}: {len(streams)} packs (streams {streams})", ""]
         lines += table_head("fast()", "variant")
