@@ -51,6 +51,20 @@ def microstructure(
         :func:`granpack.read_particles` read from a file (its box, if the file has one,
         and its periodic horizontal axes: see ParticleFile.periodic). Give either
         `pack` or `positions` and `radii`, not both.
+    binned : bool
+        Also compute the paper's binned force estimator (``*_binned``). Default False.
+    n_bins : int, optional
+        Resolution of the binned estimator (see force_tensors_binned): 2D sectors (default
+        36), 3D bands in cos(gamma) with 2 n_bins sectors each (default 10).
+    core_margin : float
+        Distance m (m) of the core window from the side walls, the floor and the top.
+        Default 0.1, as the peers' script.
+    slices : int
+        Horizontal slices of ``stress_profile`` (default 10; 1 to 10 000).
+
+
+    Other Parameters
+    ----------------
     positions : (N, D) array, optional
         Centres (m), D = 2 or 3, vertical axis last (y in 2D, z in 3D).
     radii : (N,) array, optional
@@ -83,17 +97,6 @@ def microstructure(
         ``.container_source`` say which was used and why. A cylinder without `box` stands on
         the lowest particle with its axis through the middle of the particles' lateral
         extent.
-    binned : bool
-        Also compute the paper's binned force estimator (``*_binned``). Default False.
-    n_bins : int, optional
-        Resolution of the binned estimator (see force_tensors_binned): 2D sectors (default
-        36), 3D bands in cos(gamma) with 2 n_bins sectors each (default 10).
-    core_margin : float
-        Distance m (m) of the core window from the side walls, the floor and the top.
-        Default 0.1, as the peers' script.
-    slices : int
-        Horizontal slices of ``stress_profile`` (default 10; 1 to 10 000).
-
     Returns
     -------
     Microstructure

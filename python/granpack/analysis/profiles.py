@@ -45,11 +45,15 @@ def profiles(pack=None, *, slices: int = 10, **where: Unpack[SystemArgs]) -> pl.
 
     Parameters
     ----------
-    pack, positions, radii, contacts, box, periodic, cylinder_radius, container
-        As in :func:`granpack.microstructure` (a System, a Pack, a ParticleFile, or
-        arrays).
+    pack : granpack.Pack, granpack.ParticleFile or System, optional
+        As in :func:`granpack.microstructure`.
     slices : int
         Number of slices of equal thickness (default 10; 1 to 10 000).
+
+    Other Parameters
+    ----------------
+    positions, radii, contacts, box, periodic, cylinder_radius, container : optional
+        As in :func:`granpack.microstructure`: the particles as arrays, and the container.
 
     Returns
     -------
@@ -134,10 +138,15 @@ def radial_profiles(pack=None, *, shells: int = 10, **where: Unpack[SystemArgs])
 
     Parameters
     ----------
-    pack, positions, radii, contacts, box, cylinder_radius, container
+    pack : granpack.Pack, granpack.ParticleFile or System, optional
         As in :func:`granpack.microstructure`; the container must be a cylinder.
     shells : int
         Number of shells (default 10; 1 to 10 000).
+
+    Other Parameters
+    ----------------
+    positions, radii, contacts, box, cylinder_radius, container : optional
+        As in :func:`granpack.microstructure`: the particles as arrays, and the container.
 
     Returns
     -------

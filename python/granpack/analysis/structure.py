@@ -39,9 +39,6 @@ def rdf(
         Centres (m).
     radii : (N,) array
         Radii (m), > 0.
-    box, periodic, cylinder_radius, container, contacts
-        The container, as in :func:`granpack.microstructure` (default: a Pack's own; for
-        arrays, the bounding box). Periodic axes use the minimum image.
     r_max : float, optional
         Largest distance (m), from a hundredth of the smallest radius (below the smallest
         radius g is 0 in any pack) to half the container's smallest extent (its height,
@@ -54,6 +51,12 @@ def rdf(
         H_top and from every wall, as phi_core's; none along a periodic axis), so that the
         loose top and the layers at the walls do not bias the mean density. Default 0.1 m.
 
+
+    Other Parameters
+    ----------------
+    box, periodic, cylinder_radius, container, contacts : optional
+        The container, as in :func:`granpack.microstructure` (default: a Pack's own; for
+        arrays, the bounding box). Periodic axes use the minimum image.
     Returns
     -------
     r : (bins,) float64
@@ -145,13 +148,16 @@ def steinhardt(
     radii : (N,) array (m)
     l : int
         The order (default 6; 1 to 16). In 2D the order of psi_l.
+    threshold : float, optional
+        Local order a crystalline particle needs (default 0.45 in 3D, 0.7 in 2D).
+
+    Other Parameters
+    ----------------
     contacts : optional
         As in :func:`granpack.microstructure`; default: a Pack's contacts, or the geometric
         contacts (overlap > 0) of the arrays, across periodic seams by minimum image.
-    box, periodic, cylinder_radius, container
+    box, periodic, cylinder_radius, container : optional
         The container, as in :func:`granpack.microstructure`.
-    threshold : float, optional
-        Local order a crystalline particle needs (default 0.45 in 3D, 0.7 in 2D).
 
     Returns
     -------

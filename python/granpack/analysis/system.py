@@ -108,7 +108,11 @@ class System:
         Parameters
         ----------
         obj : Pack, ParticleFile, System or (N, D) array, optional
-        positions, radii, contacts, box, periodic, cylinder_radius, container
+            What to analyse.
+
+        Other Parameters
+        ----------------
+        positions, radii, contacts, box, periodic, cylinder_radius, container : optional
             As in :func:`granpack.microstructure`: the particles as arrays (not with a
             pack), and the container to analyse in (overriding what the pack says).
 

@@ -26,9 +26,14 @@ def local_phi(pack=None, **where: Unpack[SystemArgs]) -> np.ndarray:
 
     Parameters
     ----------
-    pack, positions, radii, contacts, box, periodic, cylinder_radius, container
+    pack : granpack.Pack, granpack.ParticleFile or System, optional
         As in :func:`granpack.microstructure`; the container must be the box or the
         periodic cell (no cylinder: the tessellation library has no curved walls).
+
+    Other Parameters
+    ----------------
+    positions, radii, contacts, box, periodic, cylinder_radius, container : optional
+        As in :func:`granpack.microstructure`: the particles as arrays, and the container.
 
     Returns
     -------
