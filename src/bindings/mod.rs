@@ -881,9 +881,11 @@ impl LayerPacker {
             let mut poll = signal_poll(&mut raised);
             with_packer!(inner, p, _D, p.next_layer_polled(&mut poll))
         })?;
+        // A handler that raised wins over a finished layer: the signal came during
+        // the layer's last chunk, and the caller must still see it.
         match (rep, raised) {
-            (Some(rep), _) => report_to_py(py, &rep),
-            (None, Some(e)) => Err(e),
+            (_, Some(e)) => Err(e),
+            (Some(rep), None) => report_to_py(py, &rep),
             // (unreachable: the poll stops a layer only when a handler raised)
             (None, None) => Err(PyRuntimeError::new_err("the layer was stopped midway")),
         }
@@ -925,14 +927,14 @@ impl LayerPacker {
             with_packer!(inner, p, _D, p.trim_polled(height, &mut poll))
         })?;
         match (out, raised) {
-            (Some((removed, steps)), _) => {
+            (_, Some(e)) => Err(e),
+            (Some((removed, steps)), None) => {
                 let d = PyDict::new(py);
                 d.set_item("removed", removed)?;
                 d.set_item("steps", steps)?;
                 d.set_item("height", with_packer!(self.packer()?, p, _D, p.height()))?;
                 Ok(d)
             }
-            (None, Some(e)) => Err(e),
             (None, None) => Err(PyRuntimeError::new_err("the relax was stopped midway")),
         }
     }

@@ -443,9 +443,13 @@ where
     /// Advances `n` steps like [`World::step_n`], in chunks of about `every` of wall
     /// time, and calls `poll` after each chunk: a caller that must react to an
     /// interrupt (Ctrl-C) while a long run is under way returns false from it, and the
-    /// run stops there. Returns whether all `n` steps were taken. Chunking changes
-    /// nothing in the results: a step depends on the step counter, never on where a
-    /// call began.
+    /// run stops there. Returns true when the run went to its end with every poll
+    /// answering true, and false as soon as a poll answered false, even after the
+    /// chunk that ended the run: a stop asked for is a stop, and a caller that took
+    /// `true` for "go on" would otherwise run on into its next call (the adaptive
+    /// settle's many short runs end most of their polls on their last chunk).
+    /// Chunking changes nothing in the results: a step depends on the step counter,
+    /// never on where a call began.
     pub fn step_n_polled(
         &mut self,
         n: u64,
@@ -464,7 +468,7 @@ where
             self.step_n(k)?;
             left -= k;
             if !poll() {
-                return Ok(left == 0);
+                return Ok(false);
             }
             let took = start.elapsed().as_secs_f64().max(1e-9);
             let aim = (k as f64 * every.as_secs_f64() / took).clamp(1.0, 4.0 * k as f64);

@@ -73,11 +73,15 @@ fn polled_steps_equal_plain_steps_and_stop_on_request() {
     assert_eq!(a.steps(), 500);
     assert!(!b.step_n_polled(1000, every, &mut || false).unwrap());
     assert_eq!(b.steps(), 500 + 16);
+    // A stop asked for on the chunk that ends the run is still a stop.
+    assert!(!b.step_n_polled(16, every, &mut || false).unwrap());
+    assert!(!b.step_n_polled(3, every, &mut || false).unwrap());
+    assert_eq!(b.steps(), 500 + 16 + 16 + 3);
     let err = b.step_n(MAX_STEPS_PER_CALL + 1).unwrap_err();
     assert!(err.to_string().contains("steps per call"), "{err}");
     let err = b.run(1e300).unwrap_err();
     assert!(err.to_string().contains("seconds"), "{err}");
-    assert_eq!(b.steps(), 516);
+    assert_eq!(b.steps(), 535);
 }
 
 /// Hertz (1882): for F = K d^{3/2}, K = 4/3 E* sqrt(R*), the maximum overlap is
