@@ -17,7 +17,7 @@ from typing import Any, TypedDict, Unpack
 import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError, as_real
-from ..contacts import Contacts
+from ..contacts import LID_ID, Contacts
 from .container import CONTAINERS, Container, make_container
 from .inputs import (
     _as_box,
@@ -335,13 +335,13 @@ def _prepare(
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     # a consolidated pack's sample ends at its lid, not at the top of its highest sphere
-    record = getattr(pack, "consolidation", None) if pack is not None else None
-    if record is not None:
-        h_top = float(lo[-1]) + float(record["height"])
+    lid = _lid_of(pack, float(lo[-1]))
+    if lid is not None:
+        h_top = lid
         if walls is not None:
             walls = (walls[0], [*walls[1][:-1], h_top])
     hi = np.array([*hi_h, h_top])
-    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=record is not None)
+    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=lid is not None)
     if until_container:
         return cont, walls_known
     x_given = x  # as given: the contact check counts their printed digits
@@ -366,6 +366,8 @@ def _prepare(
             if cont.kind == "box"
             else find_container_contacts(x, r, cont)
         )
+        if cont.lid:
+            c = _with_lid_contacts(c, x, r, h_top)
         contacts_given = False
         geometric = c
     else:
@@ -403,6 +405,56 @@ def _prepare(
         source,
         _body_forces(pack, r, d),
         pack,
+    )
+
+
+def _lid_of(pack, floor: float) -> float | None:
+    """The height (m) of the lid that closes `pack`'s sample: a consolidated Pack's record
+    (its height above the floor at `floor`), or what a file said (``ParticleFile.lid``,
+    the container tag's ``lid=``); None for an open top."""
+    if pack is None:
+        return None
+    record = getattr(pack, "consolidation", None)
+    if record is not None:
+        return floor + float(record["height"])
+    lid = getattr(pack, "lid", None)
+    if lid is None:
+        return None
+    lid = float(lid)
+    if not (math.isfinite(lid) and lid > floor):
+        raise InvalidParameterError(
+            f"invalid lid = {lid!r}: must be a finite height above the floor at {floor!r} (m)",
+            parameter="lid",
+        )
+    return lid
+
+
+def _with_lid_contacts(c: Contacts, x: np.ndarray, r: np.ndarray, lid: float) -> Contacts:
+    """Geometric contacts `c` with those of the lid at height `lid` added: every particle
+    whose top z + r lies above it, as the engine lists a lid contact (wall id -6, normal
+    +z from the particle to the lid, overlap z + r - lid, branch (r - overlap/2) n to the
+    contact point, forces zero). The engine lists wall contacts after the pairs, by
+    particle; the lid's go last, which no quantity of the analysis depends on."""
+    top = x[:, -1] + r - lid
+    k = np.flatnonzero(top > 0.0)
+    if k.size == 0:
+        return c
+    d = x.shape[1]
+    normal = np.zeros((k.size, d))
+    normal[:, -1] = 1.0
+    overlap = top[k]
+    lid_rows = {
+        "i": k.astype(np.int64),
+        "j": np.full(k.size, LID_ID, dtype=np.int64),
+        "normal": normal,
+        "overlap": overlap,
+        "force_normal": np.zeros(k.size),
+        "force_tangential": np.zeros((k.size, d)),
+        "branch": normal * (r[k] - 0.5 * overlap)[:, None],
+    }
+    old = c.to_dict()
+    return Contacts.from_dict(
+        {key: np.concatenate([np.asarray(old[key]), lid_rows[key]]) for key in lid_rows}
     )
 
 
