@@ -7,6 +7,7 @@ Pack's phi, Z and wall contacts."""
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -16,6 +17,7 @@ from scenes import small_scene
 import granpack as gp
 from granpack import export
 from granpack.analysis import MicrostructureWarning
+from granpack.cli import main
 from granpack.contacts import LID_ID
 from granpack.container_tag import container_tag, parse_container_tag
 from granpack.dem_input import lid_height
@@ -159,3 +161,40 @@ def test_the_tag_carries_the_lid(tmp_path):
 def test_a_wrong_lid_is_refused_naming_the_line(text, match, tmp_path):
     with pytest.raises(gp.FileFormatError, match=match):
         parse_container_tag(text, tmp_path / "f", 3, 2)
+
+
+def test_a_file_without_a_tag_is_told_its_lid(sample, tmp_path, capsys):
+    # a dump LAMMPS writes has no tag: its top is open unless the caller gives the lid
+    lid = sample.consolidation["height"]
+    m0 = _analysis(sample)
+    kind = gp.analysis.System.from_any(sample).container
+    where: dict = {"box": sample.box, "container": kind.kind}
+    if kind.radius is not None:
+        where["cylinder_radius"] = kind.radius
+    arrays = {"positions": sample.positions, "radii": sample.radii, **where}
+    open_top = _analysis(gp.analysis.System.from_any(None, **arrays))
+    assert open_top.phi < m0.phi and open_top.n_wall_contacts < m0.n_wall_contacts
+    told = _analysis(gp.analysis.System.from_any(None, lid=lid, **arrays))
+    assert told.phi == pytest.approx(m0.phi, rel=1e-12)
+    assert (told.z, told.n_wall_contacts) == (m0.z, m0.n_wall_contacts)
+    # the command line: --lid, and a file's lid kept when --box replaces its box
+    path = tmp_path / "p.txt"
+    export.export(sample, path, "yade")
+    lo, hi = sample.box
+    box = [repr(float(v)) for pair in zip(lo, hi, strict=True) for v in pair]
+    for argv in (["--lid", repr(lid)], ["--box", *box]):
+        assert main(["analyze", str(path), "--json", *argv]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["phi"] == pytest.approx(m0.phi, rel=1e-12), argv
+        assert out["n_wall_contacts"] == m0.n_wall_contacts
+
+
+@pytest.mark.parametrize(
+    ("lid", "match"),
+    [(float("nan"), "lid = nan: must be finite"), (-0.01, "above the floor"), (0.02, "centre")],
+)
+def test_a_wrong_lid_argument_is_refused_naming_it(lid, match):
+    x = np.array([[0.05, 0.01], [0.05, 0.03]])
+    with pytest.raises(gp.InvalidParameterError, match=match) as err:
+        gp.microstructure(positions=x, radii=np.full(2, 0.01), lid=lid)
+    assert err.value.parameter == "lid"

@@ -41,6 +41,7 @@ class ContainerArgs(TypedDict, total=False):
     periodic: Any
     cylinder_radius: float | None
     container: str | None
+    lid: float | None
 
 
 class SystemArgs(ContainerArgs, total=False):
@@ -112,7 +113,7 @@ class System:
 
         Other Parameters
         ----------------
-        positions, radii, contacts, box, periodic, cylinder_radius, container : optional
+        positions, radii, contacts, box, periodic, cylinder_radius, container, lid : optional
             As in :func:`granpack.microstructure`: the particles as arrays (not with a
             pack), and the container to analyse in (overriding what the pack says).
 
@@ -152,6 +153,7 @@ class System:
             where.get("periodic"),
             where.get("cylinder_radius"),
             where.get("container"),
+            where.get("lid"),
         )
 
     def branches(self) -> np.ndarray:
@@ -258,6 +260,7 @@ def _prepare(
     periodic=None,
     cylinder_radius=None,
     container=None,
+    lid=None,
     *,
     until_container: bool = False,
 ):
@@ -335,7 +338,7 @@ def _prepare(
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     # a consolidated pack's sample ends at its lid, not at the top of its highest sphere
-    lid = _lid_of(pack, float(lo[-1]))
+    lid = _lid_of(pack, float(lo[-1]), lid, x, r)
     if lid is not None:
         h_top = lid
         if walls is not None:
@@ -408,22 +411,33 @@ def _prepare(
     )
 
 
-def _lid_of(pack, floor: float) -> float | None:
-    """The height (m) of the lid that closes `pack`'s sample: a consolidated Pack's record
-    (its height above the floor at `floor`), or what a file said (``ParticleFile.lid``,
-    the container tag's ``lid=``); None for an open top."""
-    if pack is None:
-        return None
-    record = getattr(pack, "consolidation", None)
-    if record is not None:
+def _lid_of(pack, floor: float, given, x: np.ndarray, r: np.ndarray) -> float | None:
+    """The height (m) of the lid that closes the sample: `given` (the caller's ``lid=``),
+    else a consolidated Pack's record (its height above the floor at `floor`), else what
+    a file said (``ParticleFile.lid``, the container tag's ``lid=``); None for an open
+    top. A lid that is not a finite height above the floor, or that lies below a
+    particle's centre, is refused."""
+    record = getattr(pack, "consolidation", None) if pack is not None else None
+    if given is not None:
+        lid = as_real("lid", given, unit="m")
+    elif record is not None:
         return floor + float(record["height"])
-    lid = getattr(pack, "lid", None)
-    if lid is None:
+    elif pack is not None and getattr(pack, "lid", None) is not None:
+        lid = float(pack.lid)
+    else:
         return None
-    lid = float(lid)
     if not (math.isfinite(lid) and lid > floor):
         raise InvalidParameterError(
             f"invalid lid = {lid!r}: must be a finite height above the floor at {floor!r} (m)",
+            parameter="lid",
+        )
+    above = x[:, -1] > lid
+    if np.any(above):
+        k = int(np.argmax(above))
+        raise InvalidParameterError(
+            f"invalid lid = {lid!r}: particle {k}'s centre lies above it, at "
+            f"{float(x[k, -1])!r} m (radius {float(r[k])!r} m); the lid must lie above "
+            "every centre (m)",
             parameter="lid",
         )
     return lid
