@@ -57,6 +57,7 @@ __all__ = [
     "container_of",
     "lid_force",
     "lid_area",
+    "lid_height",
 ]
 
 #: The file name of the input snippet beside the data file.
@@ -77,6 +78,15 @@ def _record(pack: Pack) -> dict | None:
     """The consolidation record of a consolidated pack, None for a deposit."""
     rec = getattr(pack, "consolidation", None)
     return rec if isinstance(rec, dict) and "walls" in rec else None
+
+
+def lid_height(pack: Pack) -> float | None:
+    """The height (m) of a consolidated pack's lid above the floor at 0, as the analysis
+    takes it (the top of the pack's box); None for a deposit, whose top is open. The
+    exports' container tag carries it (``lid=``), so that a file read back is analysed
+    up to the lid."""
+    rec = _record(pack)
+    return None if rec is None else float(rec["height"])
 
 
 def lid_area(pack: Pack) -> float:

@@ -8,6 +8,7 @@ junctions are those that crossed the original cell's seam, with the same forces.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import math
 import os
@@ -68,6 +69,14 @@ def tile(pack: Pack, counts) -> Pack:
         of copies; ``wall_time`` is the original's plus the tiling's; ``tiled`` records
         the counts and the original (its N, base, seed, stream and a hash of its scene),
         and a tiled pack tiled again records the counts from the first original.
+        A consolidated pack (`granpack.consolidate`, oedometric in a periodic cell)
+        tiles with its lid at the same height: ``consolidation`` is the original's
+        record (the walls, stresses, phi, k0 and force ratios hold for every copy and
+        for the whole), with ``wall_contacts`` multiplied by the number of copies and
+        ``deposit_base`` by the counts; the lid's contacts (wall id -6) are copied with
+        their particle, so the tiled pack is analysed up to the lid and exported with
+        it (the lid force of ``in.granpack`` is the copies' sum). ``rest`` and
+        ``density`` are the original's records.
 
     Notes
     -----
@@ -158,7 +167,26 @@ def tile(pack: Pack, counts) -> Pack:
         wall_time=pack.wall_time + (time.perf_counter() - t0),
         trim=trim,
         tiled=record,
+        consolidation=_tiled_consolidation(pack.consolidation, copies, reps),
+        rest=None if pack.rest is None else copy.deepcopy(pack.rest),
+        density=None if pack.density is None else copy.deepcopy(pack.density),
     )
+
+
+def _tiled_consolidation(record: dict | None, copies: int, reps: tuple[int, ...]) -> dict | None:
+    """The consolidation record of the tiled pack: the original's, whose walls (the floor
+    and the lid: a periodic cell has no side walls) stand where they stood, whose
+    stresses, phi, k0 and force ratios are those of every copy and so of the whole; only
+    the counts of wall contacts are multiplied by the copies, and the deposit's base by
+    the counts (the base of the tiled scene's deposit)."""
+    if record is None:
+        return None
+    out = copy.deepcopy(record)
+    if "wall_contacts" in out:
+        out["wall_contacts"] = {n: int(v) * copies for n, v in out["wall_contacts"].items()}
+    if "deposit_base" in out:
+        out["deposit_base"] = [float(b) * r for b, r in zip(out["deposit_base"], reps, strict=True)]
+    return out
 
 
 def _counts(counts, dim: int, n: int) -> tuple[int, ...]:

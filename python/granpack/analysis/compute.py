@@ -97,6 +97,15 @@ def microstructure(
         ``.container_source`` say which was used and why. A cylinder without `box` stands on
         the lowest particle with its axis through the middle of the particles' lateral
         extent.
+    lid : float, optional
+        Height (m) of a lid that closes the sample (a consolidated sample,
+        `granpack.consolidate`): phi and the volume are taken from the floor up to it
+        instead of H_top = max(z + r), and where the contacts are found from the geometry
+        every particle above its plane touches it (wall id -6). Above the floor and every
+        particle's centre. Default None: a Pack's consolidation record; for a file read,
+        what the file said (``ParticleFile.lid``, granpack's container tag); else an
+        open top.
+
     Returns
     -------
     Microstructure

@@ -17,7 +17,7 @@ from typing import Any, TypedDict, Unpack
 import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError, as_real
-from ..contacts import Contacts
+from ..contacts import LID_ID, Contacts
 from .container import CONTAINERS, Container, make_container
 from .inputs import (
     _as_box,
@@ -41,6 +41,7 @@ class ContainerArgs(TypedDict, total=False):
     periodic: Any
     cylinder_radius: float | None
     container: str | None
+    lid: float | None
 
 
 class SystemArgs(ContainerArgs, total=False):
@@ -112,7 +113,7 @@ class System:
 
         Other Parameters
         ----------------
-        positions, radii, contacts, box, periodic, cylinder_radius, container : optional
+        positions, radii, contacts, box, periodic, cylinder_radius, container, lid : optional
             As in :func:`granpack.microstructure`: the particles as arrays (not with a
             pack), and the container to analyse in (overriding what the pack says).
 
@@ -152,6 +153,7 @@ class System:
             where.get("periodic"),
             where.get("cylinder_radius"),
             where.get("container"),
+            where.get("lid"),
         )
 
     def branches(self) -> np.ndarray:
@@ -258,6 +260,7 @@ def _prepare(
     periodic=None,
     cylinder_radius=None,
     container=None,
+    lid=None,
     *,
     until_container: bool = False,
 ):
@@ -335,13 +338,13 @@ def _prepare(
             )
         walls = (lo.tolist(), [*hi_h.tolist(), h_top])
     # a consolidated pack's sample ends at its lid, not at the top of its highest sphere
-    record = getattr(pack, "consolidation", None) if pack is not None else None
-    if record is not None:
-        h_top = float(lo[-1]) + float(record["height"])
+    lid = _lid_of(pack, float(lo[-1]), lid, x, r)
+    if lid is not None:
+        h_top = lid
         if walls is not None:
             walls = (walls[0], [*walls[1][:-1], h_top])
     hi = np.array([*hi_h, h_top])
-    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=record is not None)
+    cont = make_container(kind, lo, hi, periodic, cylinder_radius, lid=lid is not None)
     if until_container:
         return cont, walls_known
     x_given = x  # as given: the contact check counts their printed digits
@@ -366,6 +369,8 @@ def _prepare(
             if cont.kind == "box"
             else find_container_contacts(x, r, cont)
         )
+        if cont.lid:
+            c = _with_lid_contacts(c, x, r, h_top)
         contacts_given = False
         geometric = c
     else:
@@ -403,6 +408,67 @@ def _prepare(
         source,
         _body_forces(pack, r, d),
         pack,
+    )
+
+
+def _lid_of(pack, floor: float, given, x: np.ndarray, r: np.ndarray) -> float | None:
+    """The height (m) of the lid that closes the sample: `given` (the caller's ``lid=``),
+    else a consolidated Pack's record (its height above the floor at `floor`), else what
+    a file said (``ParticleFile.lid``, the container tag's ``lid=``); None for an open
+    top. A lid that is not a finite height above the floor, or that lies below a
+    particle's centre, is refused."""
+    record = getattr(pack, "consolidation", None) if pack is not None else None
+    if given is not None:
+        lid = as_real("lid", given, unit="m")
+    elif record is not None:
+        return floor + float(record["height"])
+    elif pack is not None and getattr(pack, "lid", None) is not None:
+        lid = float(pack.lid)
+    else:
+        return None
+    if not (math.isfinite(lid) and lid > floor):
+        raise InvalidParameterError(
+            f"invalid lid = {lid!r}: must be a finite height above the floor at {floor!r} (m)",
+            parameter="lid",
+        )
+    above = x[:, -1] > lid
+    if np.any(above):
+        k = int(np.argmax(above))
+        raise InvalidParameterError(
+            f"invalid lid = {lid!r}: particle {k}'s centre lies above it, at "
+            f"{float(x[k, -1])!r} m (radius {float(r[k])!r} m); the lid must lie above "
+            "every centre (m)",
+            parameter="lid",
+        )
+    return lid
+
+
+def _with_lid_contacts(c: Contacts, x: np.ndarray, r: np.ndarray, lid: float) -> Contacts:
+    """Geometric contacts `c` with those of the lid at height `lid` added: every particle
+    whose top z + r lies above it, as the engine lists a lid contact (wall id -6, normal
+    +z from the particle to the lid, overlap z + r - lid, branch (r - overlap/2) n to the
+    contact point, forces zero). The engine lists wall contacts after the pairs, by
+    particle; the lid's go last, which no quantity of the analysis depends on."""
+    top = x[:, -1] + r - lid
+    k = np.flatnonzero(top > 0.0)
+    if k.size == 0:
+        return c
+    d = x.shape[1]
+    normal = np.zeros((k.size, d))
+    normal[:, -1] = 1.0
+    overlap = top[k]
+    lid_rows = {
+        "i": k.astype(np.int64),
+        "j": np.full(k.size, LID_ID, dtype=np.int64),
+        "normal": normal,
+        "overlap": overlap,
+        "force_normal": np.zeros(k.size),
+        "force_tangential": np.zeros((k.size, d)),
+        "branch": normal * (r[k] - 0.5 * overlap)[:, None],
+    }
+    old = c.to_dict()
+    return Contacts.from_dict(
+        {key: np.concatenate([np.asarray(old[key]), lid_rows[key]]) for key in lid_rows}
     )
 
 

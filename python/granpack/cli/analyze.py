@@ -86,6 +86,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="R",
         help="radius of --container cylinder (m; default: the file's)",
     )
+    a.add_argument(
+        "--lid",
+        type=float,
+        default=None,
+        metavar="Z",
+        help="height of the lid that closes a consolidated sample (m): the sample is taken "
+        "from the floor up to it (default: what the file says, granpack's exports of a "
+        "consolidated pack; else an open top)",
+    )
     a.add_argument("--json", action="store_true", help="print JSON instead of a table")
     a.add_argument("--figures", type=Path, default=None, metavar="DIR", help="also draw pictures")
     _args.add_quiet(a)
@@ -213,6 +222,8 @@ def _load_for_analysis(args, console: Console):
         where["container"] = args.container
     if args.cylinder_radius is not None:
         where["cylinder_radius"] = args.cylinder_radius
+    if args.lid is not None:
+        where["lid"] = args.lid
     if args.box is None:
         return particles, where
     if particles.contacts is not None and args.contacts is not None:
@@ -236,6 +247,8 @@ def _load_for_analysis(args, console: Console):
         where["container"] = particles.container
         if particles.cylinder_radius is not None and "cylinder_radius" not in where:
             where["cylinder_radius"] = particles.cylinder_radius
+    if "lid" not in where and particles.lid is not None:
+        where["lid"] = particles.lid  # nor its lid
     return particles, {
         "positions": particles.positions,
         "radii": particles.radii,

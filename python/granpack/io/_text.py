@@ -17,7 +17,7 @@ from .._validate import (
     short_repr,
 )
 from ..container_tag import ContainerTag, container_tag, parse_container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -170,6 +170,7 @@ def _tag_fields(tag: ContainerTag | None, d: int) -> dict:
         "container": tag.kind,
         "cylinder_radius": tag.cylinder_radius,
         "periodic": (tag.kind == "periodic",) * (d - 1),
+        "lid": tag.lid,
     }
     if tag.lo is not None and tag.hi is not None:
         out["box"] = (tag.lo, tag.hi)
@@ -214,9 +215,10 @@ def _axes(dim: int) -> list[str]:
 
 
 def _tag(pack: Pack) -> str:
-    """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top))."""
+    """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top)) and
+    the lid of a consolidated pack."""
     lo, hi = pack.box
-    return container_tag(*container_of(pack), lo, hi)
+    return container_tag(*container_of(pack), lo, hi, lid_height(pack))
 
 
 def _read_args(snapshot, dim) -> int:

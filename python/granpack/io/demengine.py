@@ -51,7 +51,7 @@ import numpy as np
 
 from .._validate import InvalidParameterError
 from ..container_tag import container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 from ._text import _format_lines, _state3
 
@@ -217,7 +217,7 @@ def write_demengine(
         f"stream={s.stream} (SI units, vertical {'z' if d == 3 else 'y'}"
         f"{', 2D in the plane z = 0' if d == 2 else ''}), for {path.name}\n"
     )
-    tab.write(f"# granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
+    tab.write(f"# granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
     bound = error_bound(float(r.min()), float(r.max()), max_templates) if n else 0.0
     tab.write(
         f"# templates={len(templates)} (at most {max_templates}) "

@@ -60,7 +60,7 @@ import numpy as np
 
 from .._validate import FileFormatError, GranpackError
 from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 from ._text import _frame_index, _read_args
 from .particle_file import ParticleFile
@@ -141,7 +141,7 @@ def write_gsd(pack: Pack, path: str | Path) -> Path:
         position[:, 2] = 0.0
     diameter = np.ascontiguousarray(2.0 * np.asarray(pack.radii, np.float64), dtype=np.float32)
     kind, radius = container_of(pack)
-    tag = f"dim={dim} " + container_tag(kind, radius, lo, hi)
+    tag = f"dim={dim} " + container_tag(kind, radius, lo, hi, lid_height(pack))
     chunks: list[tuple[str, Any]] = [
         ("configuration/step", np.array([0], dtype=np.uint64)),
         ("configuration/dimensions", np.array([dim], dtype=np.uint8)),
@@ -503,5 +503,6 @@ def _granpack_fields(fr: _Frame, text: str, d: int) -> dict:
         "container": tag.kind,
         "cylinder_radius": tag.cylinder_radius,
         "periodic": (tag.kind == "periodic",) * (d - 1),
+        "lid": tag.lid,
         "shift": shift,
     }

@@ -51,7 +51,7 @@ import numpy as np
 
 from .._validate import FileFormatError, InvalidParameterError
 from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 from ._text import _format_lines, _read_text, _state3
 
@@ -102,7 +102,7 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
         f"// Kratos DEM model part from granpack: dim={d} N={n} seed={s.seed} stream={s.stream} "
         f"(SI units, vertical {vertical}{', discs in the plane z = 0' if d == 2 else ''})\n"
     )
-    out.write(f"// granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
+    out.write(f"// granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
     mass = ""
     if d == 2:
         mass = (
@@ -354,6 +354,7 @@ def read_kratos(path: str | Path, dim: int | None = None) -> ParticleFile:
                 "container": tag.kind,
                 "cylinder_radius": tag.cylinder_radius,
                 "periodic": (tag.kind == "periodic",) * (d - 1),
+                "lid": tag.lid,
             }
             if tag.lo is not None and tag.hi is not None:
                 fields["box"] = (tag.lo, tag.hi)

@@ -18,7 +18,7 @@ from .._validate import (
     is_number,
 )
 from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import SNIPPET_NAME, container_of, lammps_input, liggghts_input
+from ..dem_input import SNIPPET_NAME, container_of, lammps_input, lid_height, liggghts_input
 from ..pack import atomic_write
 
 if TYPE_CHECKING:
@@ -282,7 +282,7 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
             else " (sphere: m = 4/3 pi r^3 rho)"
         )
     # the container tag (granpack.container_tag): read_particles analyses the file in it
-    where = ", " + container_tag(kind, radius)
+    where = ", " + container_tag(kind, radius, lid=lid_height(pack))
     # A particle touching the top sits exactly on H_top; nothing is outside the box.
     out = io.StringIO()
     out.write(

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..container_tag import container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 from ._text import _format_lines
 
@@ -86,7 +86,9 @@ def write_mercurydpm(pack: Pack, path: str | Path) -> Path:
     n = len(pack)
     out = io.StringIO()
     box = " ".join(repr(float(a)) for a in (*lo, *hi))
-    out.write(f"{n} 0.0 {box} granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
+    out.write(
+        f"{n} 0.0 {box} granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n"
+    )
     if d == 3:
         cols = [*x.T, *v.T, r, *np.zeros((3, n)), *spins.T]
     else:

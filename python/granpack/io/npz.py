@@ -18,7 +18,7 @@ from .particle_file import ParticleFile
 
 
 def read_npz(path: Path, dim: int | None) -> ParticleFile:
-    from ..dem_input import container_of
+    from ..dem_input import container_of, lid_height
     from ..pack import load_pack
 
     pack = load_pack(path)
@@ -34,6 +34,7 @@ def read_npz(path: Path, dim: int | None) -> ParticleFile:
         periodic=(kind == "periodic",) * (pack.dim - 1),
         container=kind,
         cylinder_radius=radius,
+        lid=lid_height(pack),
         contacts=pack.contacts,
         pack=pack,
     )

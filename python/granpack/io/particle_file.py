@@ -52,6 +52,12 @@ class ParticleFile:
         (``Microstructure.container_source``).
     cylinder_radius : float or None
         R (m) of a cylinder container.
+    lid : float or None
+        The height (m) of the lid that closes a consolidated sample, where the file says
+        so (the container tag's ``lid=``, a pack file's consolidation record). The
+        analysis then takes the sample from the floor up to the lid (H_top is the lid,
+        not max(z + r)) and counts the particles that reach above it as contacts with
+        the lid (wall id -6). None: an open top.
     timestep : int or None
         A dump snapshot's ``TIMESTEP``.
     snapshot : int
@@ -80,6 +86,7 @@ class ParticleFile:
         periodic: tuple[bool, ...] | None = None,
         container: str | None = None,
         cylinder_radius: float | None = None,
+        lid: float | None = None,
         timestep: int | None = None,
         snapshot: int = 0,
         n_snapshots: int = 1,
@@ -99,6 +106,7 @@ class ParticleFile:
             container = "periodic"
         self.container = container
         self.cylinder_radius = cylinder_radius
+        self.lid = None if lid is None else float(lid)
         self.timestep = timestep
         self.snapshot = snapshot
         self.n_snapshots = n_snapshots
@@ -156,6 +164,7 @@ class ParticleFile:
             periodic=self.periodic,
             container=self.container,
             cylinder_radius=self.cylinder_radius,
+            lid=self.lid,
             timestep=self.timestep,
             snapshot=self.snapshot,
             n_snapshots=self.n_snapshots,

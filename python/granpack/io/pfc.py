@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..container_tag import container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 from ._text import _format_lines
 
@@ -92,7 +92,7 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
         f"; {program} 7 commands from granpack: dim={d} N={n} seed={s.seed} stream={s.stream} "
         f"(SI units, vertical {'z' if d == 3 else 'y'})\n"
     )
-    out.write(f"; granpack: dim={d} {container_tag(kind, radius, lo, hi)}\n")
+    out.write(f"; granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
     out.write(
         f"; material: density={m.density!r} young={m.young!r} poisson={m.poisson!r} "
         f"friction={m.friction!r} damping_ratio={m.damping!r}"

@@ -13,7 +13,7 @@ from .._validate import (
     is_number,
 )
 from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of
+from ..dem_input import container_of, lid_height
 from ..pack import atomic_write
 
 if TYPE_CHECKING:
@@ -224,7 +224,7 @@ def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     tag = parse_container_tag(info.get("granpack", ""), path, c, d)
     extra: dict = {}
     if tag is not None:
-        extra = {"container": tag.kind, "cylinder_radius": tag.cylinder_radius}
+        extra = {"container": tag.kind, "cylinder_radius": tag.cylinder_radius, "lid": tag.lid}
         if tag.kind == "periodic" and not (periodic and any(periodic[: d - 1])):
             periodic = (True,) * (d - 1)
     return ParticleFile(
@@ -268,7 +268,7 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
         "Properties=species:S:1:pos:R:3:radius:R:1 "
         f'pbc="{" ".join("T" if p else "F" for p in pbc)}" '
         f'granpack="dim={s.dim} seed={s.seed} stream={s.stream} H_top={pack.height!r} '
-        f'{container_tag(*container_of(pack))}"'
+        f'{container_tag(*container_of(pack), lid=lid_height(pack))}"'
     )
     out = io.StringIO()
     out.write(f"{len(pack)}\n{comment}\n")
