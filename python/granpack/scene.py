@@ -27,7 +27,7 @@ from ._validate import (
     unknown_keys,
 )
 from .simulation import Material
-from .stage_settings import check_table
+from .stage_settings import check_scene_table, check_table
 
 if TYPE_CHECKING:
     from ._core import ContainerName, RadiusLawName
@@ -361,6 +361,10 @@ class PackScene:
             s(self, "r_std", resolved["r_std"])
         s(self, "base", tuple(resolved["base"]))
         s(self, "cylinder_radius", resolved["cylinder_radius"])
+        if self.consolidate is not None:
+            # what the stage's settings must be for these radii and this material, now
+            # rather than after the deposit
+            check_scene_table(self.consolidate, self)
 
     def _check_types(self) -> None:
         """Types every key (`_KEY_TYPES`) without checking its range: a value of the
