@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import lzma
 import math
@@ -298,7 +299,12 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
     so a reader never sees a half-written file. `data` is the bytes, or a function that
     writes them to the open (binary, seekable) temporary file."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # a file where a folder of the path should be
+        raise OSError(errno.ENOTDIR, "a folder of the path is a file", str(path)) from None
+    except OSError as exc:
+        raise _naming(exc, path) from None
     try:
         mode = path.stat().st_mode
     except OSError:  # missing (the usual case) or unreadable: the rename decides
@@ -306,7 +312,10 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
     if mode is not None and not stat.S_ISREG(mode):
         # a rename would replace a device (/dev/null), a pipe or a folder, not write to it
         raise GranpackError(f"cannot write {path}: not a regular file")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
+    except OSError as exc:
+        raise _naming(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             if callable(data):
@@ -319,10 +328,22 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
             os.fchmod(f.fileno(), 0o666 & ~_umask())
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise _naming(exc, path) from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _naming(exc: OSError, path: Path) -> OSError:
+    """`exc` as it concerns the file the caller asked for: the same kind of OSError
+    (errno and message), naming `path`, not the temporary file that the write went
+    through (which is gone) nor nothing at all (a full disk's ENOSPC names no file)."""
+    if exc.errno is None:
+        return OSError(f"cannot write {path}: {exc}")
+    return OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(path))
 
 
 def _umask() -> int:
