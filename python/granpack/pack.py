@@ -24,6 +24,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from . import _core
+from ._memory import memory_limit
 from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
 from .contacts import Contacts
 from .scene import PackScene
@@ -624,20 +625,22 @@ BYTES_PER_PARTICLE = 1500
 
 
 def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
-    """Refuses a scene whose particles would not fit in 80 % of this machine's memory
-    (or of `total_bytes`), before any work is done."""
+    """Refuses a scene whose particles would not fit in 80 % of the memory this process
+    may use (`granpack._memory.memory_limit`: the machine's, RLIMIT_AS's or the control
+    group's, the smallest), or of `total_bytes`, before any work is done."""
+    source = "this machine's memory"
     if total_bytes is None:
-        try:
-            total_bytes = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        except (ValueError, OSError, AttributeError):  # not POSIX: cannot tell
+        limit = memory_limit()
+        if limit is None:  # cannot tell
             return
+        total_bytes, source = limit.bytes, limit.source
     n = scene.estimated_particles()
     need = n * BYTES_PER_PARTICLE
     if need > 0.8 * total_bytes:
         raise InvalidParameterError(
             f"invalid scene: about {n:.3g} particles (~{need / 2**30:.1f} GiB) would not fit "
-            f"in this machine's memory ({total_bytes / 2**30:.1f} GiB); shrink base or "
-            "height, or grow r_mean",
+            f"in {source} ({total_bytes / 2**30:.1f} GiB); shrink base or height, or grow "
+            "r_mean",
             parameter="scene",
         )
 
