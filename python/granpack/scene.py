@@ -103,6 +103,13 @@ def _preset_name(value: object) -> str:
     return value
 
 
+#: What an empty scene file is told: a scene read from a file says what it is, so that a
+#: truncated or wrong file is not run silently as the defaults.
+_EMPTY_SCENE = (
+    'a scene read from TOML must say what it is: write preset = "4.1" (the defaults, '
+    "the paper's example 4.1) or set the keys (docs/scene.md)"
+)
+
 _TOO_DEEP = (
     "values are nested too deeply (a scene holds numbers, strings, flat lists and one "
     "[material] table)"
@@ -559,7 +566,9 @@ class PackScene:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> PackScene:
-        """Reads a scene from a TOML file (flat keys, a [material] table)."""
+        """Reads a scene from a TOML file (flat keys, a [material] table). A file that sets
+        no key (empty, or comments only) is refused: write ``preset = "4.1"`` for the
+        defaults."""
         if not isinstance(path, str | os.PathLike):
             raise InvalidParameterError(
                 f"invalid path = {short_repr(path)}: expected a file name", parameter="path"
@@ -577,11 +586,19 @@ class PackScene:
             ) from None
         except OSError as exc:
             raise GranpackError(f"cannot read scene file {path}: {exc.strerror}") from None
+        if not doc:
+            raise FileFormatError(
+                f"invalid scene file {path}: it sets no key (empty, or comments only); "
+                f"{_EMPTY_SCENE}",
+                path=path,
+                reason="no key",
+            )
         return cls.from_dict(doc)
 
     @classmethod
     def from_toml_string(cls, text: str) -> PackScene:
-        """Reads a scene from TOML text (str, or UTF-8 bytes)."""
+        """Reads a scene from TOML text (str, or UTF-8 bytes); text that sets no key is
+        refused, as `from_toml` refuses an empty file."""
         try:
             if isinstance(text, bytes | bytearray):
                 text = bytes(text).decode()
@@ -600,6 +617,11 @@ class PackScene:
             ) from None
         except tomllib.TOMLDecodeError as exc:
             raise InvalidParameterError(f"invalid scene TOML: {exc}", parameter="scene") from None
+        if not doc:
+            raise InvalidParameterError(
+                f"invalid scene TOML: it sets no key (empty, or comments only); {_EMPTY_SCENE}",
+                parameter="scene",
+            )
         return cls.from_dict(doc)
 
     def to_dict(self) -> dict:
