@@ -361,6 +361,7 @@ class PackScene:
         # scene's one validator (src/scene/), the same that the layer loop runs, so a
         # scene that is built is one that generates.
         resolved = _core.resolve_scene(self)
+        self._refuse_conflicting_derived(resolved)
         s(self, "r_min", resolved["r_min"])
         s(self, "r_max", resolved["r_max"])
         if self.radius_law in ("constant", "uniform", "discrete", "sieve"):
@@ -431,6 +432,28 @@ class PackScene:
                     )
             else:  # pragma: no cover - a key added to the scene without its type
                 raise AssertionError(f"scene key {key} has no type")
+
+    def _refuse_conflicting_derived(self, resolved: Mapping) -> None:
+        """Refuses, by name, a key that the radius law derives (`_DERIVED_KEYS`) given
+        with another value than the one derived (``radius_law = "uniform"`` with
+        ``r_mean = 0.5``): it would otherwise be replaced silently. Its default, and the
+        derived value itself (a scene written and read back, or copied by `replace`),
+        are taken."""
+        for key in _DERIVED_KEYS[self.radius_law]:
+            given, derived = getattr(self, key), float(resolved[key])
+            if given is None or given == _KEY_DEFAULTS[key]:
+                continue
+            if math.isclose(given, derived, rel_tol=1e-12, abs_tol=0.0):
+                continue
+            inputs = ", ".join(_LAW_INPUTS[self.radius_law])
+            raise InvalidParameterError(
+                f"invalid {key} = {given!r}: radius_law = {self.radius_law!r} derives {key} "
+                f"from {inputs} ({derived:.6g} m here); leave {key} out, or choose a law "
+                f"that takes it",
+                parameter=key,
+                value=given,
+                expected=f"{derived!r} (derived) or left out",
+            )
 
     def _check_radius_law(self) -> None:
         """Types the radius law's keys (the engine checks the law and derives r_min,
@@ -522,6 +545,12 @@ class PackScene:
         """A copy with some fields changed (validated again; a change of `seed` and
         `stream` alone checks those two, as they enter no rule that combines keys)."""
         unknown_keys("scene", changes, [f.name for f in dataclasses.fields(self)])
+        # what the (new) law derives is derived again, not carried over from this
+        # scene's values, which its old inputs set
+        law = changes.get("radius_law", self.radius_law)
+        if (changes.keys() - _STREAM_KEYS) and isinstance(law, str):
+            for key in _DERIVED_KEYS.get(law, ()):
+                changes.setdefault(key, _KEY_DEFAULTS[key])
         if changes and changes.keys() <= _STREAM_KEYS:
             new = object.__new__(PackScene)
             new.__dict__.update(self.__dict__)
@@ -562,6 +591,11 @@ class PackScene:
                 parameter="base",
             )
         base.update(d)
+        # a preset's radius keys give way to what the file's own law derives
+        law = base.get("radius_law", "constant")
+        for key in _DERIVED_KEYS.get(law, ()) if isinstance(law, str) else ():
+            if key not in d:
+                base.pop(key, None)
         return cls(**base)
 
     @classmethod
@@ -672,6 +706,26 @@ class PackScene:
         per_layer = self.phi_layer * self.base_area * self.h_layer / vol
         return n_layers * per_layer
 
+
+#: The radius keys each law derives (from its own keys, `_LAW_INPUTS`) rather than
+#: takes: a value given for one of them must be its default or the derived value.
+_DERIVED_KEYS: dict[str, tuple[str, ...]] = {
+    "constant": ("r_std", "r_min", "r_max"),
+    "gaussian": (),
+    "lognormal": (),
+    "uniform": ("r_mean", "r_std"),
+    "discrete": ("r_mean", "r_std", "r_min", "r_max"),
+    "sieve": ("r_mean", "r_std", "r_min", "r_max"),
+}
+_LAW_INPUTS: dict[str, tuple[str, ...]] = {
+    "constant": ("r_mean",),
+    "gaussian": ("r_mean", "r_std", "r_min", "r_max"),
+    "lognormal": ("r_mean", "r_std", "r_min", "r_max"),
+    "uniform": ("r_min", "r_max"),
+    "discrete": ("radii", "fractions"),
+    "sieve": ("sieve_sizes", "sieve_passing"),
+}
+_KEY_DEFAULTS = {"r_mean": 0.01, "r_std": 0.0, "r_min": None, "r_max": None}
 
 #: The type of every scene key, checked before anything else (`PackScene._check_types`):
 #: "real", "int" (>= 0), "bool", "text" (one of `_TEXT_CHOICES`), "reals" (a list of
