@@ -646,7 +646,17 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         g = np.zeros(dim)
         g[-1] = -float(sc.gravity)
         boundary -= np.einsum("n,na,b->ab", sim.masses, x, g) / volume
-    boundary = 0.5 * (boundary + boundary.T)
+    if sc.container == "periodic":
+        # Across a periodic seam the stress passes from particle to particle, never
+        # through a wall: the boundary sum holds only the vertical row (the floor and the
+        # lid, whose heights are not wrapped). Its lateral entries, x_c f_c with wrapped
+        # x_c, depend on where the cell's origin lies and are no stress; they are NaN.
+        row = boundary[-1].copy()
+        boundary = np.full((dim, dim), math.nan)
+        boundary[-1, :] = row
+        boundary[:, -1] = row
+    else:
+        boundary = 0.5 * (boundary + boundary.T)
     vertical = wall_stress["lid"]
     if sc.container == "periodic":
         lateral = float(np.trace(lw[:-1, :-1]) / (dim - 1))

@@ -117,7 +117,8 @@ class Pack:
         ``max_wall_speed``, ``gain``, ``local_damping``, ``gravity``), ``walls`` (each
         wall's position, m: ``floor``, the side walls or ``cylinder`` (its radius),
         ``lid``), ``wall_stress`` (force over area on each wall, Pa),
-        ``love_weber`` and ``boundary_stress`` (D x D, Pa), ``k0``, ``phi`` and
+        ``love_weber`` and ``boundary_stress`` (D x D, Pa; in a periodic cell only the
+        latter's vertical row and column, the rest NaN), ``k0``, ``phi`` and
         ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
         ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
         pack's ``height`` is then the lid's height.
