@@ -11,6 +11,7 @@ import warnings
 import pytest
 
 import granpack as gp
+from granpack.consolidation import stage_time_step
 from granpack.stage_settings import (
     MIN_OVERLAP_RATIO,
     hertz_overlap,
@@ -142,3 +143,9 @@ def test_side_walls_that_stay_a_diameter_apart_keep_the_sample(wide):
     assert done.consolidation["walls"]["x_hi"] - done.consolidation["walls"][
         "x_lo"
     ] == pytest.approx(width)
+
+
+@pytest.mark.parametrize("stress", [5e-324, 1e-300, 0.0])
+def test_the_stage_step_of_a_vanishing_stress_is_the_scene_s(wide, stress):
+    # contacts no stress stiffens: the Rayleigh-bounded scene step holds
+    assert stage_time_step(wide, stress) == WIDE.dt

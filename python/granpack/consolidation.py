@@ -111,6 +111,8 @@ def stage_time_step(pack: Pack, stress: float) -> float:
         force = 4.0 * stress * 2.0 * r_max  # N per m of thickness over a disc's width
     d = hertz_overlap(force, 0.5 * r_max, e_star)
     k = 2.0 * e_star * math.sqrt(0.5 * r_max * d)
+    if k <= 0.0:  # a stress too small to stiffen any contact (it underflows): the scene's
+        return float(sc.dt)
     m_min = float(_masses(sc, np.array([r_min]))[0])
     return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / k))
 
