@@ -172,3 +172,14 @@ def test_commands_refuse_an_unwritable_output_before_the_stage(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"cannot write {out}" in err and ".tmp" not in err
+
+
+@pytest.mark.parametrize("command", ["generate", "paper"])
+def test_runs_into_a_folder_that_cannot_be_made_are_refused_before_the_work(
+    tmp_path, capsys, command
+):
+    out = _blocked(tmp_path).parent  # block/sub: under a regular file
+    argv = ["generate", "4.1"] if command == "generate" else ["paper", "--quick"]
+    assert main([*argv, "--out", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {out / 'report.md'}" in err and "is not a folder" in err
