@@ -276,7 +276,6 @@ def _box_pack(dim: int, container: str = "box") -> gp.Pack:
             base=(0.12, 0.12),
             height=0.05,
             r_mean=0.006,
-            r_std=0.001,
             phi_layer=0.3,
             settle_time=0.35,
             container=container,

@@ -71,10 +71,12 @@ def same_file(a: Path, b: Path) -> bool:
 def refuse_scene_among_outputs(source: Path, out: Path) -> None:
     """Refuses a scene file that the run would write over: one of the files or inside
     one of the folders a run writes under `out` (out/scene.toml itself is the rerun
-    from the folder's record, checked by the caller)."""
+    from the folder's record, checked by the caller); and an `out` the run cannot write
+    (`check_outputs`)."""
+    # a folder the run cannot write is refused here, before the work, naming it
+    check_outputs([out / f for f in RUN_FILES], [source] if source.exists() else [], "--out")
     if not source.exists():
         return
-    check_outputs([out / f for f in RUN_FILES], [source], "--out")
     where = source.resolve()
     for folder in RUN_FOLDERS:
         if where.is_relative_to((out / folder).resolve()):

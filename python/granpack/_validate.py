@@ -172,12 +172,50 @@ def _same_path(a: Path, b: Path) -> bool:
         return False
 
 
+def _check_writable(out: Path, flag: str, parameter: str) -> None:
+    """Refuses an output file that cannot be written where it is named: an existing
+    folder (or device) of that name, a parent that is a file, or a folder (or, when
+    it does not exist yet, the nearest folder above it, where it would be made) without
+    write permission or on a read-only file system. The write itself may still fail
+    (a full disk), but not for a reason known before the work."""
+
+    def refuse(why: str) -> InvalidParameterError:
+        return InvalidParameterError(
+            f"invalid {flag} = {short_repr(str(out))}: cannot write {out}: {why}",
+            parameter=parameter,
+            value=str(out),
+            expected="a file in a folder this user can write",
+        )
+
+    if out.exists() and not out.is_file():
+        raise refuse("it exists and is not a regular file")
+    folder = out.parent
+    while True:
+        try:
+            os.stat(folder)
+        except (FileNotFoundError, NotADirectoryError):  # to be made: its nearest folder
+            if folder.parent == folder:
+                break
+            folder = folder.parent
+            continue
+        except OSError as exc:  # a file in the middle of the path, a loop
+            raise refuse(f"{folder}: {exc.strerror}") from None
+        break
+    if not folder.is_dir():
+        raise refuse(f"{folder} is not a folder")
+    # access(2) also answers EROFS for a read-only file system, for root too
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise refuse(f"the folder {folder} is not writable")
+
+
 def check_outputs(
     outputs: Iterable[str | os.PathLike], inputs: Iterable[str | os.PathLike], parameter: str
 ) -> None:
     """Refuses, before anything is written, a set of output files of which two are one
-    file, or one is an input file: an InvalidParameterError naming `parameter` (the
-    option or argument that chose the outputs' names)."""
+    file, or one is an input file, or one that cannot be written there (an existing
+    folder of that name, a folder that is not writable): an InvalidParameterError
+    naming `parameter` (the option or argument that chose the outputs' names) and the
+    output's own path."""
     outs = [Path(p) for p in outputs]
     ins = [Path(p) for p in inputs if p is not None]
     flag = parameter  # as the user spells it: "--out", or a function's "path"
@@ -201,6 +239,7 @@ def check_outputs(
                     value=str(out),
                     expected="a name whose outputs are distinct files",
                 )
+        _check_writable(out, flag, parameter.lstrip("-").replace("-", "_"))
 
 
 def unknown_keys(where: str, given: Iterable[str], known: Iterable[str]) -> None:

@@ -40,6 +40,9 @@ from .stage_settings import (
     _settings,
     _targets,
     _wall_names,
+    check_stresses,
+    check_time_step,
+    hertz_overlap,
 )
 
 __all__ = ["consolidate", "settle", "ConsolidationError", "MODES", "stage_time_step"]
@@ -85,12 +88,6 @@ def _masses(scene, r: np.ndarray) -> np.ndarray:
     return scene.material.density * (np.pi * r**2 if disc else 4.0 / 3.0 * np.pi * r**3)
 
 
-def hertz_overlap(force: float, r_eff: float, e_star: float) -> float:
-    """The overlap (m) at which a Hertz contact of effective radius `r_eff` carries
-    `force`: F = 4/3 E* sqrt(R*) d^(3/2)."""
-    return (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
-
-
 def stage_time_step(pack: Pack, stress: float) -> float:
     """The consolidation stage's time step (s): the scene's dt, or less where the
     contacts at the target are stiffer than the deposit's.
@@ -114,6 +111,8 @@ def stage_time_step(pack: Pack, stress: float) -> float:
         force = 4.0 * stress * 2.0 * r_max  # N per m of thickness over a disc's width
     d = hertz_overlap(force, 0.5 * r_max, e_star)
     k = 2.0 * e_star * math.sqrt(0.5 * r_max * d)
+    if k <= 0.0:  # a stress too small to stiffen any contact (it underflows): the scene's
+        return float(sc.dt)
     m_min = float(_masses(sc, np.array([r_min]))[0])
     return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / k))
 
@@ -228,23 +227,18 @@ def consolidate(
     targets = _targets(mode, kind, dim, stress, lateral)
 
     mat = sc.material
-    e_star = mat.e_star
     r = pack.radii
     r_mean, r_min = float(np.mean(r)), float(np.min(r))
-    # the overlap the target needs, for a mean contact of mean spheres
+    # every target within what the Hertz law and the positions allow, by its own key
+    check_stresses(
+        targets,
+        dim=dim,
+        r_mean=r_mean,
+        material=mat,
+        max_overlap_ratio=sc.max_overlap_ratio,
+    )
+    check_time_step(s["dt"], mat, r_min)
     top = max(targets.values())
-    f_mean = top * (2.0 * r_mean) ** (dim - 1)
-    est = hertz_overlap(f_mean, 0.5 * r_mean, e_star) / r_mean
-    if est > sc.max_overlap_ratio:
-        raise InvalidParameterError(
-            f"invalid stress = {top:g} Pa: with E = {mat.young:g} Pa it needs overlaps of "
-            f"about {est:.2f} of the radius, beyond max_overlap_ratio = "
-            f"{sc.max_overlap_ratio:g}; the Hertz law does not hold there. Lower the "
-            "stress or stiffen the material",
-            parameter="stress",
-            value=top,
-            expected=f"an overlap below max_overlap_ratio = {sc.max_overlap_ratio:g}",
-        )
     step = stage_time_step(pack, top) if s["dt"] is None else s["dt"]
 
     weight_stress = float(np.sum(_masses(sc, r))) * float(sc.gravity) / float(sc.base_area)
@@ -628,11 +622,17 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         axes = ["x", "y"][: dim - 1]
         shift[: dim - 1] = [-pos[f"{a}_lo"] for a in axes]
         base = tuple(pos[f"{a}_hi"] - pos[f"{a}_lo"] for a in axes)
-        scene = sc.replace(base=base)
+        scene = _moved_walls_scene(sc, settings["mode"], targets, rep, {"base": base})
     elif sc.container == "cylinder" and "cylinder" in targets:
         radius = pos["cylinder"]
         shift[:2] = radius - sc.base[0] / 2.0
-        scene = sc.replace(base=(2.0 * radius, 2.0 * radius), cylinder_radius=radius)
+        scene = _moved_walls_scene(
+            sc,
+            settings["mode"],
+            targets,
+            rep,
+            {"base": (2.0 * radius, 2.0 * radius), "cylinder_radius": radius},
+        )
     x = x + shift
     lid = pos["lid"] - pos["floor"]
     vol_solid = float(np.sum(_volumes(pack.radii, dim)))
@@ -648,7 +648,17 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         g = np.zeros(dim)
         g[-1] = -float(sc.gravity)
         boundary -= np.einsum("n,na,b->ab", sim.masses, x, g) / volume
-    boundary = 0.5 * (boundary + boundary.T)
+    if sc.container == "periodic":
+        # Across a periodic seam the stress passes from particle to particle, never
+        # through a wall: the boundary sum holds only the vertical row (the floor and the
+        # lid, whose heights are not wrapped). Its lateral entries, x_c f_c with wrapped
+        # x_c, depend on where the cell's origin lies and are no stress; they are NaN.
+        row = boundary[-1].copy()
+        boundary = np.full((dim, dim), math.nan)
+        boundary[-1, :] = row
+        boundary[:, -1] = row
+    else:
+        boundary = 0.5 * (boundary + boundary.T)
     vertical = wall_stress["lid"]
     if sc.container == "periodic":
         lateral = float(np.trace(lw[:-1, :-1]) / (dim - 1))
@@ -699,6 +709,38 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         height=lid,
         consolidation=record,
     )
+
+
+def _moved_walls_scene(sc, mode: str, targets: dict[str, float], rep: dict, changes: dict):
+    """The scene of a sample whose side walls moved: the deposit's with the container
+    the walls now bound. A pack's scene is one that generates (its file is read back
+    through the scene's checks), whose container holds at least one particle diameter
+    2 r_max; side walls squeezed closer than that (a sample one or two particles wide
+    under a stress that presses the walls into them) make no such scene, and the stage
+    says so in its own terms instead of refusing a base the user never set."""
+    try:
+        return sc.replace(**changes)
+    except InvalidParameterError as exc:
+        if exc.parameter not in ("base", "cylinder_radius"):
+            raise
+        hist = rep["history"]
+        lateral = max(v for n, v in targets.items() if n != "lid")
+        diameter = f"2 r_max = {2.0 * float(sc.r_max):.6g} m"
+        if "cylinder_radius" in changes:
+            what = f"its radius to {changes['cylinder_radius']:.6g} m, below {diameter}"
+        else:
+            apart = " x ".join(f"{b:.6g}" for b in changes["base"])
+            what = f"its side walls to {apart} m apart, closer than one diameter {diameter}"
+        raise ConsolidationError(
+            f"the {mode} consolidation to stress = {targets['lid']:g} Pa (side walls at "
+            f"{lateral:g} Pa) squeezed the sample too narrow to keep: it moved {what}, the "
+            f"least a pack's {sc.container} must hold. Give the deposit a wider base, or "
+            "consolidate it with mode='oedometric' (the side walls stay)",
+            steps=int(rep["steps"]),
+            stress={n: float(hist["stress"][-1, k]) for k, n in enumerate(targets)},
+            stress_error=float(hist["stress_error"][-1]),
+            unbalanced=float(hist["unbalanced"][-1]),
+        ) from None
 
 
 def _wall_shift(name: str, shift: np.ndarray) -> float:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import lzma
 import math
@@ -23,6 +24,7 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from . import _core
+from ._memory import memory_limit
 from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
 from .contacts import Contacts
 from .scene import PackScene
@@ -115,7 +117,8 @@ class Pack:
         ``max_wall_speed``, ``gain``, ``local_damping``, ``gravity``), ``walls`` (each
         wall's position, m: ``floor``, the side walls or ``cylinder`` (its radius),
         ``lid``), ``wall_stress`` (force over area on each wall, Pa),
-        ``love_weber`` and ``boundary_stress`` (D x D, Pa), ``k0``, ``phi`` and
+        ``love_weber`` and ``boundary_stress`` (D x D, Pa; in a periodic cell only the
+        latter's vertical row and column, the rest NaN), ``k0``, ``phi`` and
         ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
         ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
         pack's ``height`` is then the lid's height.
@@ -298,7 +301,12 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
     so a reader never sees a half-written file. `data` is the bytes, or a function that
     writes them to the open (binary, seekable) temporary file."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # a file where a folder of the path should be
+        raise OSError(errno.ENOTDIR, "a folder of the path is a file", str(path)) from None
+    except OSError as exc:
+        raise _naming(exc, path) from None
     try:
         mode = path.stat().st_mode
     except OSError:  # missing (the usual case) or unreadable: the rename decides
@@ -306,7 +314,10 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
     if mode is not None and not stat.S_ISREG(mode):
         # a rename would replace a device (/dev/null), a pipe or a folder, not write to it
         raise GranpackError(f"cannot write {path}: not a regular file")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
+    except OSError as exc:
+        raise _naming(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as f:
             if callable(data):
@@ -319,10 +330,22 @@ def atomic_write(path: str | Path, data: bytes | Callable[[BinaryIO], object]) -
             os.fchmod(f.fileno(), 0o666 & ~_umask())
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise _naming(exc, path) from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _naming(exc: OSError, path: Path) -> OSError:
+    """`exc` as it concerns the file the caller asked for: the same kind of OSError
+    (errno and message), naming `path`, not the temporary file that the write went
+    through (which is gone) nor nothing at all (a full disk's ENOSPC names no file)."""
+    if exc.errno is None:
+        return OSError(f"cannot write {path}: {exc}")
+    return OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(path))
 
 
 def _umask() -> int:
@@ -603,20 +626,22 @@ BYTES_PER_PARTICLE = 1500
 
 
 def check_memory(scene: PackScene, total_bytes: float | None = None) -> None:
-    """Refuses a scene whose particles would not fit in 80 % of this machine's memory
-    (or of `total_bytes`), before any work is done."""
+    """Refuses a scene whose particles would not fit in 80 % of the memory this process
+    may use (`granpack._memory.memory_limit`: the machine's, RLIMIT_AS's or the control
+    group's, the smallest), or of `total_bytes`, before any work is done."""
+    source = "this machine's memory"
     if total_bytes is None:
-        try:
-            total_bytes = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        except (ValueError, OSError, AttributeError):  # not POSIX: cannot tell
+        limit = memory_limit()
+        if limit is None:  # cannot tell
             return
+        total_bytes, source = limit.bytes, limit.source
     n = scene.estimated_particles()
     need = n * BYTES_PER_PARTICLE
     if need > 0.8 * total_bytes:
         raise InvalidParameterError(
             f"invalid scene: about {n:.3g} particles (~{need / 2**30:.1f} GiB) would not fit "
-            f"in this machine's memory ({total_bytes / 2**30:.1f} GiB); shrink base or "
-            "height, or grow r_mean",
+            f"in {source} ({total_bytes / 2**30:.1f} GiB); shrink base or height, or grow "
+            "r_mean",
             parameter="scene",
         )
 

@@ -27,7 +27,7 @@ from ._validate import (
     unknown_keys,
 )
 from .simulation import Material
-from .stage_settings import check_table
+from .stage_settings import check_scene_table, check_table
 
 if TYPE_CHECKING:
     from ._core import ContainerName, RadiusLawName
@@ -102,6 +102,13 @@ def _preset_name(value: object) -> str:
         )
     return value
 
+
+#: What an empty scene file is told: a scene read from a file says what it is, so that a
+#: truncated or wrong file is not run silently as the defaults.
+_EMPTY_SCENE = (
+    'a scene read from TOML must say what it is: write preset = "4.1" (the defaults, '
+    "the paper's example 4.1) or set the keys (docs/scene.md)"
+)
 
 _TOO_DEEP = (
     "values are nested too deeply (a scene holds numbers, strings, flat lists and one "
@@ -354,6 +361,7 @@ class PackScene:
         # scene's one validator (src/scene/), the same that the layer loop runs, so a
         # scene that is built is one that generates.
         resolved = _core.resolve_scene(self)
+        self._refuse_conflicting_derived(resolved)
         s(self, "r_min", resolved["r_min"])
         s(self, "r_max", resolved["r_max"])
         if self.radius_law in ("constant", "uniform", "discrete", "sieve"):
@@ -361,6 +369,10 @@ class PackScene:
             s(self, "r_std", resolved["r_std"])
         s(self, "base", tuple(resolved["base"]))
         s(self, "cylinder_radius", resolved["cylinder_radius"])
+        if self.consolidate is not None:
+            # what the stage's settings must be for these radii and this material, now
+            # rather than after the deposit
+            check_scene_table(self.consolidate, self)
 
     def _check_types(self) -> None:
         """Types every key (`_KEY_TYPES`) without checking its range: a value of the
@@ -420,6 +432,28 @@ class PackScene:
                     )
             else:  # pragma: no cover - a key added to the scene without its type
                 raise AssertionError(f"scene key {key} has no type")
+
+    def _refuse_conflicting_derived(self, resolved: Mapping) -> None:
+        """Refuses, by name, a key that the radius law derives (`_DERIVED_KEYS`) given
+        with another value than the one derived (``radius_law = "uniform"`` with
+        ``r_mean = 0.5``): it would otherwise be replaced silently. Its default, and the
+        derived value itself (a scene written and read back, or copied by `replace`),
+        are taken."""
+        for key in _DERIVED_KEYS[self.radius_law]:
+            given, derived = getattr(self, key), float(resolved[key])
+            if given is None or given == _KEY_DEFAULTS[key]:
+                continue
+            if math.isclose(given, derived, rel_tol=1e-12, abs_tol=0.0):
+                continue
+            inputs = ", ".join(_LAW_INPUTS[self.radius_law])
+            raise InvalidParameterError(
+                f"invalid {key} = {given!r}: radius_law = {self.radius_law!r} derives {key} "
+                f"from {inputs} ({derived:.6g} m here); leave {key} out, or choose a law "
+                f"that takes it",
+                parameter=key,
+                value=given,
+                expected=f"{derived!r} (derived) or left out",
+            )
 
     def _check_radius_law(self) -> None:
         """Types the radius law's keys (the engine checks the law and derives r_min,
@@ -511,6 +545,12 @@ class PackScene:
         """A copy with some fields changed (validated again; a change of `seed` and
         `stream` alone checks those two, as they enter no rule that combines keys)."""
         unknown_keys("scene", changes, [f.name for f in dataclasses.fields(self)])
+        # what the (new) law derives is derived again, not carried over from this
+        # scene's values, which its old inputs set
+        law = changes.get("radius_law", self.radius_law)
+        if (changes.keys() - _STREAM_KEYS) and isinstance(law, str):
+            for key in _DERIVED_KEYS.get(law, ()):
+                changes.setdefault(key, _KEY_DEFAULTS[key])
         if changes and changes.keys() <= _STREAM_KEYS:
             new = object.__new__(PackScene)
             new.__dict__.update(self.__dict__)
@@ -551,11 +591,18 @@ class PackScene:
                 parameter="base",
             )
         base.update(d)
+        # a preset's radius keys give way to what the file's own law derives
+        law = base.get("radius_law", "constant")
+        for key in _DERIVED_KEYS.get(law, ()) if isinstance(law, str) else ():
+            if key not in d:
+                base.pop(key, None)
         return cls(**base)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> PackScene:
-        """Reads a scene from a TOML file (flat keys, a [material] table)."""
+        """Reads a scene from a TOML file (flat keys, a [material] table). A file that sets
+        no key (empty, or comments only) is refused: write ``preset = "4.1"`` for the
+        defaults."""
         if not isinstance(path, str | os.PathLike):
             raise InvalidParameterError(
                 f"invalid path = {short_repr(path)}: expected a file name", parameter="path"
@@ -573,11 +620,19 @@ class PackScene:
             ) from None
         except OSError as exc:
             raise GranpackError(f"cannot read scene file {path}: {exc.strerror}") from None
+        if not doc:
+            raise FileFormatError(
+                f"invalid scene file {path}: it sets no key (empty, or comments only); "
+                f"{_EMPTY_SCENE}",
+                path=path,
+                reason="no key",
+            )
         return cls.from_dict(doc)
 
     @classmethod
     def from_toml_string(cls, text: str) -> PackScene:
-        """Reads a scene from TOML text (str, or UTF-8 bytes)."""
+        """Reads a scene from TOML text (str, or UTF-8 bytes); text that sets no key is
+        refused, as `from_toml` refuses an empty file."""
         try:
             if isinstance(text, bytes | bytearray):
                 text = bytes(text).decode()
@@ -596,6 +651,11 @@ class PackScene:
             ) from None
         except tomllib.TOMLDecodeError as exc:
             raise InvalidParameterError(f"invalid scene TOML: {exc}", parameter="scene") from None
+        if not doc:
+            raise InvalidParameterError(
+                f"invalid scene TOML: it sets no key (empty, or comments only); {_EMPTY_SCENE}",
+                parameter="scene",
+            )
         return cls.from_dict(doc)
 
     def to_dict(self) -> dict:
@@ -646,6 +706,26 @@ class PackScene:
         per_layer = self.phi_layer * self.base_area * self.h_layer / vol
         return n_layers * per_layer
 
+
+#: The radius keys each law derives (from its own keys, `_LAW_INPUTS`) rather than
+#: takes: a value given for one of them must be its default or the derived value.
+_DERIVED_KEYS: dict[str, tuple[str, ...]] = {
+    "constant": ("r_std", "r_min", "r_max"),
+    "gaussian": (),
+    "lognormal": (),
+    "uniform": ("r_mean", "r_std"),
+    "discrete": ("r_mean", "r_std", "r_min", "r_max"),
+    "sieve": ("r_mean", "r_std", "r_min", "r_max"),
+}
+_LAW_INPUTS: dict[str, tuple[str, ...]] = {
+    "constant": ("r_mean",),
+    "gaussian": ("r_mean", "r_std", "r_min", "r_max"),
+    "lognormal": ("r_mean", "r_std", "r_min", "r_max"),
+    "uniform": ("r_min", "r_max"),
+    "discrete": ("radii", "fractions"),
+    "sieve": ("sieve_sizes", "sieve_passing"),
+}
+_KEY_DEFAULTS = {"r_mean": 0.01, "r_std": 0.0, "r_min": None, "r_max": None}
 
 #: The type of every scene key, checked before anything else (`PackScene._check_types`):
 #: "real", "int" (>= 0), "bool", "text" (one of `_TEXT_CHOICES`), "reals" (a list of

@@ -4,16 +4,118 @@ for the scene, which checks its table when it is built, and for `consolidate`.""
 
 from __future__ import annotations
 
+import math
 from numbers import Real
 
 import numpy as np
 
 from . import _core
 from ._validate import as_int, as_real, short_repr
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, UnstableTimeStepError
 
 #: The consolidation modes.
 MODES = ("oedometric", "isotropic", "anisotropic")
+
+#: The largest target stress any stage takes (Pa; N/m in 2D), whatever the material.
+MAX_STRESS = 1e12
+
+#: The smallest overlap, over the mean radius, that a stress target may ask of a mean
+#: contact. Below it the overlap is lost in the rounding of the positions (1e-9 r is
+#: still about 1e5 units in the last place of a centre a hundred radii from the origin,
+#: but a stress a thousand times smaller needs 1e-11 r) and the servo cannot measure the
+#: stress it drives; a subnormal target would even make the stage's step infinite.
+MIN_OVERLAP_RATIO = 1e-9
+
+
+def hertz_overlap(force: float, r_eff: float, e_star: float) -> float:
+    """The overlap (m) at which a Hertz contact of effective radius `r_eff` carries
+    `force`: F = 4/3 E* sqrt(R*) d^(3/2)."""
+    return (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
+
+
+def overlap_ratio(stress: float, dim: int, r_mean: float, e_star: float) -> float:
+    """The overlap over the radius (-) that a mean contact of two mean spheres needs to
+    carry `stress` (Pa; N/m in 2D): the force sigma (2 r)^(D-1) on a Hertz contact of
+    R* = r / 2."""
+    force = stress * (2.0 * r_mean) ** (dim - 1)
+    return hertz_overlap(force, 0.5 * r_mean, e_star) / r_mean
+
+
+def stress_range(
+    dim: int, r_mean: float, e_star: float, max_overlap_ratio: float
+) -> tuple[float, float]:
+    """The stresses (Pa; N/m in 2D) a stage takes for particles of mean radius `r_mean`
+    (m) of a material of effective modulus `e_star` (Pa): those whose mean contact needs
+    an overlap between MIN_OVERLAP_RATIO and `max_overlap_ratio` of the radius, and at
+    most MAX_STRESS."""
+
+    def at(ratio: float) -> float:
+        d = ratio * r_mean
+        force = 4.0 / 3.0 * e_star * math.sqrt(0.5 * r_mean) * d**1.5
+        return force / (2.0 * r_mean) ** (dim - 1)
+
+    return at(MIN_OVERLAP_RATIO), min(at(max_overlap_ratio), MAX_STRESS)
+
+
+def check_stresses(
+    targets: dict[str, float],
+    *,
+    dim: int,
+    r_mean: float,
+    material,
+    max_overlap_ratio: float,
+    prefix: str = "",
+) -> None:
+    """Refuses a target stress the stage cannot drive, naming its own key (`stress` for
+    the lid, `lateral` for the side walls, after `prefix`) and the range it may take:
+    one whose mean contact overlaps beyond `max_overlap_ratio` of the radius (the Hertz
+    law does not hold there) or less than MIN_OVERLAP_RATIO (the positions cannot
+    resolve it)."""
+    e_star = material.e_star
+    lo, hi = stress_range(dim, r_mean, e_star, max_overlap_ratio)
+    for wall, value in targets.items():
+        key = prefix + ("stress" if wall == "lid" else "lateral")
+        est = overlap_ratio(value, dim, r_mean, e_star)
+        if est > max_overlap_ratio:
+            why = (
+                f"it needs overlaps of about {est:.3g} of the radius, beyond "
+                f"max_overlap_ratio = {max_overlap_ratio:g}, where the Hertz law does not "
+                "hold; lower the stress or stiffen the material"
+            )
+        elif est < MIN_OVERLAP_RATIO:
+            why = (
+                f"it needs overlaps of about {est:.3g} of the radius, below the "
+                f"{MIN_OVERLAP_RATIO:g} that the positions resolve, so the servo could not "
+                "measure it"
+            )
+        else:
+            continue
+        allowed = f"[{lo:.3g}, {hi:.3g}] Pa"
+        raise InvalidParameterError(
+            f"invalid {key} = {value:g} Pa: with E = {material.young:g} Pa and a mean radius "
+            f"{r_mean:g} m {why}. It must lie in {allowed}",
+            parameter=key,
+            value=value,
+            expected=allowed,
+        )
+
+
+def check_time_step(dt: float | None, material, r_min: float, prefix: str = "") -> None:
+    """Refuses a stage's `dt` beyond the Rayleigh step of the smallest particle, naming
+    it as `prefix` + ``dt``."""
+    if dt is None:
+        return
+    crit = material.critical_time_step(r_min)
+    if dt > crit:
+        err = UnstableTimeStepError(
+            f"invalid {prefix}dt = {dt:g} s: must lie in (0, {crit:.6g}] s, the critical "
+            f"(Rayleigh) time step for r_min = {r_min:g} m",
+            dt=dt,
+            critical=crit,
+            r_min=r_min,
+        )
+        err.parameter = prefix + "dt"
+        raise err
 
 
 def _wall_names(kind: str, dim: int) -> list[str]:
@@ -62,13 +164,14 @@ def _targets(
             parameter=prefix + "lateral",
         )
     if isinstance(lateral, Real | np.floating | np.integer) and not isinstance(lateral, bool):
-        values = [as_real(prefix + "lateral", lateral, 0, 1e12, lo_open=True, unit="Pa")] * (
+        values = [as_real(prefix + "lateral", lateral, 0, MAX_STRESS, lo_open=True, unit="Pa")] * (
             dim - 1
         )
     else:
         try:
             values = [
-                as_real(prefix + "lateral", v, 0, 1e12, lo_open=True, unit="Pa") for v in lateral
+                as_real(prefix + "lateral", v, 0, MAX_STRESS, lo_open=True, unit="Pa")
+                for v in lateral
             ]
         except TypeError:
             raise InvalidParameterError(
@@ -118,7 +221,7 @@ def _settings(prefix: str, table: dict) -> dict:
     `consolidate`."""
     stress, mode, lateral, gravity = (table[k] for k in ("stress", "mode", "lateral", "gravity"))
     max_wall_speed, dt = table["max_wall_speed"], table["dt"]
-    stress = as_real(prefix + "stress", stress, 0, 1e12, lo_open=True, unit="Pa")
+    stress = as_real(prefix + "stress", stress, 0, MAX_STRESS, lo_open=True, unit="Pa")
     if not isinstance(mode, str) or mode not in MODES:
         raise InvalidParameterError(
             f"invalid {prefix}mode = {short_repr(mode)}: must be one of {', '.join(MODES)}",
@@ -212,3 +315,23 @@ def check_table(table, dim: int, container: str) -> dict:
     if isinstance(out.get("lateral"), tuple):
         out["lateral"] = list(out["lateral"])
     return out
+
+
+def check_scene_table(table: dict, scene) -> None:
+    """The checks of a scene's [consolidate] table that need the scene's resolved radii
+    and material: every target stress within `stress_range` and the stage's ``dt``
+    within the Rayleigh step, so that a scene that is built does not fail in its
+    consolidation after the deposit has been made. Errors name ``consolidate.KEY``. The
+    stage checks again against the pack it gets (its own mean and smallest radius)."""
+    s = _settings("consolidate.", {**_DEFAULTS, **table})
+    prefix = "consolidate."
+    targets = _targets(s["mode"], scene.container, scene.dim, s["stress"], s["lateral"], prefix)
+    check_stresses(
+        targets,
+        dim=scene.dim,
+        r_mean=scene.r_mean,
+        material=scene.material,
+        max_overlap_ratio=scene.max_overlap_ratio,
+        prefix=prefix,
+    )
+    check_time_step(s["dt"], scene.material, scene.r_min, prefix)

@@ -11,12 +11,12 @@ from __future__ import annotations
 import copy
 import hashlib
 import math
-import os
 import time
 from numbers import Integral
 
 import numpy as np
 
+from ._memory import memory_limit
 from ._validate import InvalidParameterError, short_repr
 from .contacts import Contacts
 from .pack import Pack
@@ -245,12 +245,13 @@ def _counts(counts, dim: int, n: int) -> tuple[int, ...]:
 
 
 def _check_memory(pack: Pack, copies: int, reps: tuple[int, ...]) -> None:
-    """Refuses, before any work, a tiled pack that would not fit in 80 % of this
-    machine's memory."""
-    try:
-        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # not POSIX: cannot tell
+    """Refuses, before any work, a tiled pack that would not fit in 80 % of the memory
+    this process may use (`granpack._memory.memory_limit`: the machine's, RLIMIT_AS's or
+    the control group's, the smallest)."""
+    limit = memory_limit()
+    if limit is None:  # cannot tell
         return
+    total = limit.bytes
     arrays = [pack.positions, pack.radii, pack.velocities, pack.spins, pack.layer]
     arrays += list(pack.contacts.to_dict().values())
     per_copy = sum(np.asarray(a).nbytes for a in arrays)
@@ -258,8 +259,8 @@ def _check_memory(pack: Pack, copies: int, reps: tuple[int, ...]) -> None:
     if need > 0.8 * total:
         raise InvalidParameterError(
             f"invalid counts = {reps}: {copies} copies of {per_copy / 2**20:.3g} MiB "
-            f"(~{need / 2**30:.1f} GiB to build) would not fit in this machine's memory "
-            f"({total / 2**30:.1f} GiB); give smaller counts",
+            f"(~{need / 2**30:.2f} GiB to build) would not fit in {limit.source} "
+            f"({total / 2**30:.2f} GiB); give smaller counts",
             parameter="counts",
             value=reps,
             expected=f"at most {max(1, int(0.8 * total / (_WORK_FACTOR * per_copy)))} copies",

@@ -43,7 +43,8 @@ def rdf(
         Largest distance (m), from a hundredth of the smallest radius (below the smallest
         radius g is 0 in any pack) to half the container's smallest extent (its height,
         its side, or its diameter). Default: 3 mean diameters (6 mean radii), at most
-        that half extent.
+        that half extent; a window whose half extent is below the contact distance
+        2 r_min (where g is 0 by construction) is refused, naming ``margin``.
     bins : int
         Number of bins of equal width from 0 to r_max (default 100; 1 to 100 000).
     margin : float
@@ -78,6 +79,19 @@ def rdf(
     limit = 0.5 * min(extents)
     floor = R_MAX_FLOOR * float(np.min(prep.r))
     if r_max is None:
+        contact = 2.0 * float(np.min(prep.r))
+        if limit < contact:
+            # no two centres come closer than a contact: g would be 0 over every bin
+            what = f"margin = {m:g} m: it leaves" if m > 0 else "r_max: the container is"
+            raise InvalidParameterError(
+                f"invalid {what} a window whose half extent, {limit:.4g} m (the largest "
+                f"r_max), is below the contact distance 2 r_min = {contact:.4g} m, where "
+                "g(r) is 0 by construction; "
+                + ("give a smaller margin" if m > 0 else "analyse a larger pack"),
+                parameter="margin" if m > 0 else "r_max",
+                value=m if m > 0 else None,
+                expected=f"a window whose half extent exceeds {contact:.4g} m",
+            )
         r_max = min(6.0 * float(np.mean(prep.r)), limit)
     r_max = as_real("r_max", r_max, unit="m")
     allowed = (

@@ -100,7 +100,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _args.add_quiet(a)
 
 
+def _figure_files(args: argparse.Namespace) -> list[Path]:
+    return [
+        args.figures / f"{args.file.stem}{suffix}.png" for suffix in ("", "_normals", "_forces")
+    ]
+
+
 def run(args: argparse.Namespace, console: Console) -> int:
+    if args.figures is not None:  # before the analysis: a folder it cannot write
+        check_outputs(_figure_files(args), [args.file, args.contacts], "--figures")
     particles, kwargs = _load_for_analysis(args, console)
     pack = particles.pack
     if "positions" in kwargs:
@@ -150,14 +158,6 @@ def run(args: argparse.Namespace, console: Console) -> int:
         subject = pack
         if subject is None:
             subject = SimpleNamespace(positions=particles.positions, radii=particles.radii)
-        check_outputs(
-            [
-                args.figures / f"{args.file.stem}{suffix}.png"
-                for suffix in ("", "_normals", "_forces")
-            ],
-            [args.file, args.contacts],
-            "--figures",
-        )
         made = [
             plot.save(
                 plot.pack_figure(subject, title=args.file.name),

@@ -12,6 +12,7 @@ import numpy as np
 
 from .._console import Console
 from .._outputs import (
+    RUN_FILES,
     analyze_packs,
     dev_changes,
     dev_note,
@@ -19,7 +20,7 @@ from .._outputs import (
     sweep_temporaries,
     unsettled_as_notes,
 )
-from .._validate import InvalidParameterError, as_int, as_real
+from .._validate import InvalidParameterError, as_int, as_real, check_outputs
 
 __all__ = ["reproduce", "paper_phi", "PAPER_EXAMPLES", "PAPER_PACKS", "QUICK_PACKS"]
 
@@ -111,6 +112,7 @@ def reproduce(
     n_packs = packs if packs is not None else (QUICK_PACKS if quick else PAPER_PACKS)
     examples = sorted(set(examples), key=list(PAPER_EXAMPLES).index)
     console = Console(quiet)
+    check_outputs([out / f for f in RUN_FILES], [], "--out")  # a folder it cannot write
     with locked(out):
         sweep_temporaries(out, console)
         return _reproduce_into(
