@@ -7,6 +7,7 @@ compressed sample bursts)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import re
 import warnings
@@ -77,7 +78,9 @@ def test_a_tiled_consolidated_sample_keeps_its_lid_and_records(consolidated, tmp
     assert lid_force(tiled) == pytest.approx(copies * lid_force(pack), rel=1e-12)
     # the records survive the pack file
     back = gp.load_pack(tiled.save(tmp_path / "tiled.npz"))
-    assert back.consolidation == rec and back.rest == tiled.rest
+    # (json's text compares the NaN entries that a periodic sample's boundary_stress holds)
+    assert json.dumps(back.consolidation, sort_keys=True) == json.dumps(rec, sort_keys=True)
+    assert back.rest == tiled.rest
     assert back.density == tiled.density
 
 
