@@ -159,7 +159,8 @@ pub fn level_from_env() -> Result<Option<Level>> {
         }
         Err(std::env::VarError::NotUnicode(raw)) => Err(Error::invalid(
             LEVEL_ENV,
-            truncated(&raw.to_string_lossy()),
+            // the bytes escaped (\xff): a terminal shows no replacement characters
+            truncated(&format!("{raw:?}")),
             &format!("{ALLOWED}; the value is not UTF-8 text"),
         )),
         _ => Ok(None),

@@ -623,7 +623,8 @@ def scan_complete_dump(
     except FileFormatError as exc:
         if "the end of the file" not in str(exc):
             raise
-        err, why = exc, "the file ends inside it"
+        err = exc
+        why = "the gzip stream stops before its end" if cut else "the file ends inside it"
     else:
         last = blocks[-1]
         assert last.names is not None and last.n is not None

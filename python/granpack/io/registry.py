@@ -184,6 +184,8 @@ def _is_text(head: bytes) -> bool:
 #: The formats read through the text reader that takes gzip (LAMMPS writes compressed
 #: dumps; the other codes' text is read the same way).
 _GZIP_FORMATS = ("lammps-dump", "yade", "xyz", "kratos")
+#: The formats that are no text.
+_BINARY_FORMATS = ("npz", "parquet", "gsd")
 
 
 def _by_content(head: bytes) -> str | None:
@@ -339,6 +341,13 @@ def read_particles(
             "file.gz) and the other formats uncompressed: decompress it first",
             path=path,
             reason="compressed",
+        )
+    if fmt not in _BINARY_FORMATS and not _is_text(_head(path)):
+        raise FileFormatError(
+            f"cannot read {path} as {fmt}: not a text file (NUL bytes, or bytes that are "
+            "not UTF-8)",
+            path=path,
+            reason="not text",
         )
     reader = READERS[fmt]
     try:

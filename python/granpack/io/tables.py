@@ -109,7 +109,7 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
     def column(c: int) -> np.ndarray:
         name = names[c]
         s = df.get_column(name)
-        if s.dtype == pl.String:  # CSV: every column is read as text
+        if fmt == "csv" and s.dtype == pl.String:  # CSV: every column is read as text
             s = s.str.strip_chars()
         elif not s.dtype.is_numeric():
             # a Boolean, date or nested column would cast to numbers that mean nothing
@@ -190,7 +190,7 @@ def _table_ids(path: Path, s, raw: np.ndarray, where) -> np.ndarray:
                 f"{path}:{where(k)}: id {s[k]} lies beyond a 64-bit signed integer", path=path
             )
         return s.cast(pl.Int64).to_numpy().astype(np.int64)
-    text = s.str.strip_chars() if s.dtype == pl.String else None
+    text = s.str.strip_chars() if s.dtype == pl.String else None  # CSV
     return _integer_ids(path, raw, where, None if text is None else (lambda: text.to_list()))
 
 
