@@ -238,14 +238,13 @@ def find_container_contacts(x, r, container) -> Contacts:
 CONTACT_GAP_TOLERANCE = 1e-6
 #: A listed contact that carries no force (every force component zero) may leave a gap of
 #: this fraction of the smaller radius: the verge contacts that the DEM codes list at
-#: zero force. YADE keeps an interaction whose spheres parted in the last step until its
-#: collider's next pass, and computes the forces before it moves the spheres, so its
-#: list at a step holds pairs apart by up to a step's travel; the largest such gap in
-#: the three peers' 4.3 packs was 6.2e-6 r (YADE; LAMMPS and LIGGGHTS list none at zero
-#: force with `cutoff radius` and their own compute), and 1e-4 r leaves a margin of 16
-#: for faster packs while a pair of another step or numbering lies a good part of a
-#: radius apart.
-VERGE_GAP_TOLERANCE = 1e-4
+#: zero force. YADE keeps such interactions in its list, and computes the forces before
+#: it moves the spheres, so a pair at a step lies apart by up to a step's relative
+#: travel: in YADE's settled 4.3 packs up to 6e-6 r, in a layer still falling 6.7e-4 r.
+#: A DEM step's travel stays well below the contact overlaps (a few 1e-3 r) for the run
+#: to be stable, so 1e-2 r bounds it, while a pair of another step or numbering lies a
+#: good part of a radius apart.
+VERGE_GAP_TOLERANCE = 1e-2
 #: The fewest significant digits a text file is taken to print its numbers with: C's
 #: %g (LAMMPS' and LIGGGHTS' dump default, YADE's export.text). A file whose numbers are
 #: all short (a lattice of integers written with %.17g prints "1") tells no coarser
