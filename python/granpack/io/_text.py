@@ -188,7 +188,7 @@ def _text_digits(rows: list[str], cols: list[int], comment: str | None = None) -
 
     if len(rows) > 50_000:
         rows = rows[:: len(rows) // 50_000 + 1]
-    words = []
+    words: list[str] = []
     for ln in rows:
         t = (ln.split(comment, 1)[0] if comment else ln).replace(",", " ").split()
         words.extend(t[c] for c in cols if c < len(t))

@@ -84,7 +84,7 @@ class ContactFile:
     """
 
     def __init__(self, path, layout, contacts, timestep, snapshot, n_snapshots, notes):
-        self.carries_force: np.ndarray | None = None
+        self.carries_force = None
         self.path = path
         self.layout = layout
         self.contacts = contacts
@@ -172,7 +172,10 @@ def read_contacts(
         from the number of columns (12, 19 and 8).
     columns : str or sequence of str, optional
         Instead of `layout`: what each column holds, one of `COLUMN_NAMES` each (such as
-        ``"id1 id2 fx fy fz"``), for a dump local of other columns.
+        ``"id1 id2 fx fy fz"``), for a dump local of other columns, or for a plain table
+        (``#`` comment lines, then one contact a line), such as YADE's interactions
+        written by a script (``"id2 id1 fnx fny fnz ftx fty ftz"``: YADE's forces act on
+        id2).
     snapshot : int, optional
         Which snapshot (0 the first, -1 the last). Default None: the snapshot with the
         particles' timestep where both are known, else the last.
@@ -194,8 +197,13 @@ def read_contacts(
     notes count such contacts. A pair listed twice (LAMMPS and LIGGGHTS list a pair
     across a periodic side once for each of its particles) is read once, and a pair with
     neither overlap nor force (LAMMPS' pair/local without ``cutoff radius`` lists every
-    pair within the force cutoff) is left out. Wall contacts are not in these dumps: the
-    analysis then counts none.
+    pair within the force cutoff) is left out under the named layouts, as LAMMPS counts
+    only overlapping pairs; a table given by `columns` is counted as its code lists it,
+    pairs at zero force on the verge of contact included (YADE keeps them in its list),
+    with a note. Wall contacts are not in these dumps: the analysis then counts none. A
+    dump whose last snapshot stops short (a file still being written) is read up to its
+    last complete one, with a note; gzip-compressed files are read; ids of 2**53 and
+    above are matched exactly.
 
     Raises
     ------
@@ -205,8 +213,9 @@ def read_contacts(
         a snapshot of another timestep than the particles', a column count that names no
         layout; a pair whose particles do not touch (ids of another run, step or
         numbering): their centres farther apart than r_i + r_j by more than 1e-6 of the
-        smaller radius plus what the printed precision of the positions allows, named
-        with its ids and the gap.
+        smaller radius (1e-2 for a pair at zero force) plus what the printed precision
+        of the positions allows (their file's digits, at least six), named with its ids
+        and the gap.
     InvalidParameterError
         A bad `layout`, `columns` or `snapshot`.
     """

@@ -134,9 +134,9 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     x3[:, :nc] = a[:, :nc]
     lo = np.array([b[0] for b in s.bounds])
     hi = np.array([b[1] for b in s.bounds])
-    for ax in range(nc):
-        if scaled_ax[ax]:  # fractions of the box
-            x3[:, ax] = lo[ax] + x3[:, ax] * (hi[ax] - lo[ax])
+    for k_ax in range(nc):
+        if scaled_ax[k_ax]:  # fractions of the box
+            x3[:, k_ax] = lo[k_ax] + x3[:, k_ax] * (hi[k_ax] - lo[k_ax])
     r = a[:, nc] if i_rad is not None else a[:, nc] / 2.0
     ids = None
     order = np.arange(s.n)

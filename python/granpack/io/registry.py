@@ -308,9 +308,16 @@ def read_particles(
     Snapshots may hold different numbers of particles (a dump written while particles
     are inserted); each is read with its own header.
 
+    Each axis of a dump is read from its own column, so scaled and unscaled ones may mix
+    (``x y zs``; a note says so). A dump whose last snapshot stops short (LAMMPS still
+    writing it, or a cut copy) is read up to its last complete snapshot, with a note.
+    gzip-compressed dumps (``dump ... file.gz``), YADE, extended XYZ and Kratos text are
+    read; other compressed files are refused by name. Ids are read exactly up to 64 bits.
+
     CSV and Parquet tables need columns ``x``, ``y`` (, ``z``) and one of ``r``,
     ``radius``, ``diameter`` (names in any case; ``id`` optional), as granpack's own
-    CSV and Parquet export writes them.
+    CSV and Parquet export writes them; Parquet columns must be numeric (a Boolean or
+    text column is refused).
 
     Raises
     ------
@@ -320,7 +327,8 @@ def read_particles(
         row with too few numbers, a radius <= 0, a snapshot that the file does not hold,
         no particles).
     InvalidParameterError
-        An unknown `format`, a `snapshot` that is not an integer, or `dim` not None, 2, 3.
+        A `path` that is no path (None, a number), an unknown `format`, a `snapshot` that
+        is not an integer, or `dim` not None, 2, 3.
     """
     path = as_path(path)
     if format is not None and format not in READERS:
