@@ -113,3 +113,24 @@ def test_yade_s_list_with_a_pair_moved_apart_is_refused(yade_run, tmp_path):
     (tmp_path / "moved.txt").write_text("\n".join([rows[0], " ".join(first), *rows[2:]]) + "\n")
     with pytest.raises(gp.FileFormatError, match=r"moved.txt:2: .*do not touch"):
         gp.read_contacts(tmp_path / "moved.txt", p, columns=COLUMNS)
+
+
+def test_the_command_line_analyses_yade_s_spheres_with_its_interactions(yade_run, capsys):
+    from granpack.cli import main
+
+    folder, got = yade_run
+    code = main(
+        [
+            "analyze",
+            str(folder / "spheres_p.txt"),
+            "--contacts",
+            str(folder / "interactions.txt"),
+            "--contact-columns",
+            COLUMNS,
+            "--json",
+        ]
+    )
+    out = capsys.readouterr().out
+    assert code == 0, out
+    z = json.loads(out[out.index("{") :])["z"]
+    assert z == pytest.approx(2 * got["N_c"] / got["N_p"], rel=1e-12)
