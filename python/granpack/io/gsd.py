@@ -37,6 +37,17 @@ Periodic boundaries
     analysis takes any periodic file; a note says so. Analyse it walled with
     ``container="box"`` (``granpack analyze FILE --container box``).
 
+Integrity
+    gsd has no checksum. granpack's export adds one chunk, ``granpack/digest`` (16 bytes
+    of SHA-256 over the names and bytes of every other chunk it writes; outside ``log/``,
+    so HOOMD-blue does not copy it into a frame it appends), and reading refuses a frame
+    whose chunks do not give it: a changed byte anywhere in granpack's data is found.
+    Before the gsd library opens a file, its header is checked (the index and the name
+    list must lie inside the file: the library trusts their sizes, and a changed byte
+    there crashed the process). What cannot be found: a changed value in a file without
+    the digest (HOOMD-blue's, OVITO's, granpack's before the digest), which reads as
+    the value it now holds where it is finite and in range.
+
 Reading
     Frames are read like a dump's snapshots: the last by default, ``snapshot=`` another.
     A chunk a frame lacks is taken from frame 0 (HOOMD's rule: writers skip what did not
