@@ -242,9 +242,9 @@ CONTACT_GAP_TOLERANCE = 1e-6
 #: it moves the spheres, so a pair at a step lies apart by up to a step's relative
 #: travel: up to 6.9e-6 r in YADE's 4.3 pack after its fourth layer, 6.7e-4 r in a
 #: layer still falling (LAMMPS and LIGGGHTS list no pair at zero force in their dump
-#: local with `cutoff radius`). A DEM step's travel stays well below the contact overlaps (a few 1e-3 r) for the run
-#: to be stable, so 1e-2 r bounds it, while a pair of another step or numbering lies a
-#: good part of a radius apart.
+#: local with `cutoff radius`). A DEM step's travel stays well below the contact
+#: overlaps (a few 1e-3 r) for the run to be stable, so 1e-2 r bounds it, while a pair
+#: of another step or numbering lies a good part of a radius apart.
 VERGE_GAP_TOLERANCE = 1e-2
 #: The fewest significant digits a text file is taken to print its numbers with: C's
 #: %g (LAMMPS' and LIGGGHTS' dump default, YADE's export.text). A file whose numbers are
