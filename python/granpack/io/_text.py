@@ -77,6 +77,8 @@ def _gunzip(path: Path, raw: bytes, limit: int | None = None) -> tuple[bytes, bo
         if not d.eof:
             return b"".join(out), True
         rest = d.unused_data
+        if not rest.strip(b"\0"):  # NUL padding after the last member, as gzip allows
+            break
     return b"".join(out), False
 
 
@@ -172,8 +174,8 @@ def _read_text(path: Path) -> str:
     text, cut = _read_text_cut(path)
     if cut:
         raise FileFormatError(
-            f"cannot read {path}: the gzip stream ends before its end (a truncated file, or "
-            "one still being written)",
+            f"cannot read {path}: the gzip stream stops before its end-of-stream marker (a "
+            "truncated file, or one still being written)",
             path=path,
             reason="truncated",
         )
