@@ -16,6 +16,7 @@
 //! The environment variable `GRANPACK_CPU_LEVEL` (one of the names above) forces a
 //! level at or below the CPU's, for testing and for users who want to check; a level
 //! the CPU lacks is refused by [`level_from_env`] and [`set_level`], never run.
+//! `native` names the CPU's highest (what an unset variable gives), as compilers spell it.
 //!
 //! Every level gives the same bits: Rust never contracts `a * b + c` into an FMA, and
 //! vector square roots and divisions are correctly rounded, as their scalar forms are.
@@ -65,28 +66,30 @@ impl Level {
         }
     }
 
-    /// The level named `name` (see [`Level::name`]; `baseline` also names the lowest).
+    /// The level named `name` (see [`Level::name`]; `baseline` also names the lowest,
+    /// `native` the CPU's highest).
     pub fn parse(name: &str) -> Result<Level> {
         let name = name.trim();
         if name == "baseline" {
             return Ok(Level::Baseline);
         }
+        if name == "native" {
+            return Ok(detected());
+        }
         LEVELS
             .into_iter()
             .find(|l| l.name() == name)
-            .ok_or_else(|| {
-                Error::invalid(
-                    LEVEL_ENV,
-                    truncated(name),
-                    "must be one of x86-64, x86-64-v2, x86-64-v3, x86-64-v4 (or baseline)",
-                )
-            })
+            .ok_or_else(|| Error::invalid(LEVEL_ENV, truncated(name), ALLOWED))
     }
 
     fn from_u8(v: u8) -> Level {
         LEVELS[usize::from(v.min(3))]
     }
 }
+
+/// What the variable may hold, for a message.
+const ALLOWED: &str =
+    "must be one of x86-64, x86-64-v2, x86-64-v3, x86-64-v4, baseline (the lowest) or native (the CPU's highest)";
 
 /// At most 40 characters of a user's value, for a message.
 fn truncated(s: &str) -> String {
@@ -146,7 +149,7 @@ pub fn available() -> Vec<Level> {
 }
 
 /// The level `GRANPACK_CPU_LEVEL` asks for (`None` when unset or empty), refused when
-/// it is not a level's name or the CPU lacks it.
+/// it is not a level's name (bytes that are no UTF-8 included) or the CPU lacks it.
 pub fn level_from_env() -> Result<Option<Level>> {
     match std::env::var(LEVEL_ENV) {
         Ok(s) if !s.trim().is_empty() => {
@@ -154,6 +157,12 @@ pub fn level_from_env() -> Result<Option<Level>> {
             check_supported(l)?;
             Ok(Some(l))
         }
+        Err(std::env::VarError::NotUnicode(raw)) => Err(Error::invalid(
+            LEVEL_ENV,
+            // the bytes escaped (\xff): a terminal shows no replacement characters
+            truncated(&format!("{raw:?}")),
+            &format!("{ALLOWED}; the value is not UTF-8 text"),
+        )),
         _ => Ok(None),
     }
 }
@@ -286,6 +295,8 @@ mod tests {
             assert_eq!(Level::parse(l.name()).unwrap(), l);
         }
         assert_eq!(Level::parse("baseline").unwrap(), Level::Baseline);
+        assert_eq!(Level::parse("native").unwrap(), detected());
+        assert_eq!(Level::parse(" native ").unwrap(), detected());
         let e = Level::parse("avx9000").unwrap_err().to_string();
         assert!(
             e.contains("GRANPACK_CPU_LEVEL") && e.contains("x86-64-v3"),

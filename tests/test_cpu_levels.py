@@ -61,3 +61,21 @@ def test_importing_granpack_leaves_polars_out():
     code = "import sys, granpack; print('polars' in sys.modules)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip() == "False"
+
+
+def test_native_names_the_cpus_highest_level():
+    p = run_check("native")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split()[1] == gp.cpu_levels()[-1]
+
+
+def test_a_level_that_is_not_utf8_fails_the_import_by_name():
+    env = {k: v for k, v in os.environb.items() if k != b"GRANPACK_CPU_LEVEL"}
+    env[b"GRANPACK_CPU_LEVEL"] = b"x86-64-v\xff"
+    p = subprocess.run(
+        [sys.executable, str(CHECK)], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert p.returncode != 0
+    last = p.stderr.strip().splitlines()[-1]
+    assert last.startswith("granpack.errors.InvalidParameterError: invalid GRANPACK_CPU_LEVEL")
+    assert "not UTF-8" in last and "native" in last and "\\xff" in last.lower()

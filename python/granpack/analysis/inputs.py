@@ -236,6 +236,21 @@ def find_container_contacts(x, r, container) -> Contacts:
 #: two surfaces (or the surface and the wall), beyond what the positions' printed
 #: precision allows.
 CONTACT_GAP_TOLERANCE = 1e-6
+#: A listed contact that carries no force (every force component zero) may leave a gap of
+#: this fraction of the smaller radius: the verge contacts that the DEM codes list at
+#: zero force. YADE keeps such interactions in its list, and computes the forces before
+#: it moves the spheres, so a pair at a step lies apart by up to a step's relative
+#: travel: up to 6.9e-6 r in YADE's 4.3 pack after its fourth layer, 6.7e-4 r in a
+#: layer still falling (LAMMPS and LIGGGHTS list no pair at zero force in their dump
+#: local with `cutoff radius`). A DEM step's travel stays well below the contact
+#: overlaps (a few 1e-3 r) for the run to be stable, so 1e-2 r bounds it, while a pair
+#: of another step or numbering lies a good part of a radius apart.
+VERGE_GAP_TOLERANCE = 1e-2
+#: The fewest significant digits a text file is taken to print its numbers with: C's
+#: %g (LAMMPS' and LIGGGHTS' dump default, YADE's export.text). A file whose numbers are
+#: all short (a lattice of integers written with %.17g prints "1") tells no coarser
+#: format, and is not given the tolerance of a one-digit one.
+MIN_PRINTED_DIGITS = 6
 # the values _digits looks at: an even stride through larger arrays
 _DIGITS_SAMPLE = 200_000
 
@@ -281,6 +296,43 @@ def _float32_resolution(values) -> np.ndarray:
         return 0.5 * np.spacing(np.abs(single)).astype(float)
 
 
+def written_digits(words) -> int:
+    """The most significant digits among numbers as a text file wrote them (``0.0125``
+    has 3, ``1.2500e-02`` 5, ``7`` 1): the precision of the file's format, as far as its
+    text shows it. 17 for an empty list. Looks at an even stride of at most
+    200 000 words."""
+    if len(words) == 0:
+        return 17
+    if len(words) > _DIGITS_SAMPLE:
+        words = words[:: len(words) // _DIGITS_SAMPLE + 1]
+    best = 1
+    for w in words:
+        mant = w.lstrip("+-").split("e", 1)[0].split("E", 1)[0]
+        n = sum(c.isdigit() for c in mant.replace(".", "").lstrip("0"))
+        if n > best:
+            best = n
+            if best >= 17:
+                return 17
+    return best
+
+
+def verge_note(n: int, widest: float) -> str:
+    """The note of `n` contacts without force taken at a gap (the widest `widest`, m)."""
+    return (
+        f"{n} listed contact{'s' if n > 1 else ''} without force lie apart by up to "
+        f"{widest:.3g} m (verge contacts, as YADE keeps an interaction until its collider's "
+        "next pass): counted as the file lists them"
+    )
+
+
+def printed_digits(x, r, digits: int | None = None) -> int:
+    """The significant digits the contact check takes positions and radii to be printed
+    with: `digits` (what a text file's words show, `written_digits`) where given, else
+    what the values need (`_digits`); never fewer than `MIN_PRINTED_DIGITS`."""
+    p = digits if digits is not None else max(_digits(x), _digits(r))
+    return max(int(p), MIN_PRINTED_DIGITS)
+
+
 def _position_resolution(x: np.ndarray, box, p: int) -> np.ndarray:
     """(N, D) how far each coordinate may lie from the value the file meant: half a unit
     in the last of `p` printed digits, or in the last digit of the fractions of the box
@@ -298,7 +350,7 @@ def _position_resolution(x: np.ndarray, box, p: int) -> np.ndarray:
             ok = np.isfinite(size) & (size > 0.0)
             if np.any(ok):
                 s = (x[:, ok] - lo[ok]) / size[ok]
-                p = _digits(s)
+                p = max(_digits(s), MIN_PRINTED_DIGITS)
                 if p <= 12:
                     res[:, ok] = np.maximum(res[:, ok], _resolution(s, p) * size[ok])
     return res
@@ -319,16 +371,21 @@ def check_contacts_touch(
     ids=None,
     what: str = "contacts",
     file_periods=None,
-) -> None:
+    force=None,
+    digits: int | None = None,
+) -> tuple[int, float]:
     """Refuses contacts whose two particles (or particle and wall) do not touch: the one
     check of every contact table the analysis is given, read from a file or passed as
     arrays, so that contacts of another run, step or numbering never count.
 
     A pair is a contact where |x_j - x_i| (the minimum image across periodic axes) is at
-    most r_i + r_j plus a tolerance: `CONTACT_GAP_TOLERANCE` of the smaller radius, plus
-    what the precision of the positions and radii allows (half a unit in the last
-    printed digit, the digits counted from the values themselves; half a float32 unit
-    where every value is a float32), plus rounding. A wall contact
+    most r_i + r_j plus a tolerance: `CONTACT_GAP_TOLERANCE` of the smaller radius
+    (`VERGE_GAP_TOLERANCE` for a contact that carries no force, `force`), plus what the
+    precision of the positions and radii allows (half a unit in the last printed digit:
+    the digits the file's text shows, `digits`, else those the values need, never fewer
+    than `MIN_PRINTED_DIGITS`; half a float32 unit where every value is a float32), plus
+    rounding. A contact that carries force across a gap wider than the first tolerance
+    is refused, whatever its force. A wall contact
     (j < 0) is checked against the wall's distance where the walls are known (`walls`,
     with `container`): the floor, a box side, the cylinder; a wall id that this
     container does not have is refused.
@@ -353,6 +410,18 @@ def check_contacts_touch(
         The periods the positions' file declares (inf where none): a pair that touches
         only across one the container does not repeat (a dump's periodic vertical axis)
         is named as such.
+    force : (M,) bool or float, optional
+        Whether each contact carries force (nonzero: it does). Default None: unknown,
+        every contact held to the strict tolerance.
+    digits : int, optional
+        The significant digits the positions' and radii's text shows
+        (`written_digits`). Default None: counted from the values.
+
+    Returns
+    -------
+    (int, float)
+        How many contacts without force were taken at a gap beyond the strict tolerance
+        (verge contacts), and the largest such gap (m; 0.0 where none).
 
     Raises
     ------
@@ -364,7 +433,7 @@ def check_contacts_touch(
     j = np.asarray(j, dtype=np.int64)
     m = i.shape[0]
     if m == 0:
-        return
+        return 0, 0.0
     x = np.asarray(x, dtype=float)
     r = np.asarray(r, dtype=float)
     n, d = x.shape
@@ -374,7 +443,7 @@ def check_contacts_touch(
     finite = np.isfinite(per)
     # one count of digits for positions and radii (a file prints them alike; round
     # values, such as one radius for all, have fewer than the file printed)
-    digits = max(_digits(x), _digits(r))
+    digits = printed_digits(x, r, digits)
     res_x = _position_resolution(x, box, digits)
     res_r = np.maximum(_resolution(r, digits), _float32_resolution(r))
     big = float(np.max(np.abs(x))) + float(np.max(r)) + float(np.max(per[finite], initial=0.0))
@@ -434,9 +503,18 @@ def check_contacts_touch(
         dist[wall] = np.where(np.isnan(to_wall), 0.0, to_wall)
         gap[wall] = np.where(np.isnan(to_wall), np.inf, to_wall - r[q])
         tol[wall] = CONTACT_GAP_TOLERANCE * r[q] + 2.0 * (res_w + res_r[q]) + rounding
-    bad = gap > tol
+    strict = gap > tol
+    verge = np.zeros(m, dtype=bool)
+    if force is not None:
+        idle = np.asarray(force) == 0
+        smaller = np.where(pair, np.minimum(r[i], r[np.maximum(j, 0)]), r[i])
+        verge = (
+            strict & idle & (gap <= tol + (VERGE_GAP_TOLERANCE - CONTACT_GAP_TOLERANCE) * smaller)
+        )
+    bad = strict & ~verge
     if not np.any(bad):
-        return
+        n_verge = int(np.sum(verge))
+        return n_verge, float(np.max(gap[verge])) if n_verge else 0.0
     k = int(np.argmax(bad))
     n_bad = int(np.sum(bad))
     count = f"{n_bad} of {m} contacts" if n_bad > 1 else f"1 of {m} contacts"
@@ -447,11 +525,22 @@ def check_contacts_touch(
     who = "particle id" if ids is not None else "particle"
     a, b = int(i[k]), int(j[k])
     if b >= 0:
+        carries = force is not None and np.asarray(force)[k] != 0
         what_k = (
             f"{who}s {name(a)} and {name(b)} do not touch: their surfaces are "
             f"{gap[k]:.6g} m apart (centres {dist[k]:.6g} m apart"
             f"{' by minimum image' if np.any(finite) else ''}, r_i + r_j = "
-            f"{r[a] + r[b]:.6g} m; at most {tol[k]:.2g} m allowed)"
+            f"{r[a] + r[b]:.6g} m; at most {tol[k]:.2g} m allowed"
+            + (
+                " for a contact that carries force"
+                if carries
+                else (
+                    f", {VERGE_GAP_TOLERANCE:g} of the smaller radius more without force"
+                    if force is not None
+                    else ""
+                )
+            )
+            + ")"
         )
         if file_periods is not None:
             fp = np.asarray(file_periods, dtype=float)

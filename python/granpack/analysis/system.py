@@ -387,6 +387,8 @@ def _prepare(
             box=box,
             path=getattr(pack, "path", None) if from_file else None,
             what="pack.contacts" if pack is not None else "contacts",
+            force=(c.force_normal != 0.0) | np.any(c.force_tangential != 0.0, axis=1),
+            digits=getattr(pack, "digits", None),
         )
         contacts_given = True
         geometric = _find_contacts(x, r, None)

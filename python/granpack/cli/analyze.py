@@ -14,6 +14,7 @@ from .._validate import GranpackError, InvalidParameterError, check_outputs
 from ..container_tag import CONTAINER_KINDS
 from ..io import FORMATS
 from ..io import LAYOUTS as CONTACT_LAYOUTS
+from ..io.contacts import COLUMN_NAMES
 from . import _args
 
 HELP = "microstructure of a saved pack or of particles from another code"
@@ -60,6 +61,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=tuple(CONTACT_LAYOUTS),
         default=None,
         help="the columns of --contacts (default: told from their number)",
+    )
+    a.add_argument(
+        "--contact-columns",
+        default=None,
+        metavar="NAMES",
+        help="instead of --contact-layout: what each column of --contacts holds, such as "
+        "'id2 id1 fnx fny fnz ftx fty ftz' for YADE's interactions written as a plain "
+        "table (names: " + " ".join(COLUMN_NAMES) + ")",
     )
     a.add_argument("--dim", type=int, choices=(2, 3), default=None, help="dimension of a text file")
     a.add_argument(
@@ -210,13 +219,15 @@ def _load_for_analysis(args, console: Console):
     if args.contacts is not None:
         from ..io import read_contacts
 
-        found = read_contacts(args.contacts, particles, layout=args.contact_layout)
+        found = read_contacts(
+            args.contacts, particles, layout=args.contact_layout, columns=args.contact_columns
+        )
         for note in found.notes:
             console.note(note, args.contacts.name)
         particles = particles.with_contacts(found)
         args.contacts_read = found
-    elif args.contact_layout is not None:
-        raise GranpackError("--contact-layout needs --contacts FILE")
+    elif args.contact_layout is not None or args.contact_columns is not None:
+        raise GranpackError("--contact-layout and --contact-columns need --contacts FILE")
     where: dict = {}
     if args.container is not None:
         where["container"] = args.container

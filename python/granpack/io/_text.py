@@ -35,16 +35,85 @@ _ID_NAMES = ("id",)
 _SNIFF_LINES = 40
 
 
+#: Magic bytes of the compressions a file may come in: gzip is read (LAMMPS writes
+#: ``dump ... file.gz`` through gzip), the others are refused by name.
+_GZIP_MAGIC = b"\x1f\x8b"
+_OTHER_COMPRESSIONS = (
+    (b"\x28\xb5\x2f\xfd", "zstd"),
+    (b"BZh", "bzip2"),
+    (b"\xfd7zXZ\x00", "xz"),
+)
+
+
+def compression(head: bytes) -> str | None:
+    """The compression the first bytes of a file show ("gzip", "zstd", "bzip2", "xz"),
+    or None."""
+    if head.startswith(_GZIP_MAGIC):
+        return "gzip"
+    return next((name for magic, name in _OTHER_COMPRESSIONS if head.startswith(magic)), None)
+
+
+def _gunzip(path: Path, raw: bytes, limit: int | None = None) -> tuple[bytes, bool]:
+    """The bytes a gzip file holds (every member, as ``cat a.gz b.gz`` joins them), and
+    whether the stream stops before its end (a file still being written): the bytes up
+    to there are kept. `limit` stops after that many bytes (to sniff a head)."""
+    import zlib
+
+    out: list[bytes] = []
+    size = 0
+    rest = raw
+    while rest:
+        d = zlib.decompressobj(16 + zlib.MAX_WBITS)
+        try:
+            chunk = d.decompress(rest, limit - size if limit is not None else 0)
+        except zlib.error as exc:
+            raise FileFormatError(
+                f"cannot read {path}: a damaged gzip stream ({exc})", path=path
+            ) from None
+        out.append(chunk)
+        size += len(chunk)
+        if limit is not None and size >= limit:
+            return b"".join(out), False
+        if not d.eof:
+            return b"".join(out), True
+        rest = d.unused_data
+        if not rest.strip(b"\0"):  # NUL padding after the last member, as gzip allows
+            break
+    return b"".join(out), False
+
+
 def _head(path: Path, n: int = 65536) -> bytes:
+    """The first `n` bytes of the file; of what it holds where it is gzip-compressed."""
     try:
         with open(path, "rb") as f:
-            return f.read(n)
+            head = f.read(n)
+            if head.startswith(_GZIP_MAGIC):
+                # a compressed head can hold far more than n bytes of text
+                head = _gunzip(path, head + f.read(), limit=n)[0]
+            return head
     except FileNotFoundError:
         raise FileFormatError(
             f"cannot read {path}: no such file", path=path, reason="no such file"
         ) from None
     except OSError as exc:
         raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def as_path(path, parameter: str = "path") -> Path:
+    """`path` (str or os.PathLike) as a Path; anything else (None, a number, an open file)
+    refused by name."""
+    import os
+
+    if isinstance(path, str | os.PathLike) and not isinstance(path, bytes):
+        p = Path(path)
+        if str(p) not in ("", "."):
+            return p
+    raise InvalidParameterError(
+        f"invalid {parameter} = {short_repr(path)}: must be the path of a file (str or "
+        "pathlib.Path)",
+        parameter=parameter,
+        value=path,
+    )
 
 
 def _frame_index(path: Path, snapshot: int, n: int, holder: str, unit: str) -> int:
@@ -70,18 +139,62 @@ def _single_snapshot(path: Path, snapshot: int) -> None:
         )
 
 
-def _read_text(path: Path) -> str:
+def _read_text_cut(path: Path) -> tuple[str, bool]:
+    """The text of a file (gzip-compressed or not), and whether a gzip stream stops
+    before its end (a file still being written; the text up to there is returned)."""
     try:
-        # utf-8-sig: a byte-order mark (Excel and Windows editors write one) is not text
-        return path.read_text(encoding="utf-8-sig")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+    cut = False
+    kind = compression(raw[:8])
+    if kind == "gzip":
+        raw, cut = _gunzip(path, raw)
+    elif kind is not None:
+        raise FileFormatError(
+            f"cannot read {path}: a {kind}-compressed file; granpack reads plain text and "
+            f"gzip (decompress it first)",
+            path=path,
+            reason="compressed",
+        )
+    try:
+        # utf-8-sig: a byte-order mark (Excel and Windows editors write one) is not text
+        return raw.decode("utf-8-sig"), cut
     except UnicodeDecodeError as exc:
         raise FileFormatError(
             f"cannot read {path}: not a text file (byte {exc.start} is not UTF-8)", path=path
         ) from None
-    except OSError as exc:
-        raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
+
+
+def _read_text(path: Path) -> str:
+    """The text of a file, gzip-compressed or not; a gzip stream that stops before its
+    end is refused (see `_read_text_cut` for the readers that take what is there)."""
+    text, cut = _read_text_cut(path)
+    if cut:
+        raise FileFormatError(
+            f"cannot read {path}: the gzip stream stops before its end-of-stream marker (a "
+            "truncated file, or one still being written)",
+            path=path,
+            reason="truncated",
+        )
+    return text
+
+
+def _text_digits(rows: list[str], cols: list[int], comment: str | None = None) -> int:
+    """The most significant digits the fields `cols` of the lines `rows` are written
+    with (`granpack.analysis.inputs.written_digits`), from an even stride of at most
+    50 000 lines: the precision of the file's format, for the contact check."""
+    from ..analysis.inputs import written_digits
+
+    if len(rows) > 50_000:
+        rows = rows[:: len(rows) // 50_000 + 1]
+    words: list[str] = []
+    for ln in rows:
+        t = (ln.split(comment, 1)[0] if comment else ln).replace(",", " ").split()
+        words.extend(t[c] for c in cols if c < len(t))
+    return written_digits(words)
 
 
 def _check_values(path: Path, x: np.ndarray, r: np.ndarray, where) -> None:
@@ -120,23 +233,46 @@ def _choose_dim(
     return dim
 
 
-def _integer_ids(path: Path, raw: np.ndarray, where) -> np.ndarray:
+def _integer_ids(path: Path, raw: np.ndarray, where, tokens=None) -> np.ndarray:
     """An id column read as numbers, as int64; refuses a value that is not a finite
-    integer, or one too large for a float to hold exactly, naming its line `where(k)`."""
+    integer, naming its line `where(k)`. Ids of 2**53 and above (LAMMPS' 64-bit tags),
+    which a float cannot hold exactly, are read again from their text, `tokens()` (the
+    column's fields as written, row by row), so that no two merge; without the text, or
+    beyond int64, they are refused."""
     finite = np.isfinite(raw)
     whole = finite & (raw == np.round(np.where(finite, raw, 0.0)))
     if not np.all(whole):
         k = int(np.argmax(~whole))
         raise FileFormatError(f"{path}:{where(k)}: id {raw[k]} is not an integer", path=path)
     big = np.abs(raw) >= 2.0**53
-    if np.any(big):
-        k = int(np.argmax(big))
-        raise FileFormatError(
-            f"{path}:{where(k)}: id {raw[k]:.17g} is too large to read exactly (ids must lie "
-            "below 2**53)",
-            path=path,
-        )
-    return raw.astype(np.int64)
+    if not np.any(big):
+        return raw.astype(np.int64)
+    if tokens is not None:
+        exact = _exact_integers(tokens())
+        if exact is not None:
+            return exact
+    k = int(np.argmax(big))
+    raise FileFormatError(
+        f"{path}:{where(k)}: id {raw[k]:.17g} is too large to read exactly (ids of 2**53 "
+        "and above must be written as integers, and lie within a 64-bit integer)",
+        path=path,
+    )
+
+
+def _exact_integers(words) -> np.ndarray | None:
+    """Integers written as text (``123``, ``-4``) as int64, exactly; None where one is
+    written otherwise (``1e20``, ``3.0``) or lies beyond int64."""
+    out = np.empty(len(words), dtype=np.int64)
+    lo, hi = np.iinfo(np.int64).min, np.iinfo(np.int64).max
+    for k, w in enumerate(words):
+        w = w.strip()
+        if not w.lstrip("+-").isdigit():
+            return None
+        v = int(w)
+        if not lo <= v <= hi:
+            return None
+        out[k] = v
+    return out
 
 
 def _sorted_by_id(path: Path, ids: np.ndarray, where) -> np.ndarray:
@@ -466,6 +602,69 @@ def scan_dump(path: Path, lines: list[str], local: bool = False) -> list[DumpBlo
                 path=path,
             )
     return blocks
+
+
+def scan_complete_dump(
+    path: Path, lines: list[str], local: bool = False, cut: bool = False
+) -> tuple[list[DumpBlock], str | None]:
+    """`scan_dump`, less a last snapshot that stops short: the state of a dump that
+    LAMMPS is still writing (or that was cut off). Returns the complete snapshots and a
+    note where one was left out; a file whose only snapshot stops short is refused.
+
+    A snapshot stops short where the file ends inside it (its header, or fewer rows than
+    its count), where its last row holds fewer fields than its columns (a line cut in
+    two), or where a gzip stream stops before its end (`cut`). A number cut after a
+    digit, at the end of an uncompressed file, cannot be told from a whole one."""
+    starts = [k for k, ln in enumerate(lines) if ln.strip() == "ITEM: TIMESTEP"]
+    for q, k in enumerate(starts):  # dump_modify units/time yes: items before TIMESTEP
+        while k >= 2 and lines[k - 2].strip() in ("ITEM: UNITS", "ITEM: TIME"):
+            k -= 2
+        starts[q] = k
+    why = None
+    err: FileFormatError | None = None
+    try:
+        blocks = scan_dump(path, lines, local)
+    except FileFormatError as exc:
+        if "the end of the file" not in str(exc):
+            raise
+        err = exc
+        why = "the gzip stream stops before its end" if cut else "the file ends inside it"
+    else:
+        last = blocks[-1]
+        assert last.names is not None and last.n is not None
+        end_row = lines[last.first + last.n - 1].split() if last.n else []
+        if cut:
+            why = "the gzip stream stops before its end"
+        elif last.names and last.n and len(end_row) < len(last.names):
+            why = (
+                f"its last row, line {last.first + last.n}, holds {len(end_row)} of its "
+                f"{len(last.names)} fields"
+            )
+        else:
+            return blocks, None
+    if len(starts) < 2:
+        if err is not None:
+            raise err
+        if not cut:  # a short last row: the row reader names its line
+            return blocks, None
+        raise FileFormatError(
+            f"{path}:{starts[0] + 1 if starts else 1}: the only snapshot is incomplete ({why}): "
+            "a dump still being written or cut off",
+            path=path,
+            reason="truncated",
+        )
+    try:
+        blocks = scan_dump(path, lines[: starts[-1]], local)
+    except FileFormatError:
+        if err is not None:
+            raise err from None
+        raise
+    note = (
+        f"the last snapshot (from line {starts[-1] + 1}) is incomplete ({why}): a dump "
+        f"still being written or cut off; the {len(blocks)} complete snapshot"
+        f"{'s' if len(blocks) > 1 else ''} before it {'are' if len(blocks) > 1 else 'is'} read"
+    )
+    return blocks, note
 
 
 def _box_bounds(path: Path, lines: list[str], i: int, cur: DumpBlock, fail) -> None:

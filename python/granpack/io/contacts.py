@@ -23,9 +23,16 @@ from pathlib import Path
 import numpy as np
 
 from .._validate import FileFormatError, InvalidParameterError, is_number, short_repr
-from ..analysis.inputs import check_contacts_touch
+from ..analysis.inputs import check_contacts_touch, verge_note
 from ..contacts import Contacts
-from ._text import _frame_index, scan_dump
+from ._text import (
+    DumpBlock,
+    _frame_index,
+    _integer_ids,
+    _read_text_cut,
+    as_path,
+    scan_complete_dump,
+)
 from .particle_file import ParticleFile
 
 __all__ = ["LAYOUTS", "COLUMN_NAMES", "ContactFile", "read_contacts"]
@@ -64,16 +71,20 @@ class ContactFile:
         Particle-particle contacts, indices into the particles' rows (as
         ``ParticleFile.positions``), i the first particle of each row; normals and
         branches from the particles' positions; f_n and f_t from the file's forces.
-    timestep : int
-        The snapshot's ``TIMESTEP``.
+    timestep : int or None
+        The snapshot's ``TIMESTEP`` (None for a plain table).
     snapshot, n_snapshots : int
         Which snapshot was read (0-based) and how many the file holds.
     notes : tuple of str
         What the reader changed or assumed (repeated pairs dropped, attractive normal
-        forces set to 0, ids taken as 1..N).
+        forces set to 0, ids taken as 1..N, verge contacts counted).
+    carries_force : (M,) bool
+        Whether the file gives each contact a force (any component nonzero, before an
+        attractive normal force is set to 0).
     """
 
     def __init__(self, path, layout, contacts, timestep, snapshot, n_snapshots, notes):
+        self.carries_force = None
         self.path = path
         self.layout = layout
         self.contacts = contacts
@@ -121,6 +132,22 @@ def _columns(layout, columns) -> tuple[str, tuple[str, ...] | None]:
     return layout, LAYOUTS[layout]
 
 
+def _plain_table(path: Path, lines: list[str], ncol: int) -> DumpBlock:
+    """A plain table of contacts (what a YADE script writes from ``O.interactions``): `#`
+    comment lines, then one contact a line, as one snapshot without a timestep."""
+    b = DumpBlock(0)
+    first = next(
+        (k for k, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")), None
+    )
+    if first is None:
+        raise FileFormatError(f"{path}: no contacts (only comments or blank lines)", path=path)
+    end = len(lines)
+    while end > first and not lines[end - 1].strip():
+        end -= 1
+    b.first, b.n, b.names = first, end - first, ["-"] * ncol
+    return b
+
+
 def read_contacts(
     path,
     particles: ParticleFile,
@@ -145,7 +172,10 @@ def read_contacts(
         from the number of columns (12, 19 and 8).
     columns : str or sequence of str, optional
         Instead of `layout`: what each column holds, one of `COLUMN_NAMES` each (such as
-        ``"id1 id2 fx fy fz"``), for a dump local of other columns.
+        ``"id1 id2 fx fy fz"``), for a dump local of other columns, or for a plain table
+        (``#`` comment lines, then one contact a line), such as YADE's interactions
+        written by a script (``"id2 id1 fnx fny fnz ftx fty ftz"``: YADE's forces act on
+        id2).
     snapshot : int, optional
         Which snapshot (0 the first, -1 the last). Default None: the snapshot with the
         particles' timestep where both are known, else the last.
@@ -167,8 +197,13 @@ def read_contacts(
     notes count such contacts. A pair listed twice (LAMMPS and LIGGGHTS list a pair
     across a periodic side once for each of its particles) is read once, and a pair with
     neither overlap nor force (LAMMPS' pair/local without ``cutoff radius`` lists every
-    pair within the force cutoff) is left out. Wall contacts are not in these dumps: the
-    analysis then counts none.
+    pair within the force cutoff) is left out under the named layouts, as LAMMPS counts
+    only overlapping pairs; a table given by `columns` is counted as its code lists it,
+    pairs at zero force on the verge of contact included (YADE keeps them in its list),
+    with a note. Wall contacts are not in these dumps: the analysis then counts none. A
+    dump whose last snapshot stops short (a file still being written) is read up to its
+    last complete one, with a note; gzip-compressed files are read; ids of 2**53 and
+    above are matched exactly.
 
     Raises
     ------
@@ -178,12 +213,13 @@ def read_contacts(
         a snapshot of another timestep than the particles', a column count that names no
         layout; a pair whose particles do not touch (ids of another run, step or
         numbering): their centres farther apart than r_i + r_j by more than 1e-6 of the
-        smaller radius plus what the printed precision of the positions allows, named
-        with its ids and the gap.
+        smaller radius (1e-2 for a pair at zero force) plus what the printed precision
+        of the positions allows (their file's digits, at least six), named with its ids
+        and the gap.
     InvalidParameterError
         A bad `layout`, `columns` or `snapshot`.
     """
-    path = Path(path)
+    path = as_path(path)
     if not isinstance(particles, ParticleFile):
         raise InvalidParameterError(
             f"invalid particles = {type(particles).__name__}: expected the result of "
@@ -199,10 +235,13 @@ def read_contacts(
             parameter="snapshot",
             value=snapshot,
         )
-    from ._text import _read_text
-
-    lines = _read_text(path).splitlines()
-    blocks = scan_dump(path, lines, local=True)
+    text, cut = _read_text_cut(path)
+    lines = text.splitlines()
+    first_word = next((ln.split()[0] for ln in lines if ln.strip()), "")
+    if first_word.startswith("ITEM:") or cols is None or name != "columns":
+        blocks, short = scan_complete_dump(path, lines, local=True, cut=cut)
+    else:
+        blocks, short = [_plain_table(path, lines, len(cols))], None
     n_snap = len(blocks)
     want_step = particles.timestep
     if snapshot is None:
@@ -213,7 +252,7 @@ def read_contacts(
         k_snap = _frame_index(path, int(snapshot), n_snap, "dump", "snapshot")
     b = blocks[k_snap]
     assert b.names is not None and b.n is not None
-    if want_step is not None and b.timestep != want_step:
+    if want_step is not None and b.timestep is not None and b.timestep != want_step:
         raise FileFormatError(
             f"{path}:{b.start + 2}: the contacts are of timestep {b.timestep}, the particles "
             f"({particles.path}) of timestep {want_step}: write both at the same step",
@@ -266,7 +305,7 @@ def read_contacts(
         k = int(np.argmax(bad_rows))
         raise FileFormatError(f"{path}:{line(k)}: non-finite value", path=path)
 
-    notes: list[str] = []
+    notes: list[str] = [] if short is None else [short]
     n = len(particles)
     d = particles.dim
     ids = particles.ids
@@ -276,12 +315,9 @@ def read_contacts(
             notes.append(f"{particles.path.name} has no ids: particle k is taken as id k + 1")
     index = []
     for c in ("id1", "id2"):
-        raw = col(c)
-        frac = raw != np.round(raw)
-        if np.any(frac):
-            k = int(np.argmax(frac))
-            raise FileFormatError(f"{path}:{line(k)}: id {raw[k]} is not an integer", path=path)
-        v = raw.astype(np.int64)
+        at_c = cols.index(c)
+        # exact from the text where ids pass 2**53 (64-bit tags), so that none merge
+        v = _integer_ids(path, col(c), line, lambda at_c=at_c: [t[at_c] for t in rows])
         at = np.clip(np.searchsorted(ids, v), 0, max(n - 1, 0))
         unknown = ids[at] != v
         if np.any(unknown):
@@ -343,9 +379,14 @@ def read_contacts(
             force = force + vec("ft")
     if d == 2:
         force = force[:, :2]
-    idle = np.all(force == 0.0, axis=1) & (r[i] + r[j] - dist <= 0.0)
+    no_force = np.all(force == 0.0, axis=1)
+    # LAMMPS lists every pair within the force cutoff unless told "cutoff radius", and
+    # counts (contact/atom) only the overlapping ones: a pair of the named layouts
+    # without overlap or force is none. A list given column by column (YADE's
+    # interactions) is counted as its code counts it: a pair at zero force is a
+    # contact where the check takes it (a verge contact), refused farther apart
+    idle = no_force & (r[i] + r[j] - dist <= 0.0) & (name != "columns")
     if np.any(idle):
-        # LAMMPS lists every pair within the force cutoff unless told "cutoff radius"
         notes.append(f"{int(idle.sum())} pairs without overlap or force were left out")
         keep = ~idle
         i, j, force, branch, dist, normal, rows_kept = (
@@ -357,8 +398,9 @@ def read_contacts(
             normal[keep],
             rows_kept[keep],
         )
+        no_force = no_force[keep]
     # every pair left must touch: ids of another run or numbering name particles apart
-    check_contacts_touch(
+    n_verge, widest = check_contacts_touch(
         i,
         j,
         x,
@@ -368,7 +410,11 @@ def read_contacts(
         path=path,
         lines=b.first + rows_kept + 1,
         ids=ids,
+        force=~no_force,
+        digits=particles.digits,
     )
+    if n_verge:
+        notes.append(verge_note(n_verge, widest))
     fn_on_i = np.einsum("md,md->m", force, normal)
     f_n = -fn_on_i
     attractive = f_n < 0.0
@@ -388,4 +434,6 @@ def read_contacts(
         force_tangential=f_t,
         branch=branch,
     )
-    return ContactFile(path, name, contacts, b.timestep, k_snap, n_snap, tuple(notes))
+    out = ContactFile(path, name, contacts, b.timestep, k_snap, n_snap, tuple(notes))
+    out.carries_force = ~no_force
+    return out

@@ -37,6 +37,17 @@ Periodic boundaries
     analysis takes any periodic file; a note says so. Analyse it walled with
     ``container="box"`` (``granpack analyze FILE --container box``).
 
+Integrity
+    gsd has no checksum. granpack's export adds one chunk, ``granpack/digest`` (16 bytes
+    of SHA-256 over the names and bytes of every other chunk it writes; outside ``log/``,
+    so HOOMD-blue does not copy it into a frame it appends), and reading refuses a frame
+    whose chunks do not give it: a changed byte anywhere in granpack's data is found.
+    Before the gsd library opens a file, its header is checked (the index and the name
+    list must lie inside the file: the library trusts their sizes, and a changed byte
+    there crashed the process). What cannot be found: a changed value in a file without
+    the digest (HOOMD-blue's, OVITO's, granpack's before the digest), which reads as
+    the value it now holds where it is finite and in range.
+
 Reading
     Frames are read like a dump's snapshots: the last by default, ``snapshot=`` another.
     A chunk a frame lacks is taken from frame 0 (HOOMD's rule: writers skip what did not
@@ -52,6 +63,7 @@ from __future__ import annotations
 import importlib
 import math
 import os
+import struct
 import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -83,6 +95,53 @@ SCHEMA_VERSION = (1, 4)
 
 #: granpack's log chunks.
 LOG = "log/granpack/"
+
+
+#: The chunk that holds a digest of every other chunk granpack writes: gsd itself has no
+#: checksum, so a changed byte in a position would otherwise read as another position.
+#: Outside ``log/``: HOOMD-blue's reader does not copy it into a frame it appends, so a
+#: later frame that a program changed does not carry a digest of frame 0.
+DIGEST = "granpack/digest"
+# the chunks the digest covers, in this order (those a frame has)
+_DIGESTED = (
+    "configuration/step",
+    "configuration/dimensions",
+    "configuration/box",
+    "particles/N",
+    "particles/types",
+    "particles/typeid",
+    "particles/position",
+    "particles/diameter",
+    "particles/velocity",
+    LOG + "container",
+    LOG + "lo",
+    LOG + "hi",
+    LOG + "shift",
+)
+
+
+def _chunk_bytes(data: Any) -> bytes:
+    """The bytes a chunk's digest takes: text as UTF-8 (gsd stores it as a NUL-ended
+    int8 array), an array as its dtype, shape and values."""
+    if isinstance(data, str):
+        return data.encode()
+    a = np.ascontiguousarray(data)
+    if a.dtype == np.int8 and a.ndim == 1:  # text as gsd gives it back
+        return a.tobytes().split(b"\0", 1)[0]
+    return f"{a.dtype.str}{a.shape}".encode() + a.tobytes()
+
+
+def _digest(chunks: list[tuple[str, Any]]) -> np.ndarray:
+    """16 bytes (uint8) of SHA-256 over the names and bytes of `chunks` that the digest
+    covers, in `_DIGESTED`'s order."""
+    import hashlib
+
+    have = dict(chunks)
+    h = hashlib.sha256()
+    for name in _DIGESTED:
+        if name in have:
+            h.update(name.encode() + b"\0" + _chunk_bytes(have[name]))
+    return np.frombuffer(h.digest()[:16], dtype=np.uint8).copy()
 
 
 def _gsd_fl() -> Any:
@@ -163,6 +222,7 @@ def write_gsd(pack: Pack, path: str | Path) -> Path:
         (LOG + "hi", np.ascontiguousarray(hi)),
         (LOG + "shift", np.ascontiguousarray(shift)),
     ]
+    chunks.append((DIGEST, _digest(chunks)))
     # gsd writes to a named file: build it in a private folder, then put its bytes in
     # place through the same atomic write as every other export
     with tempfile.TemporaryDirectory(prefix="granpack-gsd-") as tmp:
@@ -319,21 +379,62 @@ def read_gsd(path: str | Path, dim: int | None = None, snapshot: int = -1) -> Pa
         return _read_open(f, path, dim, int(snapshot))
 
 
+# gsd's file header (gsd.h, file layer 1.0 and 2.x): magic, index location, index
+# entries, name list location, name list entries (uint64 each), schema and gsd versions
+# (uint32 each), then the application, schema and reserved text: 256 bytes
+_HEADER = struct.Struct("<QQQQQII")
+_HEADER_SIZE = 256
+_INDEX_ENTRY = 32  # frame, N, location (8 bytes each), M (4), id (2), type, flags (1 each)
+_NAME_ENTRY = 64  # one name, NUL-padded
+
+
 def _check_head(path: Path) -> None:
+    """Refuses what is not a gsd file, and a header whose index or name list lies beyond
+    the end of the file: the gsd library takes the header's sizes on trust (a changed
+    byte in the index's size crashes the process), so they are checked first."""
     try:
         with open(path, "rb") as fh:
-            head = fh.read(len(GSD_MAGIC))
+            head = fh.read(_HEADER_SIZE)
+            size = os.fstat(fh.fileno()).st_size
     except FileNotFoundError:
         raise FileFormatError(
             f"cannot read {path}: no such file", path=path, reason="no such file"
         ) from None
     except OSError as exc:
         raise FileFormatError(f"cannot read {path}: {exc.strerror or exc}", path=path) from None
-    if head != GSD_MAGIC:
+    if head[: len(GSD_MAGIC)] != GSD_MAGIC:
         raise FileFormatError(
             f"{path}: not a gsd file (its first bytes are not gsd's magic number)",
             path=path,
             reason="not a gsd file",
+        )
+    if len(head) < _HEADER_SIZE:
+        raise FileFormatError(
+            f"{path}: not a readable gsd file: {size} bytes, shorter than gsd's "
+            f"{_HEADER_SIZE}-byte header (a truncated file)",
+            path=path,
+            reason="truncated",
+        )
+    _, index_at, index_n, names_at, names_n, _, version = _HEADER.unpack(head[: _HEADER.size])
+    parts = (
+        ("index", index_at, index_n, _INDEX_ENTRY),
+        ("name list", names_at, names_n, _NAME_ENTRY),
+    )
+    for what, at, count, entry in parts:
+        if at < _HEADER_SIZE or count > size // entry or at + count * entry > size:
+            raise FileFormatError(
+                f"{path}: not a readable gsd file: its header puts the {what} ({count} "
+                f"entries at byte {at}) outside the file's {size} bytes (a damaged or "
+                "truncated file)",
+                path=path,
+                reason="damaged header",
+            )
+    if version >> 16 not in (1, 2):
+        raise FileFormatError(
+            f"{path}: not a readable gsd file: gsd file layer version {version >> 16}."
+            f"{version & 0xFFFF} (this gsd package reads 1.x and 2.x)",
+            path=path,
+            reason="damaged header",
         )
 
 
@@ -418,6 +519,7 @@ def _read_open(f: Any, path: Path, dim: int | None, snapshot: int) -> ParticleFi
         )
 
     text = fr.text(LOG + "container")
+    _check_digest(fr)
     notes: list[str] = []
     if n_frames > 1:
         notes.append(f"frame {k} of {n_frames} read (counted from 0)")
@@ -464,6 +566,27 @@ def _read_open(f: Any, path: Path, dim: int | None, snapshot: int) -> ParticleFi
         notes=tuple(notes),
         **fields,
     )
+
+
+def _check_digest(fr: _Frame) -> None:
+    """Refuses a frame whose chunks do not give the digest granpack wrote with them (a
+    changed byte). Frames without one (other programs', older granpack files) pass:
+    gsd has no checksum of its own."""
+    if not fr.exists(DIGEST, fr.index):
+        return
+    stored = fr.read(DIGEST)
+    chunks = []
+    for name in _DIGESTED:
+        if fr.exists(name, fr.index):
+            chunks.append((name, fr.read(name)))
+    if not isinstance(stored, np.ndarray) or not np.array_equal(
+        stored.ravel().astype(np.uint8, copy=False), _digest(chunks)
+    ):
+        raise fr.fail(
+            DIGEST,
+            "the chunks do not give the digest written with them: the file was changed or "
+            "damaged after granpack wrote it",
+        )
 
 
 def _granpack_fields(fr: _Frame, text: str, d: int) -> dict:

@@ -33,29 +33,28 @@ from ._text import (
     _integer_ids,
     _pad3,
     _pick,
-    _read_text,
+    _read_text_cut,
     _rows_text,
     _sorted_by_id,
     _tag_fields,
+    _text_digits,
     lammps_positions,
-    scan_dump,
+    scan_complete_dump,
 )
 from .particle_file import ParticleFile
 
-# Coordinate columns of a dump, in order of preference: plain, unwrapped, scaled,
-# scaled unwrapped (LAMMPS' names). Scaled ones are fractions of the box.
-_DUMP_COORDS = (("x", "y", "z", False), ("xu", "yu", "zu", False))
-
-
-_DUMP_SCALED = (("xs", "ys", "zs", True), ("xsu", "ysu", "zsu", True))
+# The column suffixes of one axis in a dump, in order of preference: plain, unwrapped,
+# scaled, scaled unwrapped (LAMMPS' names), and whether each is a fraction of the box.
+_DUMP_COORD_KINDS = (("", False), ("u", False), ("s", True), ("su", True))
 
 
 _DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
 
 
 def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
-    lines = _read_text(path).splitlines()
-    snaps = scan_dump(path, lines)
+    text, cut = _read_text_cut(path)
+    lines = text.splitlines()
+    snaps, short = scan_complete_dump(path, lines, cut=cut)
     n_snap = len(snaps)
     k_snap = _frame_index(path, snapshot, n_snap, "dump", "snapshot")
     s = snaps[k_snap]
@@ -63,20 +62,26 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     atoms_line, names = s.first - 1, s.names
     header = f"{path}:{atoms_line + 1}"
 
-    coord: tuple[int | None, int | None, int | None] | None = None
-    scaled = False
-    for cx, cy, cz, sc in (*_DUMP_COORDS, *_DUMP_SCALED):
-        ix, iy = _pick(names, (cx,)), _pick(names, (cy,))
-        if ix is not None and iy is not None:
-            coord, scaled = (ix, iy, _pick(names, (cz,))), sc
-            break
-    if coord is None:
+    # each axis from its own column: x (else xu, else the scaled xs, xsu); LAMMPS writes
+    # whatever columns dump custom names, so x y with a scaled zs is a valid dump
+    cols_ax: list[int | None] = []
+    scaled_ax: list[bool] = []
+    for ax in "xyz":
+        found = [
+            (c, sc)
+            for tail, sc in _DUMP_COORD_KINDS
+            if (c := _pick(names, (ax + tail,))) is not None
+        ]
+        cols_ax.append(found[0][0] if found else None)
+        scaled_ax.append(bool(found) and found[0][1])
+    if cols_ax[0] is None or cols_ax[1] is None:
         raise FileFormatError(
             f"{header}: missing columns: expected x y (z), xu yu (zu) or scaled xs ys (zs) "
             f"in 'ITEM: ATOMS', found {' '.join(names)}",
             path=path,
             reason="missing coordinate columns",
         )
+    coord = (cols_ax[0], cols_ax[1], cols_ax[2])
     i_rad = _pick(names, ("radius",))
     i_dia = _pick(names, ("diameter",))
     if i_rad is None and i_dia is None:
@@ -129,8 +134,9 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     x3[:, :nc] = a[:, :nc]
     lo = np.array([b[0] for b in s.bounds])
     hi = np.array([b[1] for b in s.bounds])
-    if scaled:  # fractions of the box
-        x3[:, :nc] = lo[:nc] + x3[:, :nc] * (hi[:nc] - lo[:nc])
+    for k_ax in range(nc):
+        if scaled_ax[k_ax]:  # fractions of the box
+            x3[:, k_ax] = lo[k_ax] + x3[:, k_ax] * (hi[k_ax] - lo[k_ax])
     r = a[:, nc] if i_rad is not None else a[:, nc] / 2.0
     ids = None
     order = np.arange(s.n)
@@ -139,13 +145,25 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
         return first + int(order[k]) + 1
 
     if i_id is not None:
-        ids = _integer_ids(path, a[:, -1], lambda k: first + k + 1)
+        ids = _integer_ids(
+            path,
+            a[:, -1],
+            lambda k: first + k + 1,
+            lambda: [ln.split()[i_id] for ln in lines[first : first + s.n]],
+        )
         order = _sorted_by_id(path, ids, lambda k: first + k + 1)
         ids = ids[order]
         x3, r = x3[order], r[order]
     _check_values(path, x3, r, where)
 
-    notes: list[str] = []
+    notes: list[str] = [] if short is None else [short]
+    if len(set(scaled_ax[:nc])) > 1:
+        kinds = ", ".join(
+            f"{names[c]} ({'a fraction of the box' if sc else 'm'})"
+            for c, sc in zip(coord[:nc], scaled_ax[:nc], strict=False)
+            if c is not None
+        )
+        notes.append(f"coordinates from scaled and unscaled columns: {kinds}")
     flags = s.flags
     z_periodic = flags is not None and len(flags) == 3 and flags[2] == "pp"
     d = _choose_dim(path, x3, has_z, dim, z_periodic)
@@ -164,9 +182,14 @@ def read_dump(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
                 f"periodic in {' and '.join(axes)} (BOX BOUNDS {' '.join(flags)}): the "
                 "analysis takes the periodic horizontal axes as a periodic cell"
             )
+    rad_col = i_rad if i_rad is not None else i_dia
+    digits = _text_digits(
+        lines[first : first + s.n], [c for c in (*coord, rad_col) if c is not None]
+    )
     return ParticleFile(
         path=path,
         format="lammps-dump",
+        digits=digits,
         positions=x3[:, :d],
         radii=r,
         ids=ids,

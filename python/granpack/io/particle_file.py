@@ -72,6 +72,11 @@ class ParticleFile:
         The pack itself for a ``.npz`` file.
     notes : tuple of str
         What the reader left out or assumed (periodic flags, a dimension it inferred).
+    digits : int or None
+        The most significant digits the file's text writes a position or radius with
+        (the precision of its format, as its text shows it), which the check of a
+        contact list takes; None for binary files and files read without counting
+        (the check then counts the digits the values need).
     """
 
     def __init__(
@@ -93,6 +98,7 @@ class ParticleFile:
         contacts: Contacts | None = None,
         pack: Pack | None = None,
         notes: tuple[str, ...] = (),
+        digits: int | None = None,
     ) -> None:
         self.path = path
         self.format = format
@@ -105,6 +111,7 @@ class ParticleFile:
         if container is None and periodic is not None and any(periodic[: self.dim - 1]):
             container = "periodic"
         self.container = container
+        self.digits = digits
         self.cylinder_radius = cylinder_radius
         self.lid = None if lid is None else float(lid)
         self.timestep = timestep
@@ -128,7 +135,7 @@ class ParticleFile:
                 "the result of granpack.read_contacts",
                 parameter="contacts",
             )
-        from ..analysis.inputs import _as_contacts, check_contacts_touch
+        from ..analysis.inputs import _as_contacts, check_contacts_touch, verge_note
         from ..analysis.system import analysis_container
 
         # the contacts must touch in the container the analysis will see
@@ -141,7 +148,12 @@ class ParticleFile:
             size = np.asarray(self.box[1], dtype=float) - np.asarray(self.box[0], dtype=float)
             flags = list(self.periodic)[: self.dim] + [False] * self.dim
             file_periods = np.where(flags[: self.dim], size, np.inf)
-        check_contacts_touch(
+        carries = getattr(contacts, "carries_force", None)
+        if carries is None:
+            carries = (np.asarray(c.force_normal) != 0.0) | np.any(
+                np.asarray(c.force_tangential).reshape(len(c), -1) != 0.0, axis=1
+            )
+        n_verge, widest = check_contacts_touch(
             c.i,
             c.j,
             self.positions,
@@ -152,8 +164,12 @@ class ParticleFile:
             path=source,
             ids=ids if source is not None else None,
             file_periods=file_periods,
+            force=carries,
+            digits=self.digits,
         )
         notes = self.notes + tuple(getattr(contacts, "notes", ()))
+        if n_verge and not any("without force" in v for v in notes):
+            notes += (verge_note(n_verge, widest),)
         return ParticleFile(
             path=self.path,
             format=self.format,
@@ -171,6 +187,7 @@ class ParticleFile:
             contacts=c,
             pack=self.pack,
             notes=notes,
+            digits=self.digits,
         )
 
     def __repr__(self) -> str:

@@ -28,7 +28,7 @@ from .._validate import (
     is_number,
     short_repr,
 )
-from ._text import _SNIFF_LINES, _head, _read_args, _single_snapshot
+from ._text import _SNIFF_LINES, _head, _read_args, _single_snapshot, as_path, compression
 from .particle_file import ParticleFile
 
 if TYPE_CHECKING:
@@ -169,14 +169,36 @@ _DATA_HEADER = re.compile(r"^\s*\d+\s+atoms\s*(#.*)?$", re.MULTILINE)
 _YADE_HEADER = re.compile(r"^#\s*format\s+(\S+)\s*$")
 
 
+def _is_text(head: bytes) -> bool:
+    """Whether the first bytes read as UTF-8 text (a character cut at the end of the head
+    aside) without NUL bytes: what every text format granpack reads is."""
+    if b"\x00" in head:
+        return False
+    try:
+        head.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        return exc.start >= len(head) - 3 and exc.reason == "unexpected end of data"
+    return True
+
+
+#: The formats read through the text reader that takes gzip (LAMMPS writes compressed
+#: dumps; the other codes' text is read the same way).
+_GZIP_FORMATS = ("lammps-dump", "yade", "xyz", "kratos")
+#: The formats that are no text.
+_BINARY_FORMATS = ("npz", "parquet", "gsd")
+
+
 def _by_content(head: bytes) -> str | None:
-    """The format the first bytes show, or None for text that could be any table."""
+    """The format the first bytes show, or None for text that could be any table (and
+    for bytes that are no text: the suffix then decides, and the reader refuses them)."""
     if head.startswith(b"PK\x03\x04"):
         return "npz"
     if head.startswith(b"PAR1"):
         return "parquet"
     if head.startswith(_GSD_MAGIC):
         return "gsd"
+    if not _is_text(head):
+        return None
     text = head.decode("utf-8-sig", errors="replace")
     lines = text.splitlines()
     first = next((ln.strip() for ln in lines if ln.strip()), "")
@@ -215,7 +237,7 @@ def detect_format(path) -> str:
     FileFormatError
         The file cannot be opened.
     """
-    path = Path(path)
+    path = as_path(path)
     head = _head(path)
     found = _by_content(head)
     if found is not None:
@@ -225,6 +247,15 @@ def detect_format(path) -> str:
         if suffix in READERS[name].suffixes:
             return name
     return "xyzr"
+
+
+def _raw_head(path: Path) -> bytes:
+    """The first bytes of the file as stored (compressed or not)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(8)
+    except OSError:
+        return b""  # the reader names the failure to open it
 
 
 def _suffix_disagrees(path: Path, fmt: str) -> str | None:
@@ -277,9 +308,16 @@ def read_particles(
     Snapshots may hold different numbers of particles (a dump written while particles
     are inserted); each is read with its own header.
 
+    Each axis of a dump is read from its own column, so scaled and unscaled ones may mix
+    (``x y zs``; a note says so). A dump whose last snapshot stops short (LAMMPS still
+    writing it, or a cut copy) is read up to its last complete snapshot, with a note.
+    gzip-compressed dumps (``dump ... file.gz``), YADE, extended XYZ and Kratos text are
+    read; other compressed files are refused by name. Ids are read exactly up to 64 bits.
+
     CSV and Parquet tables need columns ``x``, ``y`` (, ``z``) and one of ``r``,
     ``radius``, ``diameter`` (names in any case; ``id`` optional), as granpack's own
-    CSV and Parquet export writes them.
+    CSV and Parquet export writes them; Parquet columns must be numeric (a Boolean or
+    text column is refused).
 
     Raises
     ------
@@ -289,9 +327,10 @@ def read_particles(
         row with too few numbers, a radius <= 0, a snapshot that the file does not hold,
         no particles).
     InvalidParameterError
-        An unknown `format`, a `snapshot` that is not an integer, or `dim` not None, 2, 3.
+        A `path` that is no path (None, a number), an unknown `format`, a `snapshot` that
+        is not an integer, or `dim` not None, 2, 3.
     """
-    path = Path(path)
+    path = as_path(path)
     if format is not None and format not in READERS:
         raise InvalidParameterError(
             f"invalid format = {short_repr(format)}: must be one of {', '.join(FORMATS)} "
@@ -302,6 +341,22 @@ def read_particles(
         )
     snapshot = _read_args(snapshot, dim)
     fmt = format if format is not None else detect_format(path)
+    packed = compression(_raw_head(path))
+    if packed is not None and (packed != "gzip" or fmt not in _GZIP_FORMATS):
+        raise FileFormatError(
+            f"cannot read {path}: a {packed}-compressed file read as {fmt}; granpack reads "
+            f"gzip-compressed {', '.join(_GZIP_FORMATS)} text (such as LAMMPS' dump ... "
+            "file.gz) and the other formats uncompressed: decompress it first",
+            path=path,
+            reason="compressed",
+        )
+    if fmt not in _BINARY_FORMATS and not _is_text(_head(path)):
+        raise FileFormatError(
+            f"cannot read {path} as {fmt}: not a text file (NUL bytes, or bytes that are "
+            "not UTF-8)",
+            path=path,
+            reason="not text",
+        )
     reader = READERS[fmt]
     try:
         if reader.frames:

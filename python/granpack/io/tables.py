@@ -11,6 +11,7 @@ import numpy as np
 from .._validate import (
     FileFormatError,
 )
+from ..analysis.inputs import written_digits
 from ..container_tag import ContainerTag, parse_container_tag
 from ..pack import atomic_write
 
@@ -50,6 +51,8 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
     except FileNotFoundError:
         raise FileFormatError(f"cannot read {path}: no such file", path=path) from None
     except (OSError, pl.exceptions.PolarsError, ValueError) as exc:
+        if fmt == "csv":
+            _refuse_ragged_csv(path)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise FileFormatError(f"cannot read {path} as {fmt}: {first[:200]}", path=path) from None
 
@@ -106,8 +109,17 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
     def column(c: int) -> np.ndarray:
         name = names[c]
         s = df.get_column(name)
-        if s.dtype == pl.String:  # CSV: every column is read as text
+        if fmt == "csv" and s.dtype == pl.String:  # CSV: every column is read as text
             s = s.str.strip_chars()
+        elif not s.dtype.is_numeric():
+            # a Boolean, date or nested column would cast to numbers that mean nothing
+            # (True as a radius of 1.0)
+            raise FileFormatError(
+                f"{label}: column {name!r} holds {s.dtype} values; x, y, z, the radius and "
+                "the id must be numeric columns (integers or floats)",
+                path=path,
+                reason="non-numeric column",
+            )
         try:
             f = s.cast(pl.Float64, strict=False)
         except pl.exceptions.PolarsError:
@@ -135,20 +147,78 @@ def _read_table(path: Path, fmt: str, dim: int | None) -> ParticleFile:
         r = column(i_d) / 2.0
     ids = None
     if i_id is not None:
-        ids = _integer_ids(path, column(i_id), where)
+        ids = _table_ids(path, df.get_column(names[i_id]), column(i_id), where)
         order = _sorted_by_id(path, ids, where)
         ids, x3, r = ids[order], x3[order], r[order]
         _check_values(path, x3, r, lambda k: where(int(order[k])))
     else:
         _check_values(path, x3, r, where)
     d = _choose_dim(path, x3, has_z, dim)
+    digits = None
     if fmt == "csv":
         tag = _comment_tag(path, _read_text(path).splitlines(), d)
+        # the precision of the text as written, for the contact check
+        step = len(df) // 50_000 + 1
+        words: list[str] = []
+        for c in (ix, iy, iz, i_r if i_r is not None else i_d):
+            if c is not None:
+                words += [w for w in df.get_column(names[c]).gather_every(step).to_list() if w]
+        digits = written_digits(words)
     else:
         tag = _parquet_tag(path, d)
     return ParticleFile(
-        path=path, format=fmt, positions=x3[:, :d], radii=r, ids=ids, **_tag_fields(tag, d)
+        path=path,
+        format=fmt,
+        positions=x3[:, :d],
+        radii=r,
+        ids=ids,
+        digits=digits,
+        **_tag_fields(tag, d),
     )
+
+
+def _table_ids(path: Path, s, raw: np.ndarray, where) -> np.ndarray:
+    """The id column `s` as int64, exactly: an integer column as it is, a CSV column of
+    text from its digits (ids of 2**53 and above, which `raw`, its float64 reading,
+    cannot hold), a float column through `_integer_ids`."""
+    import polars as pl
+
+    if s.dtype.is_integer():
+        if s.dtype == pl.UInt64 and s.max() is not None and s.max() > np.iinfo(np.int64).max:
+            k = int(np.argmax(s.to_numpy() > np.iinfo(np.int64).max))
+            raise FileFormatError(
+                f"{path}:{where(k)}: id {s[k]} lies beyond a 64-bit signed integer", path=path
+            )
+        return s.cast(pl.Int64).to_numpy().astype(np.int64)
+    text = s.str.strip_chars() if s.dtype == pl.String else None  # CSV
+    return _integer_ids(path, raw, where, None if text is None else (lambda: text.to_list()))
+
+
+def _refuse_ragged_csv(path: Path) -> None:
+    """Names the first row of a CSV file whose field count differs from its header's
+    (polars' own message names no line)."""
+    import csv
+
+    try:
+        lines = _read_text(path).splitlines()
+    except FileFormatError:
+        return
+    header: int | None = None
+    for k, row in enumerate(csv.reader(lines)):
+        line = lines[k] if k < len(lines) else ""
+        if not line.strip() or line.startswith("#"):
+            continue
+        if header is None:
+            header = len(row)
+            head_line = k + 1
+            continue
+        if len(row) != header:
+            raise FileFormatError(
+                f"{path}:{k + 1}: expected {header} fields (as the header at line {head_line}"
+                f" names), found {len(row)}",
+                path=path,
+                reason="wrong field count",
+            )
 
 
 def _parquet_tag(path: Path, d: int) -> ContainerTag | None:

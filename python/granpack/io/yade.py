@@ -30,6 +30,7 @@ from ._text import (
     _sorted_by_id,
     _tag,
     _tag_fields,
+    _text_digits,
 )
 from .particle_file import ParticleFile
 
@@ -108,14 +109,28 @@ def _yade_particles(
     ids = None
     order = np.arange(a.shape[0])
     if "id" in names:
-        ids = _integer_ids(path, a[:, names.index("id")], line_of)
+        at = names.index("id")
+        ids = _integer_ids(
+            path,
+            a[:, at],
+            line_of,
+            lambda: [lines[line_of(k) - 1].split("#", 1)[0].split()[at] for k in range(len(a))],
+        )
         order = _sorted_by_id(path, ids, line_of)
         ids, x3, r = ids[order], x3[order], r[order]
     _check_values(path, x3, r, lambda k: line_of(int(order[k])))
     d = _choose_dim(path, x3, True, dim)
     tag = _comment_tag(path, lines, d)
+    cols = [names.index(c) for c in ("x", "y", "z", "r")]
+    digits = _text_digits(lines[k0 + 1 :], cols, comment="#")
     return ParticleFile(
-        path=path, format="yade", positions=x3[:, :d], radii=r, ids=ids, **_tag_fields(tag, d)
+        path=path,
+        format="yade",
+        positions=x3[:, :d],
+        radii=r,
+        ids=ids,
+        digits=digits,
+        **_tag_fields(tag, d),
     )
 
 
