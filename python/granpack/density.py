@@ -519,15 +519,16 @@ class _Runs:
             )
         return self.servo
 
-    def window(self) -> tuple[tuple[float, str], tuple[float, str]]:
+    def window(self, every: bool = False) -> tuple[tuple[float, str], tuple[float, str]]:
         """((phi, what) of the loosest, of the densest) over the grid's packs and (where
         the scene uses it) the servo's end, measuring those not measured yet: the same
-        packs, and so the same window, as `void_ratio_limits` of this seed and stream."""
+        packs, and so the same window, as `void_ratio_limits` of this seed and stream.
+        `every`: over the search's other packs too, the window it reached."""
         grid = _grid(self.scene)
         for mu in grid:
             if mu not in self.phi:
                 self.sample(mu)
-        pts = [(self.phi[mu], _describe("deposition", mu)) for mu in grid]
+        pts = [(self.phi[mu], _describe("deposition", mu)) for mu in (self.phi if every else grid)]
         if _uses_servo(self.scene):
             pts.append((self.servo_window()[1], _describe("servo", 0.0)))
         return min(pts), max(pts)
@@ -703,9 +704,9 @@ def _search(key, value, phi_t, lo, hi, runs: _Runs, finish) -> Pack:
             raise _not_reached(key, value, phi_t, runs, f"in {MAX_GENERATIONS} packs")
         extrapolations += extrapolated
         runs.sample(mu)
-    # every grid friction measured and no bracket left to split: out of the window, or
-    # phi jumps across the band
-    (phi_min, loose_from), (phi_max, dense_from) = runs.window()
+    # every grid friction measured and no bracket left to split: out of the window that
+    # every pack made spans, or phi jumps across the band
+    (phi_min, loose_from), (phi_max, dense_from) = runs.window(every=True)
     if not phi_min <= phi_t <= phi_max:
         raise _out_of_window(key, value, phi_t, (phi_min, loose_from), (phi_max, dense_from))
     raise _not_reached(
@@ -799,10 +800,10 @@ def _not_reached(key, value, phi_t, runs: _Runs, why: str, window=None) -> Densi
     best_mu = min(runs.phi, key=lambda mu: abs(runs.phi[mu] - phi_t))
     best = runs.phi[best_mu]
     if window is None and runs.grid_measured():
-        window = runs.window()
+        window = runs.window(every=True)
     if window is not None:
         (phi_min, _), (phi_max, _) = window
-        where = f"; the window is [{phi_min:.4f}, {phi_max:.4f}]"
+        where = f"; the packs made span the window [{phi_min:.4f}, {phi_max:.4f}]"
     else:
         phi_min = phi_max = math.nan
         where = (
