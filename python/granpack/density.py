@@ -223,7 +223,9 @@ def _u(mu: float) -> float:
 
 
 def _mu(u: float) -> float:
-    return min(max(math.exp(u) - MU_SHIFT, 0.0), MU_DEP_MAX)
+    """The friction at `u`, clamped to [0, MU_DEP_MAX] (before exp: a near-flat secant
+    can point far beyond)."""
+    return min(max(math.exp(min(u, _u(MU_DEP_MAX))) - MU_SHIFT, 0.0), MU_DEP_MAX)
 
 
 def _grid(scene: PackScene) -> tuple[float, ...]:
