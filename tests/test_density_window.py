@@ -60,7 +60,10 @@ def test_the_window_ends_are_the_extremes_where_phi_is_not_monotone(window41):
     assert w.phi_max == pytest.approx(max(phis.values()), rel=1e-12)
     assert w.phi_min == pytest.approx(min(phis.values()), rel=1e-12)
     assert w.e_min < w.e_max
-    assert w.e_min_from == (f"layers jammed at mu_dep = {max(phis, key=phis.get):g}",)
+    densest = max(phis, key=phis.get)
+    assert w.e_min_from == (f"layers jammed at mu_dep = {densest:g}",)
+    # the point is that friction's pack, made again on its own, bit for bit
+    assert _phi(BOX41, densest) == phis[densest]
     # the recipe's own deposit is inside: 0 <= Dr <= 1
     recipe = 1.0 / sample_phi(gp.generate(BOX41))[0] - 1.0
     assert w.e_min <= recipe <= w.e_max
