@@ -19,7 +19,7 @@ import pytest
 
 import granpack as gp
 from granpack import _core
-from granpack.density import MU_DEP_MAX, sample_phi
+from granpack.density import MU_DEP_GRID, MU_DEP_MAX, sample_phi
 
 LEVELS = (0.2, 0.5, 0.8)  # where in the window the targets lie, loosest to densest
 
@@ -73,11 +73,16 @@ def test_deposition_friction_reaches_void_ratio_targets_in_the_2d_box(window2, l
     assert d["density_tol"] == pytest.approx(tol)
 
 
-def test_phi_falls_as_the_deposition_friction_rises(window3, window2):
-    # the window's ends: frictionless jamming the densest, MU_DEP_MAX the loosest
+def test_the_window_is_ordered_over_the_measured_grid(window3, window2):
     for w in (window3, window2):
         assert w.e_min < w.e_max
         assert w.measure == "core" and w.packs == 1 and w.e_min_sd == 0.0
+        # a deposit's packs: one per grid friction and the recipe's, no servo
+        assert {mu for _, mech, mu, _ in w.points if mech == "deposition"} == {
+            *MU_DEP_GRID,
+            P3.material.friction,
+        }
+        assert all(mech == "deposition" for _, mech, _, _ in w.points)
 
 
 def test_relative_density_uses_the_windows_ends(window3):
@@ -99,9 +104,10 @@ def test_a_target_outside_the_window_is_refused_with_the_window(window3, side):
         gp.generate(P3.replace(target_phi=round(target, 4)))
     e = info.value
     assert e.parameter == "target_phi"
-    # the window's ends are the same packs as void_ratio_limits' (same seed and stream)
-    assert e.phi_min == pytest.approx(window3.phi_min, abs=1e-12)
-    assert e.phi_max == pytest.approx(window3.phi_max, abs=1e-12)
+    # the window holds void_ratio_limits' packs (same seed and stream), and the
+    # search's own packs can only widen it
+    assert e.phi_min <= window3.phi_min + 1e-12 and e.phi_max >= window3.phi_max - 1e-12
+    assert e.phi_min < e.phi_max
     assert f"[{e.phi_min:.4f}, {e.phi_max:.4f}]" in str(e)
 
 

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from .analysis.profiles import profiles
     from .consolidation import consolidate, settle
     from .contacts import Contacts
-    from .density import VoidRatioLimits, void_ratio_limits
+    from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
     from .generation import generate
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
@@ -53,6 +53,7 @@ _LAZY = {
     "settle": "consolidation",
     "Contacts": "contacts",
     "VoidRatioLimits": "density",
+    "DensityWindowWarning": "density",
     "void_ratio_limits": "density",
     "Material": "simulation",
     "Simulation": "simulation",
@@ -140,6 +141,7 @@ __all__ = [
     "settle",
     "void_ratio_limits",
     "VoidRatioLimits",
+    "DensityWindowWarning",
     "read_particles",
     "ParticleFile",
     "read_contacts",

@@ -9,11 +9,13 @@ then builds the pack through `generate_at_density`, by one of two mechanisms
   with a friction mu_dep instead of the material's, and the material's friction is
   restored once the pack is jammed; where mu_dep exceeded it, the pack then settles
   again under its own weight (`granpack.settle`), so that every contact lies in the
-  material's Coulomb cone. phi falls as mu_dep rises, nearly linearly in
-  ln(mu_dep + MU_SHIFT), from frictionless jamming (mu_dep = 0, the densest) to
-  MU_DEP_MAX (the loosest: above it phi changes by less than 0.002). The search for
-  mu_dep is a secant search in that variable, bracketed where it can be: deterministic,
-  so the same scene and seed give the same pack, bit for bit.
+  material's Coulomb cone. As a deposit, phi falls as mu_dep rises, nearly linearly in
+  ln(mu_dep + MU_SHIFT); once the friction is restored, the pack settled and
+  consolidated, phi need not be monotone in mu_dep at all. The search is a secant
+  search in that variable, inside a bracket of measured packs (one pack denser and one
+  looser than the target, adjacent in mu_dep) once it has one, and otherwise over the
+  measured grid MU_DEP_GRID: deterministic, so the same scene and seed give the same
+  pack, bit for bit.
 - **Lowering friction under the servo** (``density_method = "servo"``; needs a
   ``[consolidate]`` table). The recipe's deposit is consolidated; while the servo holds
   the stress, the friction is lowered in phases, each run to equilibrium, until phi
@@ -22,16 +24,20 @@ then builds the pack through `generate_at_density`, by one of two mechanisms
 
 ``"auto"`` (the default) lowers the friction under the servo when the scene consolidates
 and the recipe's sample is looser than the target (one generation), and searches the
-deposition friction otherwise.
+deposition friction otherwise, or where the servo did not reach the target.
 
 Which phi: with a lid (a consolidating scene), the sample's, between the floor and the
 lid; without one, the core window's (`Microstructure.phi_core`), away from the walls and
 the free surface, the part of a deposit that a sample cut from it would have.
 
-The void ratio limits of the model (`void_ratio_limits`) are the two ends of the
-deposition friction: e_min from packs jammed frictionless (mu_dep = 0), e_max from packs
-jammed at MU_DEP_MAX, each then brought back to the material's friction, settled and (when
-the scene consolidates) consolidated, exactly as a target's pack is.
+The void ratio limits of the model (`void_ratio_limits`) are the measured extremes over
+what granpack makes of the scene: the packs jammed at every deposition friction of
+MU_DEP_GRID and at the material's own (the recipe), each brought back to the material's
+friction, settled and (when the scene consolidates) consolidated exactly as a target's
+pack is, and, when the scene consolidates (and its density_method is not
+"deposition"), the recipe's sample with its friction lowered to zero under the servo.
+e_min is the densest of them, e_max the loosest, whichever friction or mechanism gave
+each.
 """
 
 from __future__ import annotations
@@ -40,6 +46,7 @@ import dataclasses
 import math
 import statistics
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -47,7 +54,7 @@ from ._validate import as_int
 from .analysis import microstructure
 from .consolidation import consolidate, settle
 from .errors import DensityTargetError, InvalidParameterError
-from .pack import Pack, deposit
+from .pack import Pack, UnsettledPackWarning, deposit
 from .scene import PackScene
 
 __all__ = [
@@ -55,24 +62,46 @@ __all__ = [
     "void_ratio_limits",
     "generate_at_density",
     "sample_phi",
+    "DensityWindowWarning",
     "MU_DEP_MAX",
+    "MU_DEP_GRID",
 ]
 
-#: The loosest deposition friction (-): between mu_dep = 1 and 2 the core phi of example
-#: 4.3 changed by 0.001 (settled at the material's friction), within one pack's spread.
+#: The loosest deposition friction the search tries (-): between mu_dep = 1 and 2 the
+#: core phi of example 4.3 changed by 0.001 (settled at the material's friction), within
+#: one pack's spread.
 MU_DEP_MAX = 1.0
+#: The deposition frictions (-) at which the window's ends are measured (with the
+#: material's own friction, the recipe's). Once the friction is restored and the pack
+#: settled and consolidated, phi is not monotone in mu_dep (2D example 4.1 consolidated
+#: to 10 kPa: 0.947, 0.936, 0.933, 0.925 and 0.927 at these five), so neither end of
+#: the range need be an extreme.
+MU_DEP_GRID = (0.0, 0.1, 0.2, 0.5, MU_DEP_MAX)
 #: The search variable is ln(mu_dep + MU_SHIFT), in which phi is nearly linear.
 MU_SHIFT = 0.1
 #: The first step's slope, d phi / d ln(mu_dep + MU_SHIFT), before the search has two
 #: points of its own: -0.022 was measured on example 4.3 in the box (core phi).
 SLOPE_GUESS = -0.022
-#: Most packs one search generates.
-MAX_GENERATIONS = 8
+#: Most packs one search generates (the measured grid's included).
+MAX_GENERATIONS = 12
+#: Secant steps outside any bracket before the search measures the grid instead: past
+#: two, an extrapolation that has not bracketed the target is following a slope that
+#: the packs do not have.
+MAX_EXTRAPOLATIONS = 2
+#: A bracket narrower than this in ln(mu_dep + MU_SHIFT) is not split further: phi
+#: jumps across the band there (a collapse of a few arches at once).
+MIN_BRACKET = 1e-3
+#: A bracket whose phi changes by more than this per unit of ln(mu_dep + MU_SHIFT) (20
+#: times SLOPE_GUESS) looks like a jump: the search measures the grid before splitting it.
+STEEP = 20 * abs(SLOPE_GUESS)
 #: The default tolerance in phi (in e and Dr: its equivalent at the target).
 DEFAULT_TOL_PHI = 0.002
 #: The unbalanced ratio a pack jammed above the material's friction settles to once the
 #: friction is restored (when the scene sets no rest_tol).
 REST_TOL = 1e-4
+#: The target the servo is given to measure its dense end: above any packing fraction,
+#: so that it lowers the friction to zero and reports the phi it reached there.
+_SERVO_PROBE = 0.9999
 
 #: The scene's keys that the layer loop does not run: the pack is generated without
 #: them (`_plain`), and its scene gets them back at the end.
@@ -87,6 +116,14 @@ _STAGE_FIELDS = (
 )
 
 
+class DensityWindowWarning(UserWarning):
+    """A sample granpack made lies outside the window (e_min, e_max) measured for its
+    scene and seed, so its relative density is outside [0, 1]. The message says by how
+    much and why: the window's ends are measured packs (`void_ratio_limits`), and a
+    sample at a target within density_tol of an end, or one whose friction was
+    restored after the end was measured, can lie beyond it by that much."""
+
+
 def sample_phi(pack: Pack) -> tuple[float, str]:
     """The packing fraction a density target is measured by, and which one it is:
     ("sample": between the floor and the lid) for a consolidated pack, ("core": the core
@@ -96,10 +133,57 @@ def sample_phi(pack: Pack) -> tuple[float, str]:
     return float(microstructure(pack).phi_core), "core"
 
 
+def _measured_phi(pack: Pack, parameter: str, value: object) -> float:
+    """`sample_phi`, or an InvalidParameterError naming `parameter` where the pack has no
+    core window to measure phi in (NaN)."""
+    from .analysis.result import MicrostructureWarning
+
+    with warnings.catch_warnings():
+        # an empty core window is this function's error, with what to do about it
+        warnings.simplefilter("ignore", MicrostructureWarning)
+        phi, _ = sample_phi(pack)
+    if not math.isfinite(phi):
+        shown = (
+            "" if value is None else f" = {value:g}" if isinstance(value, float) else f" = {value}"
+        )
+        raise InvalidParameterError(
+            f"invalid {parameter}{shown}: the pack has no core window to measure phi in "
+            "(it is lower than twice the analysis' core margin, or narrower); give a taller "
+            "and wider scene, or a [consolidate] table (phi between the floor and the lid)",
+            parameter=parameter,
+            value=value,
+        )
+    return phi
+
+
 def _plain(scene: PackScene) -> PackScene:
     """The scene without its target, settling and consolidation: the layer loop's part."""
     defaults = {f.name: f.default for f in dataclasses.fields(PackScene)}
     return scene.replace(**{k: defaults[k] for k in _STAGE_FIELDS})
+
+
+def _deposit_at(
+    scene: PackScene, mu_dep: float, progress: bool | Callable[[dict], None] = False
+) -> Pack:
+    """The scene's deposit with every layer jammed at friction `mu_dep`, the material's
+    friction restored and the pack settled where needed (not consolidated)."""
+    plain = _plain(scene)
+    mat = scene.material
+    jam = plain
+    if mu_dep != mat.friction:
+        jam = plain.replace(material=dataclasses.replace(mat, friction=mu_dep))
+    settles = mu_dep > mat.friction or scene.rest_tol is not None
+    with warnings.catch_warnings():
+        if settles or scene.consolidate is not None:
+            # the deposit is brought to rest right after (settled below, or consolidated
+            # to equilibrium by the caller): its motion at the end of the layer loop is
+            # not the sample's
+            warnings.simplefilter("ignore", UnsettledPackWarning)
+        pack = deposit(jam, progress, _stacklevel=4)
+    pack = dataclasses.replace(pack, scene=plain)
+    if settles:
+        pack = settle(pack, scene.rest_tol if scene.rest_tol is not None else REST_TOL)
+    return pack
 
 
 def _at_friction(
@@ -112,18 +196,26 @@ def _at_friction(
     """The scene's pack with every layer jammed at friction `mu_dep`, the material's
     friction restored, settled where needed, and consolidated when the scene asks
     (lowering the friction under the servo to `servo_phi` when given)."""
-    plain = _plain(scene)
-    mat = scene.material
-    jam = plain
-    if mu_dep != mat.friction:
-        jam = plain.replace(material=dataclasses.replace(mat, friction=mu_dep))
-    pack = deposit(jam, progress)
-    pack = dataclasses.replace(pack, scene=plain)
-    if mu_dep > mat.friction or scene.rest_tol is not None:
-        pack = settle(pack, scene.rest_tol if scene.rest_tol is not None else REST_TOL)
+    pack = _deposit_at(scene, mu_dep, progress)
     if scene.consolidate is not None:
         pack = consolidate(pack, **scene.consolidate, target_phi=servo_phi, density_tol=servo_tol)
     return pack
+
+
+def _servo_end(scene: PackScene, deposit_pack: Pack) -> tuple[float, float]:
+    """(phi at the material's friction, phi at zero friction) of `deposit_pack`
+    consolidated as the scene asks, the friction lowered to zero under the servo: the
+    servo's window."""
+    assert scene.consolidate is not None
+    try:
+        sample = consolidate(deposit_pack, **scene.consolidate, target_phi=_SERVO_PROBE)
+    except DensityTargetError as e:
+        if math.isfinite(e.phi_max):
+            return float(e.phi_min), float(e.phi_max)
+        raise
+    # reached the probe: no pack is that dense, but were it, it is the end
+    rec = sample.consolidation or {}
+    return float(rec["density"]["phi_before"]), float(rec["phi"])
 
 
 def _u(mu: float) -> float:
@@ -131,7 +223,25 @@ def _u(mu: float) -> float:
 
 
 def _mu(u: float) -> float:
-    return min(max(math.exp(u) - MU_SHIFT, 0.0), MU_DEP_MAX)
+    """The friction at `u`, clamped to [0, MU_DEP_MAX] (before exp: a near-flat secant
+    can point far beyond)."""
+    return min(max(math.exp(min(u, _u(MU_DEP_MAX))) - MU_SHIFT, 0.0), MU_DEP_MAX)
+
+
+def _grid(scene: PackScene) -> tuple[float, ...]:
+    """The deposition frictions the window is measured at: MU_DEP_GRID and the
+    material's own."""
+    return tuple(sorted({*MU_DEP_GRID, float(scene.material.friction)}))
+
+
+def _uses_servo(scene: PackScene) -> bool:
+    return scene.consolidate is not None and scene.density_method != "deposition"
+
+
+def _describe(mechanism: str, friction: float) -> str:
+    if mechanism == "servo":
+        return "the recipe's sample, friction lowered to zero under the servo"
+    return f"layers jammed at mu_dep = {friction:g}"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,8 +253,13 @@ class VoidRatioLimits:
         e_min_sd, e_max_sd: their sample standard deviation over the packs (0 for one).
         e_min_values, e_max_values: each pack's.
         measure: "sample" (floor to lid, a consolidating scene) or "core".
-        packs: how many packs each end was measured on (the scene's stream and the next
-            ones, of its seed).
+        packs: how many streams each end was measured on (the scene's stream and the
+            next ones, of its seed).
+        e_min_from, e_max_from: per stream, what made its densest and its loosest pack
+            ("layers jammed at mu_dep = 0", "the recipe's sample, friction lowered to zero
+            under the servo").
+        points: every pack measured, as (stream, mechanism, friction, phi): mechanism
+            "deposition" (friction: mu_dep) or "servo" (friction: 0, the servo's end).
     """
 
     e_min: float
@@ -155,6 +270,9 @@ class VoidRatioLimits:
     e_max_values: tuple[float, ...]
     measure: str
     packs: int
+    e_min_from: tuple[str, ...] = ()
+    e_max_from: tuple[str, ...] = ()
+    points: tuple[tuple[int, str, float, float], ...] = ()
 
     @property
     def phi_min(self) -> float:
@@ -167,8 +285,20 @@ class VoidRatioLimits:
         return 1.0 / (1.0 + self.e_min)
 
     def relative_density(self, e: float) -> float:
-        """Dr = (e_max - e) / (e_max - e_min) of void ratio `e` (-)."""
-        return (self.e_max - e) / (self.e_max - self.e_min)
+        """Dr = (e_max - e) / (e_max - e_min) of void ratio `e` (-).
+
+        Raises InvalidParameterError where the window has no width (e_max = e_min: every
+        pack measured has the same phi), where Dr has no meaning."""
+        width = self.e_max - self.e_min
+        if not width > 0.0:
+            raise InvalidParameterError(
+                f"invalid relative density: the window has no width (e_min = "
+                f"{self.e_min:.6g}, e_max = {self.e_max:.6g}): every pack measured has the "
+                "same void ratio, so the relative density is undefined; give a void ratio "
+                "or phi instead",
+                parameter="target_relative_density",
+            )
+        return (self.e_max - e) / width
 
 
 def void_ratio_limits(
@@ -177,57 +307,85 @@ def void_ratio_limits(
     progress: bool | Callable[[dict], None] = False,
 ) -> VoidRatioLimits:
     """e_min and e_max of the model for `scene`'s size distribution, container and
-    material, each over `packs` packs.
+    material, each over `packs` streams: the measured extremes over what granpack makes.
 
-    e_min: every layer jammed frictionless (mu_dep = 0); e_max: jammed at MU_DEP_MAX.
-    The packs take the scene's stream and the next ``packs - 1``.
-    Each pack then gets the material's friction back, settles (REST_TOL, or the scene's
-    rest_tol) and, when the scene consolidates, is consolidated at the material's
-    friction. The void ratio is the sample's (floor to lid) when the scene consolidates,
+    Per stream, one pack with every layer jammed at each deposition friction of
+    MU_DEP_GRID (0, 0.1, 0.2, 0.5, 1) and at the material's own, each given the
+    material's friction back, settled (REST_TOL, or the scene's rest_tol) and, when the
+    scene consolidates, consolidated at the material's friction; and, when the scene
+    consolidates (unless its density_method is "deposition"), the recipe's deposit
+    consolidated with its friction lowered to zero under the servo. e_min is the void
+    ratio of the densest of these, e_max of the loosest (phi is not monotone in the
+    deposition friction once the pack is settled and consolidated, so neither is
+    assumed). The void ratio is the sample's (floor to lid) when the scene consolidates,
     the core window's otherwise (see `sample_phi`). The scene's density target, if any,
-    plays no part.
+    plays no part. The streams are the scene's and the next ``packs - 1``.
 
     Parameters
     ----------
     scene : PackScene
     packs : int
-        Packs per end, in [1, 1000]. Default 5.
+        Streams per end, in [1, 1000]. Default 5.
     progress : bool or callable
-        A callable gets a dict per pack (end, stream, phi, void_ratio, seconds); True
-        prints one line per pack to stderr.
+        A callable gets a dict per pack (stream, mechanism, friction, phi, void_ratio,
+        seconds); True prints one line per pack to stderr.
+
+    Raises
+    ------
+    InvalidParameterError
+        A deposit without a core window to measure phi in (``parameter="scene"``), or
+        `packs` out of range.
     """
     if not isinstance(scene, PackScene):
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
     packs = as_int("packs", packs, 1, 1000)
-    values: dict[str, list[float]] = {"e_min": [], "e_max": []}
-    measure = "core"
-    for end, mu in (("e_min", 0.0), ("e_max", MU_DEP_MAX)):
-        for k in range(packs):
+    measure = "sample" if scene.consolidate is not None else "core"
+    e_min: list[float] = []
+    e_max: list[float] = []
+    dense_from: list[str] = []
+    loose_from: list[str] = []
+    points: list[tuple[int, str, float, float]] = []
+    for k in range(packs):
+        stream = scene.stream + k
+        sc = scene.replace(stream=stream)
+        here: list[tuple[str, float, float]] = []
+        for mu in _grid(sc):
             t0 = time.perf_counter()
-            pack = _at_friction(scene.replace(stream=scene.stream + k), mu)
-            phi, measure = sample_phi(pack)
-            values[end].append(1.0 / phi - 1.0)
-            _report(
-                progress,
-                {
-                    "end": end,
-                    "stream": scene.stream + k,
-                    "phi": phi,
-                    "void_ratio": 1.0 / phi - 1.0,
-                    "seconds": time.perf_counter() - t0,
-                },
-            )
-    return _limits(values["e_min"], values["e_max"], measure)
+            dep = _deposit_at(sc, mu)
+            pack = consolidate(dep, **sc.consolidate) if sc.consolidate is not None else dep
+            here.append(("deposition", mu, _measured_phi(pack, "scene", None)))
+            _report_point(progress, stream, here[-1], t0)
+            if mu == sc.material.friction and _uses_servo(sc):
+                t0 = time.perf_counter()
+                here.append(("servo", 0.0, _servo_end(sc, dep)[1]))
+                _report_point(progress, stream, here[-1], t0)
+        points += [(stream, *p) for p in here]
+        dense = max(here, key=lambda p: p[2])
+        loose = min(here, key=lambda p: p[2])
+        e_min.append(1.0 / dense[2] - 1.0)
+        e_max.append(1.0 / loose[2] - 1.0)
+        dense_from.append(_describe(dense[0], dense[1]))
+        loose_from.append(_describe(loose[0], loose[1]))
+    return _limits(e_min, e_max, measure, dense_from, loose_from, points)
 
 
-def _limits(e_min: list[float], e_max: list[float], measure: str) -> VoidRatioLimits:
-    """The limits from each end's packs (the mean of one pack is its value, exactly)."""
+def _limits(
+    e_min: list[float],
+    e_max: list[float],
+    measure: str,
+    dense_from: list[str],
+    loose_from: list[str],
+    points: list[tuple[int, str, float, float]],
+) -> VoidRatioLimits:
+    """The limits from each stream's ends (the mean of one pack is its value, exactly),
+    checked for order: each stream's ends are the extremes of its own packs, so a mean
+    e_min above the mean e_max cannot happen, and would be a defect."""
     sd = {
         k: statistics.stdev(v) if len(v) > 1 else 0.0 for k, v in (("min", e_min), ("max", e_max))
     }
-    return VoidRatioLimits(
+    lim = VoidRatioLimits(
         e_min=statistics.fmean(e_min),
         e_max=statistics.fmean(e_max),
         e_min_sd=sd["min"],
@@ -236,6 +394,27 @@ def _limits(e_min: list[float], e_max: list[float], measure: str) -> VoidRatioLi
         e_max_values=tuple(e_max),
         measure=measure,
         packs=len(e_min),
+        e_min_from=tuple(dense_from),
+        e_max_from=tuple(loose_from),
+        points=tuple(points),
+    )
+    if not lim.e_min <= lim.e_max:
+        raise AssertionError(f"the window's ends cross: e_min {lim.e_min} > e_max {lim.e_max}")
+    return lim
+
+
+def _report_point(progress, stream: int, point: tuple[str, float, float], t0: float) -> None:
+    mechanism, friction, phi = point
+    _report(
+        progress,
+        {
+            "stream": stream,
+            "mechanism": mechanism,
+            "friction": friction,
+            "phi": phi,
+            "void_ratio": 1.0 / phi - 1.0,
+            "seconds": time.perf_counter() - t0,
+        },
     )
 
 
@@ -277,6 +456,89 @@ def _band(
     return 1.0 / (1.0 + e), 1.0 / (1.0 + e + tol), 1.0 / (1.0 + max(e - tol, 0.0)), tol
 
 
+class _Runs:
+    """The packs one target's search made of the scene (its seed and stream), each made
+    once: deposition samples by mu_dep, the recipe's deposit, and the servo's window."""
+
+    def __init__(self, scene: PackScene, key: str, value: float, progress) -> None:
+        self.scene = scene
+        self.key = key
+        self.value = value
+        self.progress = progress
+        self.mu0 = float(scene.material.friction)
+        self.phi: dict[float, float] = {}  # deposition samples' phi by mu_dep
+        self.packs: dict[float, Pack] = {}
+        self.recipe_deposit: Pack | None = None
+        self.servo: tuple[float, float] | None = None  # (phi at mu0, phi at zero friction)
+        self.history: list[dict[str, Any]] = []
+
+    @property
+    def generations(self) -> int:
+        """Layer loops run: one per deposition friction measured."""
+        return len(set(self.phi) | ({self.mu0} if self.recipe_deposit is not None else set()))
+
+    def deposit(self, mu: float) -> Pack:
+        if mu == self.mu0:
+            if self.recipe_deposit is None:
+                self.recipe_deposit = _deposit_at(self.scene, mu, self.progress)
+            return self.recipe_deposit
+        return _deposit_at(self.scene, mu, self.progress)
+
+    def sample(self, mu: float) -> tuple[Pack, float]:
+        """The deposition sample at `mu` (made again, bit for bit, where only its phi was
+        kept)."""
+        if mu not in self.packs:
+            t = time.perf_counter()
+            pack = self.deposit(mu)
+            if self.scene.consolidate is not None:
+                pack = consolidate(pack, **self.scene.consolidate)
+            phi = _measured_phi(pack, self.key, self.value)
+            self.packs[mu] = pack
+            if mu not in self.phi:
+                self.phi[mu] = phi
+                self.history.append(
+                    {
+                        "friction": mu,
+                        "phi": phi,
+                        "method": "deposition",
+                        "seconds": time.perf_counter() - t,
+                    }
+                )
+        return self.packs[mu], self.phi[mu]
+
+    def servo_window(self) -> tuple[float, float]:
+        if self.servo is None:
+            t = time.perf_counter()
+            self.servo = _servo_end(self.scene, self.deposit(self.mu0))
+            self.phi.setdefault(self.mu0, self.servo[0])
+            self.history.append(
+                {
+                    "friction": 0.0,
+                    "phi": self.servo[1],
+                    "method": "servo window",
+                    "seconds": time.perf_counter() - t,
+                }
+            )
+        return self.servo
+
+    def window(self, every: bool = False) -> tuple[tuple[float, str], tuple[float, str]]:
+        """((phi, what) of the loosest, of the densest) over the grid's packs and (where
+        the scene uses it) the servo's end, measuring those not measured yet: the same
+        packs, and so the same window, as `void_ratio_limits` of this seed and stream.
+        `every`: over the search's other packs too, the window it reached."""
+        grid = _grid(self.scene)
+        for mu in grid:
+            if mu not in self.phi:
+                self.sample(mu)
+        pts = [(self.phi[mu], _describe("deposition", mu)) for mu in (self.phi if every else grid)]
+        if _uses_servo(self.scene):
+            pts.append((self.servo_window()[1], _describe("servo", 0.0)))
+        return min(pts), max(pts)
+
+    def grid_measured(self) -> bool:
+        return all(mu in self.phi for mu in _grid(self.scene))
+
+
 def generate_at_density(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
@@ -289,7 +551,17 @@ def generate_at_density(
     ------
     DensityTargetError
         The target lies outside the window this scene reaches (the error gives the
-        window), or the search did not reach it in MAX_GENERATIONS packs.
+        window, measured over the grid of deposition frictions and the servo), or the
+        search did not reach it in MAX_GENERATIONS packs.
+    InvalidParameterError
+        A relative density where every pack measured has the same phi (the window has no
+        width), or a deposit with no core window to measure phi in.
+
+    Warns
+    -----
+    DensityWindowWarning
+        A relative density's sample lies outside the window measured for it (by at most
+        the tolerance, or the change when the friction was restored after the servo).
     """
     target = scene.density_target
     if target is None:
@@ -300,41 +572,23 @@ def generate_at_density(
         )
     key, value = target
     t0 = time.perf_counter()
-    history: list[dict[str, Any]] = []
-    done: dict[float, tuple[Pack, float]] = {}
+    runs = _Runs(scene, key, value, progress)
     measure = "sample" if scene.consolidate is not None else "core"
-
-    def at(mu: float) -> tuple[Pack, float]:
-        if mu not in done:
-            t = time.perf_counter()
-            pack = _at_friction(scene, mu, progress=progress)
-            phi, _ = sample_phi(pack)
-            if not math.isfinite(phi):
-                raise InvalidParameterError(
-                    f"invalid {key} = {value:g}: the pack has no core window to measure "
-                    "phi in (it is lower than twice the analysis' core margin, or "
-                    "narrower); give a taller and wider scene, or a [consolidate] table "
-                    "(phi between the floor and the lid)",
-                    parameter=key,
-                    value=value,
-                )
-            done[mu] = (pack, phi)
-            history.append(
-                {
-                    "friction": mu,
-                    "phi": phi,
-                    "method": "deposition",
-                    "seconds": time.perf_counter() - t,
-                }
-            )
-        return done[mu]
 
     limits = None
     if key == "target_relative_density":
-        # Dr needs e_min and e_max: the two ends of this seed's deposition friction,
-        # which bracket the search as well
-        phi_loose, phi_dense = at(MU_DEP_MAX)[1], at(0.0)[1]
-        limits = _limits([1.0 / phi_dense - 1.0], [1.0 / phi_loose - 1.0], measure)
+        # Dr needs e_min and e_max: the extremes of this seed's packs, over the grid
+        # and the servo, which then bracket the search as well
+        (phi_loose, loose_from), (phi_dense, dense_from) = runs.window()
+        limits = _limits(
+            [1.0 / phi_dense - 1.0],
+            [1.0 / phi_loose - 1.0],
+            measure,
+            [dense_from],
+            [loose_from],
+            [],
+        )
+        limits.relative_density(limits.e_min)  # the window has a width, or the error
     phi_t, lo, hi, tol = _band(key, value, scene.density_tol, limits)
 
     def finish(pack: Pack, phi: float, method: str, friction: float) -> Pack:
@@ -348,13 +602,29 @@ def generate_at_density(
             "friction": friction,
             "phi": phi,
             "void_ratio": e,
-            "generations": len(history),
-            "history": history,
+            "generations": runs.generations,
+            "history": runs.history,
             "seconds": time.perf_counter() - t0,
         }
         if limits is not None:
             record["e_min"], record["e_max"] = limits.e_min, limits.e_max
-            record["relative_density"] = limits.relative_density(e)
+            dr = limits.relative_density(e)
+            record["relative_density"] = dr
+            if not 0.0 <= dr <= 1.0:
+                warnings.warn(
+                    f"{key} = {value:g}: the sample's relative density is {dr:.4f}, outside "
+                    f"[0, 1]: its e = {e:.4f} lies beyond the window [{limits.e_min:.4f}, "
+                    f"{limits.e_max:.4f}] measured on this seed's packs, within the "
+                    f"target's tolerance ({tol:g}) of an end"
+                    + (
+                        "; the servo measured its end at zero friction, and restoring the "
+                        "material's friction moved this sample"
+                        if method == "servo"
+                        else ""
+                    ),
+                    DensityWindowWarning,
+                    stacklevel=4,
+                )
         return dataclasses.replace(
             pack,
             scene=pack.scene.replace(**{k: getattr(scene, k) for k in _STAGE_FIELDS}),
@@ -362,134 +632,198 @@ def generate_at_density(
             wall_time=time.perf_counter() - t0,
         )
 
-    mu0 = float(scene.material.friction)
+    # a pack measured for the window already meets the target: the nearest
+    hit = _best_in_band(runs, lo, hi, phi_t) if scene.density_method != "servo" else None
+    if hit is not None:
+        pack, phi = runs.sample(hit)
+        return finish(pack, phi, "deposition", hit)
+
     method = scene.density_method
     if method == "auto":
         method = "servo" if scene.consolidate is not None else "deposition"
-    if method == "servo" and limits is None:
-        try:
+    if method == "servo":
+        phi0 = runs.servo[0] if runs.servo is not None else runs.phi.get(runs.mu0)
+        if scene.density_method == "servo" or phi0 is None or phi0 < phi_t:
             t = time.perf_counter()
-            pack = _at_friction(
-                scene,
-                mu0,
-                servo_phi=phi_t,
-                servo_tol=min(hi - phi_t, phi_t - lo),
-                progress=progress,
-            )
-            phi, _ = sample_phi(pack)
-            history.append(
-                {
-                    "friction": mu0,
-                    "phi": phi,
-                    "method": "servo",
-                    "seconds": time.perf_counter() - t,
-                    "phases": (pack.consolidation or {})["density"]["phases"],
-                }
-            )
-            return finish(pack, phi, "servo", mu0)
-        except DensityTargetError as e:
-            history.append(
-                {
-                    "friction": mu0,
-                    "phi": e.realised,
-                    "method": "servo",
-                    "seconds": time.perf_counter() - t,
-                }
-            )
-            if scene.density_method == "servo" or not e.phi_min > phi_t:
-                raise _renamed(e, key, value, phi_t) from None
-            # the recipe's sample is denser than the target: the deposition friction
-            # loosens it (the servo's first equilibrium was this pack at mu0)
-            return _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=[(mu0, e.phi_min)])
-    # a relative density's window ends bracket the search from the start
-    for end in (MU_DEP_MAX, 0.0) if limits else ():
-        pack, phi = done[end]
-        if lo <= phi <= hi:
-            return finish(pack, phi, "deposition", end)
-    ends = [(MU_DEP_MAX, done[MU_DEP_MAX][1]), (0.0, done[0.0][1])] if limits else []
-    return _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=ends)
+            try:
+                pack = consolidate(
+                    runs.deposit(runs.mu0),
+                    **(scene.consolidate or {}),
+                    target_phi=phi_t,
+                    density_tol=min(hi - phi_t, phi_t - lo),
+                )
+                phi = _measured_phi(pack, key, value)
+                runs.history.append(
+                    {
+                        "friction": runs.mu0,
+                        "phi": phi,
+                        "method": "servo",
+                        "seconds": time.perf_counter() - t,
+                        "phases": (pack.consolidation or {})["density"]["phases"],
+                    }
+                )
+                return finish(pack, phi, "servo", runs.mu0)
+            except DensityTargetError as e:
+                runs.history.append(
+                    {
+                        "friction": runs.mu0,
+                        "phi": e.realised,
+                        "method": "servo",
+                        "seconds": time.perf_counter() - t,
+                    }
+                )
+                # the servo's first equilibrium is the recipe's sample, bit for bit
+                runs.phi.setdefault(runs.mu0, float(e.phi_min))
+                if math.isfinite(e.phi_max):
+                    runs.servo = (float(e.phi_min), float(e.phi_max))
+                if scene.density_method == "servo":
+                    raise _renamed(e, key, value, phi_t) from None
+    return _search(key, value, phi_t, lo, hi, runs, finish)
 
 
-def _search(key, value, phi_t, lo, hi, at, finish, mu0, tried=()) -> Pack:
+def _best_in_band(runs: _Runs, lo: float, hi: float, phi_t: float) -> float | None:
+    """The measured deposition friction whose phi lies in [lo, hi], nearest the target."""
+    inside = [mu for mu, phi in runs.phi.items() if lo <= phi <= hi]
+    if not inside:
+        return None
+    return min(inside, key=lambda mu: (abs(runs.phi[mu] - phi_t), mu))
+
+
+def _search(key, value, phi_t, lo, hi, runs: _Runs, finish) -> Pack:
     """The secant search of the deposition friction in ln(mu + MU_SHIFT), from the
-    recipe's friction `mu0` or, after `tried` (mu, phi) points, from where they point."""
-    points: list[tuple[float, float]] = list(tried)
-    mu: float | None = None if points else mu0
-    for _ in range(MAX_GENERATIONS):
+    recipe's friction or from the packs measured: inside the best bracket where the
+    packs bracket the target, over the measured grid where they do not."""
+    extrapolations = 0
+    while True:
+        hit = _best_in_band(runs, lo, hi, phi_t)
+        if hit is not None:
+            pack, phi = runs.sample(hit)
+            return finish(pack, phi, "deposition", hit)
+        mu, extrapolated = _next_friction(runs, phi_t, extrapolations)
         if mu is None:
-            mu = _next_friction(points, key, value, phi_t, lo, hi, at)
-        pack, phi = at(mu)
-        if lo <= phi <= hi:
-            return finish(pack, phi, "deposition", mu)
-        points.append((mu, phi))
-        mu = None
-    best = min(points, key=lambda p: abs(p[1] - phi_t))
-    raise DensityTargetError(
-        f"{key} = {value:g} (phi = {phi_t:.4f}) not reached in {MAX_GENERATIONS} packs of "
-        f"the deposition friction search (nearest: phi = {best[1]:.4f} at mu_dep = "
-        f"{best[0]:.4g}); give a larger density_tol (the spread of phi between packs "
-        "grows as the pack gets smaller)",
-        parameter=key,
-        value=value,
-        target_phi=phi_t,
-        phi_min=math.nan,
-        phi_max=math.nan,
-        realised=best[1],
+            break
+        if runs.generations >= MAX_GENERATIONS:
+            raise _not_reached(key, value, phi_t, runs, f"in {MAX_GENERATIONS} packs")
+        extrapolations += extrapolated
+        runs.sample(mu)
+    # every grid friction measured and no bracket left to split: out of the window that
+    # every pack made spans, or phi jumps across the band
+    (phi_min, loose_from), (phi_max, dense_from) = runs.window(every=True)
+    if not phi_min <= phi_t <= phi_max:
+        raise _out_of_window(key, value, phi_t, (phi_min, loose_from), (phi_max, dense_from))
+    raise _not_reached(
+        key,
+        value,
+        phi_t,
+        runs,
+        "in any pack: phi jumps across the band between neighbouring deposition frictions"
+        + (
+            ", and the servo did not reach it either"
+            if runs.servo is not None and runs.servo[0] < phi_t <= runs.servo[1]
+            else ""
+        ),
+        window=((phi_min, loose_from), (phi_max, dense_from)),
     )
 
 
-def _next_friction(points, key, value, phi_t, lo, hi, at) -> float:
-    """The next deposition friction to try, or the out-of-window error when the points
-    show that no friction in [0, MU_DEP_MAX] reaches the band."""
-    mu, phi = points[-1]
-    tried = {p[0]: p[1] for p in points}
-    if phi < lo and 0.0 in tried and tried[0.0] < lo:
-        raise _out_of_window(key, value, phi_t, at(MU_DEP_MAX)[1], tried[0.0])
-    if phi > hi and MU_DEP_MAX in tried and tried[MU_DEP_MAX] > hi:
-        raise _out_of_window(key, value, phi_t, tried[MU_DEP_MAX], at(0.0)[1])
-    dense = [p for p in points if p[1] > hi]  # need more friction than these
-    loose = [p for p in points if p[1] < lo]  # and less than these
-    if dense and loose:
-        a = max(dense, key=lambda p: p[0])
-        b = min(loose, key=lambda p: p[0])
-    elif len(points) >= 2:
-        a, b = sorted(points, key=lambda p: abs(p[1] - phi_t))[:2]
-    else:
-        a = b = points[0]
-    ua, ub = _u(a[0]), _u(b[0])
-    if ua != ub and (a[1] - b[1]) * (ua - ub) < 0:
+def _next_friction(runs: _Runs, phi_t: float, extrapolations: int) -> tuple[float | None, int]:
+    """The next deposition friction to try, and 1 where it is an extrapolation (no
+    bracket); None once the grid is measured and no bracket can be split."""
+    pts = sorted(runs.phi.items())
+    if not pts:
+        return runs.mu0, 0
+    brackets = [
+        (a, b)
+        for a, b in zip(pts, pts[1:], strict=False)
+        if (a[1] - phi_t) * (b[1] - phi_t) < 0 and _u(b[0]) - _u(a[0]) > MIN_BRACKET
+    ]
+    if brackets:
+        # the bracket where phi changes the least per unit of u: the smooth part of the
+        # curve, rather than a jump (where splitting converges on the jump, never on the
+        # band)
+        a, b = min(
+            brackets, key=lambda ab: abs(ab[1][1] - ab[0][1]) / (_u(ab[1][0]) - _u(ab[0][0]))
+        )
+        ua, ub = _u(a[0]), _u(b[0])
+        untried = [mu for mu in _grid(runs.scene) if mu not in runs.phi]
+        if abs(b[1] - a[1]) / (ub - ua) > STEEP and untried:
+            # a jump, by the look of it: the grid may hold a smoother bracket
+            return _toward(runs, phi_t, untried), 0
+        # regula falsi in u, kept strictly inside the bracket
         u = ua + (phi_t - a[1]) * (ub - ua) / (b[1] - a[1])
-    else:
-        u = _u(mu) + (phi_t - phi) / SLOPE_GUESS
-    if dense and loose and ua != ub:
-        # strictly inside the bracket
-        u_lo, u_hi = sorted((ua, ub))
-        u = min(max(u, u_lo + 0.1 * (u_hi - u_lo)), u_hi - 0.1 * (u_hi - u_lo))
-    nxt = _mu(u)
-    if nxt in tried:
-        # clamped onto a friction tried already: try the window's end instead
-        nxt = 0.0 if phi < lo else MU_DEP_MAX
-        if nxt in tried:
-            raise (
-                _out_of_window(key, value, phi_t, at(MU_DEP_MAX)[1], tried[0.0])
-                if phi < lo
-                else _out_of_window(key, value, phi_t, tried[MU_DEP_MAX], at(0.0)[1])
-            )
-    return nxt
+        u = min(max(u, ua + 0.1 * (ub - ua)), ub - 0.1 * (ub - ua))
+        return math.exp(u) - MU_SHIFT, 0
+    if extrapolations < MAX_EXTRAPOLATIONS and not runs.grid_measured():
+        near = sorted(pts, key=lambda p: abs(p[1] - phi_t))
+        if len(near) == 1:
+            (mu, phi) = near[0]
+            u = _u(mu) + (phi_t - phi) / SLOPE_GUESS
+        else:
+            (ma, pa), (mb, pb) = near[:2]
+            ua, ub = _u(ma), _u(mb)
+            # only along the falling slope that deposits have; any other points the
+            # search to the grid
+            u = ua + (phi_t - pa) * (ub - ua) / (pb - pa) if (pb - pa) * (ub - ua) < 0 else math.nan
+        if math.isfinite(u):
+            nxt = _mu(u)
+            if nxt not in runs.phi:
+                return nxt, 1
+    untried = [mu for mu in _grid(runs.scene) if mu not in runs.phi]
+    if not untried:
+        return None, 0
+    return _toward(runs, phi_t, untried), 0
 
 
-def _out_of_window(key, value, phi_t, phi_min, phi_max) -> DensityTargetError:
+def _toward(runs: _Runs, phi_t: float, untried: list[float]) -> float:
+    """The untried grid friction toward the side the target lies on: the frictionless
+    end first for a target denser than every pack measured, the loosest end first
+    otherwise."""
+    denser = phi_t > max(runs.phi.values(), default=-1.0)
+    return untried[0] if denser else untried[-1]
+
+
+def _out_of_window(key, value, phi_t, loose, dense) -> DensityTargetError:
+    (phi_min, loose_from), (phi_max, dense_from) = loose, dense
     return DensityTargetError(
-        f"invalid {key} = {value:g} (phi = {phi_t:.4f}): out of reach; this scene and seed "
-        f"go from phi = {phi_min:.4f} (layers jammed at mu_dep = {MU_DEP_MAX:g}, the "
-        f"loosest) to {phi_max:.4f} (jammed frictionless, the densest): the window is "
-        f"[{phi_min:.4f}, {phi_max:.4f}], e in [{1 / phi_max - 1:.4f}, "
-        f"{1 / phi_min - 1:.4f}]",
+        f"invalid {key} = {value:g} (phi = {phi_t:.4f}): out of reach; the packs this scene "
+        f"and seed make go from phi = {phi_min:.4f} (the loosest: {loose_from}) to "
+        f"{phi_max:.4f} (the densest: {dense_from}): the window is [{phi_min:.4f}, "
+        f"{phi_max:.4f}], e in [{1 / phi_max - 1:.4f}, {1 / phi_min - 1:.4f}]",
         parameter=key,
         value=value,
         target_phi=phi_t,
         phi_min=phi_min,
         phi_max=phi_max,
+    )
+
+
+def _not_reached(key, value, phi_t, runs: _Runs, why: str, window=None) -> DensityTargetError:
+    """The target lies between packs the search made, but no pack met it."""
+    best_mu = min(runs.phi, key=lambda mu: abs(runs.phi[mu] - phi_t))
+    best = runs.phi[best_mu]
+    if window is None and runs.grid_measured():
+        window = runs.window(every=True)
+    if window is not None:
+        (phi_min, _), (phi_max, _) = window
+        where = f"; the packs made span the window [{phi_min:.4f}, {phi_max:.4f}]"
+    else:
+        phi_min = phi_max = math.nan
+        where = (
+            f"; the packs measured span phi = [{min(runs.phi.values()):.4f}, "
+            f"{max(runs.phi.values()):.4f}]"
+        )
+    return DensityTargetError(
+        f"{key} = {value:g} (phi = {phi_t:.4f}) not reached {why.lstrip('; ')} "
+        f"(nearest: phi = {best:.4f} at mu_dep = {best_mu:.4g}){where}; phi changes "
+        "between neighbouring deposition frictions by more than the tolerance here (the "
+        "spread of phi between packs grows as the pack gets smaller): give a larger "
+        "density_tol or a larger scene",
+        parameter=key,
+        value=value,
+        target_phi=phi_t,
+        phi_min=phi_min,
+        phi_max=phi_max,
+        realised=best,
     )
 
 

@@ -11,10 +11,12 @@ from ._console import Console
 
 HELP = "e_min and e_max of the model for a scene, over packs"
 DESCRIPTION = (
-    "Generates --packs packs of the scene with every layer jammed frictionless (e_min) and "
-    "--packs jammed at the loosest deposition friction (e_max), each brought back to the "
-    "material's friction, settled and, when the scene consolidates, consolidated, and "
-    "prints the mean void ratio of each end with its standard deviation "
+    "For each of --packs streams, generates the scene with every layer jammed at each "
+    "deposition friction of the grid (0, 0.1, 0.2, 0.5, 1 and the material's own), each "
+    "brought back to the material's friction, settled and, when the scene consolidates, "
+    "consolidated, and (when it consolidates) the recipe's sample with its friction "
+    "lowered to zero under the servo; e_min is the densest of these, e_max the loosest. "
+    "Prints the mean void ratio of each end with its standard deviation "
     "(granpack.void_ratio_limits; docs/density.md)."
 )
 
@@ -29,27 +31,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
+    from .._outputs import unsettled_as_notes
     from ..density import void_ratio_limits
     from ..pack import atomic_write
+    from ..scene import PRESETS
     from .generate import _scene_from_arg
 
+    if args.json is not None:
+        # the scene's own file is an input: --json naming it would overwrite the scene
+        scene_file = [Path(args.scene)] if args.scene not in PRESETS else []
+        check_outputs([args.json], scene_file, parameter="--json")
     scene, name = _scene_from_arg(args.scene)
     if args.fast:
         scene = scene.fast()
-    if args.json is not None:
-        check_outputs([args.json], [], parameter="--json")
-    lim = void_ratio_limits(
-        scene,
-        packs=args.packs,
-        progress=lambda row: console.say(
-            f"  {row['end']} stream {row['stream']}: phi {row['phi']:.4f}, "
-            f"e {row['void_ratio']:.4f} ({row['seconds']:.1f} s)"
-        ),
-    )
+    with unsettled_as_notes(console):
+        lim = void_ratio_limits(
+            scene,
+            packs=args.packs,
+            progress=lambda row: console.say(
+                f"  stream {row['stream']}, {_what(row)}: phi {row['phi']:.4f}, "
+                f"e {row['void_ratio']:.4f} ({row['seconds']:.1f} s)"
+            ),
+        )
     console.say(
         f"{name}: e_min {lim.e_min:.4f} ± {lim.e_min_sd:.4f}, e_max {lim.e_max:.4f} ± "
         f"{lim.e_max_sd:.4f} ({lim.measure} phi {lim.phi_max:.4f} to {lim.phi_min:.4f}; "
-        f"{lim.packs} pack(s) per end)"
+        f"{lim.packs} stream(s); densest: {_most(lim.e_min_from)}, loosest: "
+        f"{_most(lim.e_max_from)})"
     )
     if args.json is not None:
         body = {
@@ -60,8 +68,25 @@ def run(args: argparse.Namespace, console: Console) -> int:
             "e_max_sd": lim.e_max_sd,
             "e_min_values": list(lim.e_min_values),
             "e_max_values": list(lim.e_max_values),
+            "e_min_from": list(lim.e_min_from),
+            "e_max_from": list(lim.e_max_from),
+            "points": [
+                {"stream": k, "mechanism": m, "friction": mu, "phi": phi}
+                for k, m, mu, phi in lim.points
+            ],
             "measure": lim.measure,
             "packs": lim.packs,
         }
         atomic_write(args.json, json.dumps(body, indent=1).encode())
     return 0
+
+
+def _what(row: dict) -> str:
+    if row["mechanism"] == "servo":
+        return "servo at zero friction"
+    return f"mu_dep {row['friction']:g}"
+
+
+def _most(labels: tuple[str, ...]) -> str:
+    """The label most streams share (the first of those in a tie)."""
+    return max(dict.fromkeys(labels), key=labels.count)
