@@ -275,7 +275,12 @@ def test_every_study_folder_with_results_has_a_manifest():
     for folder in folders:
         if folder == STUDIES or folder.name in ("_common", "__pycache__"):
             continue
-        results = [f for f in folder.iterdir() if f.is_file() and f.suffix not in (".py", ".pyc")]
+        # its scripts and its entry page (README.md) are not results
+        results = [
+            f
+            for f in folder.iterdir()
+            if f.is_file() and f.suffix not in (".py", ".pyc") and f.name != "README.md"
+        ]
         if not results:
             continue
         manifests = sorted(folder.glob("manifest*.json"))

@@ -7,7 +7,7 @@
 # alternately, each under /usr/bin/time).
 # BEFORE and AFTER: folders, each with `pack_profile` and `pack_profile_phases` (the
 # same checkout built again with phase_timers.patch applied:
-#   git apply studies/pair_list_merge/phase_timers.patch &&
+#   git apply <(git show ec5eb5a:studies/pair_list_merge/phase_timers.patch) &&
 #   cargo build --release --example pack_profile).
 # Usage: bash studies/pair_list_merge/run.sh BEFORE AFTER OUT [ROUNDS] [LAYERS]
 set -euo pipefail

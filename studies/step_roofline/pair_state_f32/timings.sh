@@ -4,7 +4,7 @@
 # each block, copied in and out, every bit as A; C: B with the tangential history stored
 # as f32; D: B with the whole pair state stored as f32), on core 1, alternately, three
 # rounds, at 8 952, 80 568 and 572 928 spheres (TILES=1, 3, 8). B, C and D are
-# pair_state_f32.patch applied to this commit, C and D with the two aliases it names set
+# pair_state_f32.patch (`git show 9e71e29:studies/step_roofline/pair_state_f32/pair_state_f32.patch`; studies/HISTORY.md) applied to this commit, C and D with the two aliases it names set
 # to f32. Usage: [BUILDS="A_base E_fuse"] timings.sh BIN_DIR > timings.txt, BIN_DIR
 # holding the builds named (by default A_base, B_copy64, C_h32 and D_all32).
 set -euo pipefail
