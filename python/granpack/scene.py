@@ -123,15 +123,16 @@ FAST_FREEZE_LAYERS = 1.0
 #: Time step of `PackScene.fast()`, as a fraction of the Rayleigh estimate for r_min
 #: (never below the scene's own dt). A landing collision then lasts about 6 steps, and
 #: its restitution, averaged over where in a step the contact begins, is within 0.5 %
-#: of the resolved one, as at the paper's dt (`studies/collision_dt/collision_dt.py`); 20 packs
-#: of 4.3 lie within 0.54 sd of the full-fidelity ensemble (README, "The fast settings").
+#: of the resolved one, as at the paper's dt (`studies/collision_dt/collision_dt.py`); 20
+#: packs of 4.3 lie within 0.54 sd of the full-fidelity ensemble (docs/performance.md,
+#: "The fast settings").
 FAST_DT_RAYLEIGH = 0.55
 #: Time step of `PackScene.fast()` once a layer has fallen through its slab (settle_dt),
 #: as a fraction of the Rayleigh estimate (unset where the scene's dt is already at
 #: least that). The landing collisions are over by then; what follows is rolling and
 #: creep, which the coarser step resolves as well: 20 packs of 4.3 lie within 0.54 sd
 #: of the full-fidelity ensemble, where 0.75 from the start moved Z by -1.12 sd
-#: (README, "The fast settings").
+#: (docs/performance.md, "The fast settings").
 FAST_SETTLE_DT_RAYLEIGH = 0.75
 
 
@@ -508,7 +509,7 @@ class PackScene:
         and, once each layer has fallen, settle_dt = FAST_SETTLE_DT_RAYLEIGH of it
         (unset where that is not larger than dt). The physics constants are untouched;
         `studies/fast_vs_full/fast_vs_full.py` measures how far the ensemble statistics
-        move (see the README).
+        move (docs/performance.md, "The fast settings").
 
         A scene's own ``freeze_depth`` and ``freeze_force`` are kept: a tall pack with
         ``freeze_depth`` at 4 h_layer and ``freeze_force=10`` has a bed frozen for good

@@ -689,7 +689,7 @@ fn search_cell<const D: usize>(
     let density = x.len() as Real / volume;
     // Costs relative to a small particle's candidate test, fitted by least squares to
     // the pair search's times on the size-ratio benchmark's packs (ratios 1 to 8,
-    // divisors 1 to 6; `studies/size_ratio/`): a small particle's row of
+    // divisors 1 to 6; studies/HISTORY.md, commit a630553): a small particle's row of
     // cells (a loop that exits at a different count each time), a large particle's
     // candidate (it also keeps its partners of lower index), its row of cells (no
     // test per row, an empty run where the row is out of reach), its fixed cost (the

@@ -123,7 +123,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="PackScene.fast(): adaptive settling, freezing of buried settled particles, "
         "a larger dt where the scene's is below 0.55 of the stable step (3D presets), "
         "and 0.75 of it once each layer has landed (ensemble statistics within one sd, "
-        "see the README)",
+        "see docs/performance.md)",
     )
     # Development and test knobs (not the paper's physics): hidden from --help.
     p.add_argument("--settle-time", type=positive_float, default=None, help=argparse.SUPPRESS)

@@ -75,7 +75,8 @@ def reproduce(
         Address of a Dask distributed scheduler (``tcp://host:8786``) to run the packs
         on instead of local processes (needs ``granpack[dask]``); default None.
     fast : bool
-        Default False. Runs ``PackScene.fast()`` of each scene (see the README).
+        Default False. Runs ``PackScene.fast()`` of each scene (docs/performance.md, "The fast
+        settings").
     settle_time, scale : float or None
         Development options, not the paper's physics: seconds of jamming per layer, and
         a factor on the base and the height. The report flags them. Default None.
