@@ -23,6 +23,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -77,13 +78,15 @@ def one_try(argv: list[str], sig: int, delay: float) -> tuple[float | None, int]
             os.killpg(proc.pid, sig)  # a terminal's Ctrl-C reaches the whole group
         else:
             os.kill(proc.pid, sig)
-        try:
-            status = proc.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-            return float("inf"), -9
+        # A blocking wait returns the moment the process exits (wait(timeout=...) polls
+        # in steps of up to 50 ms); a watchdog ends a command that does not stop.
+        watchdog = threading.Timer(60.0, os.killpg, (proc.pid, signal.SIGKILL))
+        watchdog.start()
+        status = proc.wait()
         latency = time.perf_counter() - t0
+        watchdog.cancel()
+        if status == -signal.SIGKILL:
+            return float("inf"), status
         proc.stderr.close()
         return latency, status
 
