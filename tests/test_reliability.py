@@ -27,9 +27,10 @@ import pytest
 
 import granpack as gp
 from granpack import _core
+from granpack._files import atomic_write
 from granpack.cli import LOCK_NAME, main
 from granpack.ensemble import MAX_PACKS, ensemble_tasks, pack_path, run_tasks
-from granpack.pack import atomic_write, fall_time, settling_issue
+from granpack.pack import fall_time, settling_issue
 
 TINY_TOML = """\
 preset = "4.1"

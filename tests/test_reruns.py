@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import granpack as gp
+from granpack._files import is_temporary
 from granpack.cli import main
 from granpack.ensemble import ensemble_tasks, pack_path, run_tasks
-from granpack.pack import NEWER_FORMAT, is_temporary
+from granpack.pack import NEWER_FORMAT
 
 TINY = gp.PackScene.preset("4.1").replace(base=(0.2,), height=0.06, settle_time=0.5)
 

@@ -36,9 +36,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
+from ._files import atomic_write
 from ._validate import InvalidParameterError
 from .analysis.container import Container
-from .pack import atomic_write
 
 __all__ = [
     "analysis_figure",

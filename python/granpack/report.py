@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .pack import atomic_write
+from ._files import atomic_write
 
 # paper_report comes from __getattr__ below
 __all__ = ["paper_report", "ensemble_report"]  # noqa: F822

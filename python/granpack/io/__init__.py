@@ -30,7 +30,7 @@ Written (``export(pack, path, format=None)``): ``vtk`` (ParaView), ``lammps`` an
 Contact forces of other codes (``read_contacts``): LIGGGHTS ``pair/gran/local``, LAMMPS
 ``pair/local`` (`granpack.io.contacts`).
 
-Every writer writes through `granpack.pack.atomic_write` (a temporary file and a rename),
+Every writer writes through `granpack._files.atomic_write` (a temporary file and a rename),
 so that nothing is half-written if a run is cut off.
 """
 

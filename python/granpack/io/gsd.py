@@ -70,10 +70,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import FileFormatError, GranpackError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
 from ._text import _frame_index, _read_args
 from .particle_file import ParticleFile
 
@@ -181,7 +181,7 @@ def write_gsd(pack: Pack, path: str | Path) -> Path:
 
     The layout, the float32 precision and how the periodic flags are carried are in the
     module docstring. The file is written whole to a temporary file and renamed
-    (`granpack.pack.atomic_write`): an interrupted write leaves no partial file.
+    (`granpack._files.atomic_write`): an interrupted write leaves no partial file.
 
     Raises
     ------

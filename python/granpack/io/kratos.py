@@ -49,10 +49,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import FileFormatError, InvalidParameterError
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
 from ._text import _format_lines, _read_text, _state3
 
 if TYPE_CHECKING:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
     InvalidParameterError,
@@ -19,7 +20,6 @@ from .._validate import (
 )
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import SNIPPET_NAME, container_of, lammps_input, lid_height, liggghts_input
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     from ..pack import Pack

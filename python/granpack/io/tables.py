@@ -8,12 +8,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
 )
 from ..analysis.inputs import written_digits
 from ..container_tag import ContainerTag, parse_container_tag
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     import polars as pl

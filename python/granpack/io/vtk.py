@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from ..dem_input import container_of
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     from ..pack import Pack

@@ -8,13 +8,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
     is_number,
 )
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     from ..pack import Pack

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..pack import atomic_write
+from .._files import atomic_write
 from ..report import _col, _dev_banner, _duration, _environment_line, _grouped_links, _mean_sd, _rel
 
 __all__ = ["paper_report"]
