@@ -22,7 +22,7 @@ from test_peer_programs import run  # the peers' runner: log, or the failure's o
 
 import granpack as gp
 from granpack import export
-from granpack.dem_input import lid_area, lid_force
+from granpack.io.lammps_input import lid_area, lid_force
 
 
 @pytest.fixture(scope="module")

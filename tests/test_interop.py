@@ -17,7 +17,7 @@ from scenes import small_scene
 import granpack as gp
 from granpack import export
 from granpack.cli import main
-from granpack.dem_input import lammps_restitution, liggghts_restitution, tsuji_alpha
+from granpack.io.lammps_input import lammps_restitution, liggghts_restitution, tsuji_alpha
 
 meshio = pytest.importorskip("meshio")
 

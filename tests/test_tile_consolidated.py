@@ -22,7 +22,7 @@ import granpack as gp
 from granpack import export
 from granpack.analysis import MicrostructureWarning
 from granpack.contacts import LID_ID
-from granpack.dem_input import lid_force
+from granpack.io.lammps_input import lid_force
 
 COUNTS = {2: (3,), 3: (2, 2)}
 

@@ -46,7 +46,7 @@ class ParticleFile:
     container : str or None
         The container the file says the pack lies in (one of
         `granpack.scene.CONTAINERS`): a granpack pack's scene, the
-        container tag of granpack's text exports (`granpack.container_tag`), or periodic
+        container tag of granpack's text exports (`granpack.analysis.container`), or periodic
         horizontal axes in `periodic`. None: the file does not say; the analysis then
         assumes a box (walls at `box`, or none without one) and says so
         (``Microstructure.container_source``).

@@ -125,7 +125,7 @@ FORMATS = tuple(READERS)
 
 
 def _snippet(path: Path) -> list[Path]:
-    from ..dem_input import SNIPPET_NAME
+    from .lammps_input import SNIPPET_NAME
 
     return [path.with_name(SNIPPET_NAME)]
 
