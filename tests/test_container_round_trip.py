@@ -24,7 +24,7 @@ meshio = pytest.importorskip("meshio")
 CASES = [(3, "box"), (3, "periodic"), (3, "cylinder"), (2, "box"), (2, "periodic")]
 # every export that read_particles reads back, by the file read
 FORMATS = {
-    "lammps": "p.data",
+    "lammps-data": "p.data",
     "xyz": "p.xyz",
     "yade": "p.txt",
     "csv": "p.particles.csv",

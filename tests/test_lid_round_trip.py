@@ -33,7 +33,7 @@ CASES = {
 }
 # every export that read_particles reads back, by the file read
 FORMATS = {
-    "lammps": "p.data",
+    "lammps-data": "p.data",
     "xyz": "p.xyz",
     "yade": "p.txt",
     "csv": "p.particles.csv",

@@ -12,7 +12,7 @@ from .._validate import (
 )
 
 if TYPE_CHECKING:
-    pass
+    from ..pack import Pack
 
 from .particle_file import ParticleFile
 
@@ -39,3 +39,8 @@ def read_npz(path: Path, dim: int | None) -> ParticleFile:
         contacts=pack.contacts,
         pack=pack,
     )
+
+
+def write_npz(pack: Pack, path: Path) -> Path:
+    """Writes `pack` as granpack's own pack file (`Pack.save`)."""
+    return pack.save(path)
