@@ -144,7 +144,7 @@ def ensemble_report(
     lines += [
         "",
         "Each pack's microstructure is in `micro/pack_k.json`; "
-        "`granpack export PACK --format vtk|lammps|csv|parquet` converts a pack.",
+        "`granpack export PACK --format vtk|lammps-data|csv|parquet` converts a pack.",
         "",
     ]
     return atomic_write(out / "report.md", "\n".join(lines).encode())

@@ -156,7 +156,7 @@ def paper_report(
         "## Files",
         "",
         "- `packs/<example>-<on|off>/pack_k.npz`: every pack (`granpack.load_pack`; "
-        "`granpack export PACK --format vtk|lammps|csv|parquet` for ParaView, "
+        "`granpack export PACK --format vtk|lammps-data|csv|parquet` for ParaView, "
         "LAMMPS/LIGGGHTS `read_data`, tables).",
         "- `micro/<example>-<on|off>/pack_k.json`: each pack's microstructure.",
         "- `tables/`, `figures/`: what is linked above. Figures are named after the "
