@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from granpack.pack import atomic_write
+from granpack._files import atomic_write
 
 
 def test_a_write_cut_off_before_the_rename_keeps_the_old_file(tmp_path, monkeypatch):

@@ -22,7 +22,7 @@ from test_peer_programs import run  # the peers' runner: log, or the failure's o
 
 import granpack as gp
 from granpack import export
-from granpack.dem_input import lid_area, lid_force
+from granpack.io.lammps_input import lid_area, lid_force
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +68,7 @@ def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
     rec = pack.consolidation
     lid = rec["walls"]["lid"]
     assert lid_force(pack) == pytest.approx(1e5 * lid_area(pack), rel=1e-3)
-    written = export.export(pack, tmp_path / "pack.data", "lammps")
+    written = export.export(pack, tmp_path / "pack.data", "lammps-data")
     data = export.read_lammps_data(written[0])
     assert data["box"][1][2] == lid
     assert data["box"][1][0] == rec["walls"]["x_hi"]
@@ -86,7 +86,7 @@ def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
 
 def test_a_deposit_has_no_lid(tmp_path):
     pack = gp.generate(small_scene(3))
-    for code in ("lammps", "liggghts"):
+    for code in ("lammps-data", "liggghts"):
         text = export.export(pack, tmp_path / "pack.data", code)[1].read_text()
         assert "lid" not in text
         assert "fix             gravity" in text
@@ -94,9 +94,9 @@ def test_a_deposit_has_no_lid(tmp_path):
         lid_force(pack)
 
 
-@pytest.mark.parametrize("code", ["lammps", "liggghts"])
+@pytest.mark.parametrize("code", ["lammps-data", "liggghts"])
 def test_the_peer_finds_granpacks_lid_force(code, consolidated, request, tmp_path):
-    program = request.getfixturevalue("lmp" if code == "lammps" else "liggghts")
+    program = request.getfixturevalue("lmp" if code == "lammps-data" else "liggghts")
     want = lid_force(consolidated)  # about 1e5 N
     export.export(consolidated, tmp_path / "pack.data", code)
     assert lid_force_in(program, tmp_path, 0) == pytest.approx(want, rel=1e-5)
@@ -107,7 +107,7 @@ def test_the_peer_finds_granpacks_lid_force(code, consolidated, request, tmp_pat
 def test_each_container_gives_the_lid_force(name, lmp, liggghts, tmp_path):
     pack = _small(name)
     want = lid_force(pack)
-    codes = [("lammps", lmp)] + ([("liggghts", liggghts)] if pack.dim == 3 else [])
+    codes = [("lammps-data", lmp)] + ([("liggghts", liggghts)] if pack.dim == 3 else [])
     for code, program in codes:
         export.export(pack, tmp_path / "pack.data", code)
         assert lid_force_in(program, tmp_path, 0) == pytest.approx(want, rel=1e-5), code
@@ -124,7 +124,7 @@ def _uncommented(text: str, steps: tuple[str, str]) -> str:
 def test_the_servo_commands_run_and_hold_the_lid(lmp, liggghts, tmp_path):
     pack = _small("cylinder, isotropic")
     want = lid_force(pack)
-    text = export.export(pack, tmp_path / "pack.data", "lammps")[1].read_text()
+    text = export.export(pack, tmp_path / "pack.data", "lammps-data")[1].read_text()
     (tmp_path / "in.servo").write_text(
         _uncommented(text, ("servo_loop loop 100", "servo_loop loop 10"))
     )

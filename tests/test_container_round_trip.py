@@ -16,15 +16,15 @@ from scenes import small_scene
 import granpack as gp
 from granpack import export
 from granpack.analysis import MicrostructureWarning
+from granpack.analysis.container import ContainerTag
 from granpack.cli import main
-from granpack.container_tag import container_tag, parse_container_tag
 
 meshio = pytest.importorskip("meshio")
 
 CASES = [(3, "box"), (3, "periodic"), (3, "cylinder"), (2, "box"), (2, "periodic")]
 # every export that read_particles reads back, by the file read
 FORMATS = {
-    "lammps": "p.data",
+    "lammps-data": "p.data",
     "xyz": "p.xyz",
     "yade": "p.txt",
     "csv": "p.particles.csv",
@@ -178,13 +178,13 @@ def test_a_vtk_seam_contact_is_a_short_segment_on_both_sides(tmp_path):
     ],
 )
 def test_the_container_tag_is_parsed(text, found, tmp_path):
-    tag = parse_container_tag(text, tmp_path / "f", 1, 3)
+    tag = ContainerTag.parse(text, tmp_path / "f", 1, 3)
     assert (None if tag is None else (tag.kind, tag.cylinder_radius)) == found
 
 
 def test_the_tag_round_trips_its_corners(tmp_path):
-    text = container_tag("cylinder", 0.1, [0.0, 0.0, 0.0], [0.2, 0.2, 1 / 3])
-    tag = parse_container_tag(text, tmp_path / "f", 1, 3)
+    text = ContainerTag("cylinder", 0.1, [0.0, 0.0, 0.0], [0.2, 0.2, 1 / 3]).words()
+    tag = ContainerTag.parse(text, tmp_path / "f", 1, 3)
     assert tag is not None and tag.hi is not None
     assert tag.hi[2] == 1 / 3
 
@@ -202,7 +202,7 @@ def test_the_tag_round_trips_its_corners(tmp_path):
 )
 def test_a_wrong_tag_is_refused_by_name(text, match, tmp_path):
     with pytest.raises(gp.FileFormatError, match=match):
-        parse_container_tag(text, tmp_path / "f", 1, 3)
+        ContainerTag.parse(text, tmp_path / "f", 1, 3)
 
 
 def test_a_wrong_tag_in_a_file_is_refused_with_its_line(tmp_path):

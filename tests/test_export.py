@@ -139,7 +139,7 @@ def test_csv_and_parquet_round_trip(pack, tmp_path):
 
 
 def test_export_format_errors_name_the_choices(pack, tmp_path):
-    with pytest.raises(gp.GranpackError, match="vtk, lammps, liggghts, yade, xyz, csv, parquet"):
+    with pytest.raises(gp.GranpackError, match="vtk, lammps-data, liggghts, yade, xyz, csv"):
         export.export(pack, tmp_path / "p.vtu", "pdb")
     with pytest.raises(gp.GranpackError, match="cannot tell the export format"):
         export.export(pack, tmp_path / "p.txt")

@@ -720,7 +720,7 @@ CLI_WORDS = st.sampled_from(
         "off",
         "vtk",
         "csv",
-        "lammps",
+        "lammps-data",
         "0",
         "1",
         "2",

@@ -17,7 +17,7 @@ from scenes import small_scene
 import granpack as gp
 from granpack import export
 from granpack.cli import main
-from granpack.dem_input import lammps_restitution, liggghts_restitution, tsuji_alpha
+from granpack.io.lammps_input import lammps_restitution, liggghts_restitution, tsuji_alpha
 
 meshio = pytest.importorskip("meshio")
 
@@ -260,7 +260,7 @@ def _min_image_pairs(x, r, period: float) -> int:
 
 def test_periodic_export_wraps_every_centre_and_says_so(pack, tmp_path):
     p = _periodic(pack)
-    export.export(p, tmp_path / "pack.data", "lammps")
+    export.export(p, tmp_path / "pack.data", "lammps-data")
     data = export.read_lammps_data(tmp_path / "pack.data")
     x = data["positions"][:, 0]
     assert np.all((x >= 0) & (x < p.scene.base[0]))
@@ -295,7 +295,7 @@ def test_container_files_draw_box_periodic_cell_and_cylinder(pack3d, tmp_path):
 
 def test_cylinder_snippets_use_the_cylinder_wall(pack3d, tmp_path):
     p = _cylinder(pack3d)
-    export.export(p, tmp_path / "pack.data", "lammps")
+    export.export(p, tmp_path / "pack.data", "lammps-data")
     text = (tmp_path / "in.granpack").read_text()
     assert "region          can cylinder z 0.1 0.1 0.1" in text and "wall/gran/region" in text
     assert "wall_x" not in text
@@ -331,12 +331,12 @@ def _thermo(log: str) -> list[list[float]]:
 
 def test_lammps_runs_periodic_and_cylinder_packs(lmp, pack, pack3d, tmp_path):
     p = _periodic(pack)
-    export.export(p, tmp_path / "pack.data", "lammps")
+    export.export(p, tmp_path / "pack.data", "lammps-data")
     step0 = _thermo(_run(lmp, tmp_path, 0))[0]
     # contact/atom across the seam: the minimum-image count of the wrapped pack
     assert step0[3] == 2 * _min_image_pairs(p.positions, p.radii, p.scene.base[0])
     c = _cylinder(pack3d)
-    export.export(c, tmp_path / "pack.data", "lammps")
+    export.export(c, tmp_path / "pack.data", "lammps-data")
     assert _thermo(_run(lmp, tmp_path, 10))[-1][1] == len(c)  # nobody lost
 
 

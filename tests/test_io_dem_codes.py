@@ -23,8 +23,8 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
+from granpack.analysis.container import Container
 from granpack.cli import main
-from granpack.container_tag import parse_container_tag
 from granpack.errors import FileFormatError
 from granpack.export import FORMATS, export, lammps_positions
 from granpack.io.demengine import (
@@ -73,7 +73,7 @@ def _vel3(pack: gp.Pack) -> np.ndarray:
 
 def _check_tag(text: str, path: Path, line: int, pack: gp.Pack) -> None:
     """The container tag on `text` is the pack's container and box."""
-    tag = parse_container_tag(text, path, line, pack.dim)
+    tag = Container.read_tag(text, path, line, pack.dim)
     assert tag is not None
     assert tag.kind == pack.scene.container
     lo, hi = pack.box

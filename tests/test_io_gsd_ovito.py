@@ -485,7 +485,7 @@ def test_ovito_reads_the_gsd_export(ovito_io, gsd_hoomd, mono, tmp_path):
 
 
 def test_ovito_reads_the_lammps_data_export(ovito_io, mono, tmp_path):
-    path = export.export(mono, tmp_path / "p.data", "lammps")[0]
+    path = export.export(mono, tmp_path / "p.data", "lammps-data")[0]
     # a data file carries no boundary (LAMMPS' input does): the count takes the container's
     data, counted = _ovito(ovito_io, path, _radius(mono), pbc=_pbc(mono), atom_style="sphere")
     dim = mono.dim
@@ -503,7 +503,7 @@ def test_ovito_reads_the_lammps_data_export(ovito_io, mono, tmp_path):
 
 
 def test_ovito_reads_lammps_dump_of_the_data_export(ovito_io, lmp, mono, tmp_path):
-    export.export(mono, tmp_path / "pack.data", "lammps")
+    export.export(mono, tmp_path / "pack.data", "lammps-data")
     script = (
         "include in.granpack\n"
         "write_dump all custom state.dump id type x y z radius modify format float %.17g\n"

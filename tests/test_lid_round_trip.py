@@ -17,10 +17,10 @@ from scenes import small_scene
 import granpack as gp
 from granpack import export
 from granpack.analysis import MicrostructureWarning
+from granpack.analysis.container import ContainerTag
 from granpack.cli import main
 from granpack.contacts import LID_ID
-from granpack.container_tag import container_tag, parse_container_tag
-from granpack.dem_input import lid_height
+from granpack.io.lammps_input import lid_height
 
 # every container a consolidation closes, with the mode that moves its side walls where
 # it has side walls (isotropic), and the periodic cell's only mode (oedometric)
@@ -33,7 +33,7 @@ CASES = {
 }
 # every export that read_particles reads back, by the file read
 FORMATS = {
-    "lammps": "p.data",
+    "lammps-data": "p.data",
     "xyz": "p.xyz",
     "yade": "p.txt",
     "csv": "p.particles.csv",
@@ -140,13 +140,13 @@ def test_a_deposit_s_export_says_no_lid(tmp_path):
 
 
 def test_the_tag_carries_the_lid(tmp_path):
-    text = container_tag("box", None, [0.0, 0.0], [0.3, 0.125], lid=0.125)
+    text = ContainerTag("box", None, [0.0, 0.0], [0.3, 0.125], lid=0.125).words()
     assert text.endswith("lid=0.125")
-    tag = parse_container_tag(text, tmp_path / "f", 1, 2)
+    tag = ContainerTag.parse(text, tmp_path / "f", 1, 2)
     assert tag is not None and tag.lid == 0.125
     container = tag.to_container()
     assert container.lid and container.hi[-1] == 0.125 and -6 in container.wall_ids()
-    assert parse_container_tag("container=periodic", tmp_path / "f", 1, 2).lid is None
+    assert ContainerTag.parse("container=periodic", tmp_path / "f", 1, 2).lid is None
 
 
 @pytest.mark.parametrize(
@@ -160,7 +160,7 @@ def test_the_tag_carries_the_lid(tmp_path):
 )
 def test_a_wrong_lid_is_refused_naming_the_line(text, match, tmp_path):
     with pytest.raises(gp.FileFormatError, match=match):
-        parse_container_tag(text, tmp_path / "f", 3, 2)
+        ContainerTag.parse(text, tmp_path / "f", 3, 2)
 
 
 def test_a_file_without_a_tag_is_told_its_lid(sample, tmp_path, capsys):

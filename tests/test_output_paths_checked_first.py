@@ -12,9 +12,9 @@ import warnings
 import pytest
 
 import granpack as gp
+from granpack._files import atomic_write
 from granpack._validate import check_outputs
 from granpack.cli import main
-from granpack.pack import atomic_write
 
 
 def _blocked(tmp_path):

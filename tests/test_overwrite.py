@@ -34,7 +34,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
     }
 
 
-@pytest.mark.parametrize("fmt", ["lammps", "liggghts"])
+@pytest.mark.parametrize("fmt", ["lammps-data", "liggghts"])
 def test_a_data_file_named_as_its_input_script_is_refused(pack, pack_3d, fmt, tmp_path):
     subject = pack_3d if fmt == "liggghts" else pack  # LIGGGHTS runs 3D packs only
     for name in ("in.granpack", "sub/../in.granpack", "./in.granpack"):
@@ -81,7 +81,7 @@ def _export(*argv: str) -> int:
     return main(["export", *argv, "-q"])
 
 
-@pytest.mark.parametrize("fmt", ["lammps", "liggghts"])
+@pytest.mark.parametrize("fmt", ["lammps-data", "liggghts"])
 def test_the_command_line_refuses_the_reported_case(pack, pack_3d, fmt, tmp_path, capsys):
     subject = pack_3d if fmt == "liggghts" else pack
     src = subject.save(tmp_path / "pack.npz")

@@ -90,7 +90,7 @@ def _check_state(pack: gp.Pack, state) -> None:
 
 def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(lmp, tmp_path, pack3d, pack2d):
     for pack in (pack3d, pack2d):
-        written = export.export(pack, tmp_path / "pack.data", "lammps")
+        written = export.export(pack, tmp_path / "pack.data", "lammps-data")
         assert [p.name for p in written] == ["pack.data", "in.granpack"]
         log = run(lmp, tmp_path, "include in.granpack\n" + AFTER)
         assert _contacts_printed(log) == 2 * n_pairs(pack)
@@ -205,7 +205,7 @@ run             0
 
 def test_lammps_pair_local_read_by_read_contacts(lmp, tmp_path, pack3d):
     pack = pack3d
-    export.export(pack, tmp_path / "pack.data", "lammps")
+    export.export(pack, tmp_path / "pack.data", "lammps-data")
     snippet = (tmp_path / "in.granpack").read_text()
     text = snippet.replace("run             ${steps}", LAMMPS_PAIRS) + AFTER
     run(lmp, tmp_path, text)
@@ -251,7 +251,7 @@ def test_peers_count_the_contacts_of_packs_made_in_each_container(name, lmp, lig
     # the engine's periodic and cylinder packs: LAMMPS (and LIGGGHTS in 3D) find the
     # same particle-particle contacts, across the seam too
     pack = gp.generate(CONTAINER_SCENES[name])
-    export.export(pack, tmp_path / "pack.data", "lammps")
+    export.export(pack, tmp_path / "pack.data", "lammps-data")
     assert _step0_contacts(lmp, tmp_path) == 2 * n_pairs(pack)
     if pack.dim == 3:
         export.export(pack, tmp_path / "pack.data", "liggghts")
@@ -263,7 +263,7 @@ def test_lammps_write_data_of_the_4_3_pack_reads_back(lmp, tmp_path, example_4_3
     # write_data (image flags on every Atoms row, a Velocities section); granpack reads
     # that back with the pack's ids, positions, radii, velocities and box, bit for bit
     pack = example_4_3
-    export.export(pack, tmp_path / "pack.data", "lammps")
+    export.export(pack, tmp_path / "pack.data", "lammps-data")
     run(
         lmp,
         tmp_path,

@@ -27,9 +27,10 @@ import pytest
 
 import granpack as gp
 from granpack import _core
+from granpack._files import atomic_write
 from granpack.cli import LOCK_NAME, main
 from granpack.ensemble import MAX_PACKS, ensemble_tasks, pack_path, run_tasks
-from granpack.pack import atomic_write, fall_time, settling_issue
+from granpack.pack import fall_time, settling_issue
 
 TINY_TOML = """\
 preset = "4.1"
@@ -299,7 +300,7 @@ def test_an_overwrite_of_an_input_is_refused(scene_file, tmp_path, capsys):
     assert main(["generate", str(scene_file), "--out", str(out), "--no-figures", "-q"]) == 0
     pack = pack_path(out / "packs", 0)
     before = pack.read_bytes()
-    for fmt in ("vtk", "lammps"):
+    for fmt in ("vtk", "lammps-data"):
         assert main(["export", str(pack), "--format", fmt, "--out", str(pack)]) == 2
         assert "would be overwritten" in capsys.readouterr().err
     disguised = tmp_path / "pack.vtu"  # a pack whose default export name is itself

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import granpack as gp
+from granpack._files import is_temporary
 from granpack.cli import main
 from granpack.ensemble import ensemble_tasks, pack_path, run_tasks
-from granpack.pack import NEWER_FORMAT, is_temporary
+from granpack.pack import NEWER_FORMAT
 
 TINY = gp.PackScene.preset("4.1").replace(base=(0.2,), height=0.06, settle_time=0.5)
 
@@ -141,7 +142,7 @@ def test_an_export_removes_the_temporaries_of_its_own_killed_export(tmp_path, ca
     fd, other = tempfile.mkstemp(dir=out, prefix=".other.csv.", suffix=".tmp")
     with open(fd, "wb") as f:
         f.write(b"half")
-    argv = ["export", str(src), "--format", "lammps", "--out", str(out / "pack.data")]
+    argv = ["export", str(src), "--format", "lammps-data", "--out", str(out / "pack.data")]
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "removed 2 stale temporary file(s)" in err

@@ -10,7 +10,7 @@ import pytest
 
 import granpack as gp
 from granpack.analysis import Container, System
-from granpack.container_tag import ContainerTag, parse_container_tag
+from granpack.analysis.container import ContainerTag
 
 
 def _square_lattice():
@@ -40,7 +40,7 @@ def test_a_scene_and_a_tag_map_to_one_container():
     c = Container.from_scene(scene, height=0.3)
     assert (c.kind, c.radius, c.hi.tolist()) == ("cylinder", 0.1, [0.2, 0.2, 0.3])
     tag = ContainerTag.from_container(c)
-    back = parse_container_tag(tag.words(), Path("t"), 1, 3)
+    back = ContainerTag.parse(tag.words(), Path("t"), 1, 3)
     assert back is not None
     again = back.to_container()
     assert (again.kind, again.radius, again.hi.tolist()) == (c.kind, c.radius, c.hi.tolist())

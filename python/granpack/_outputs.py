@@ -93,7 +93,7 @@ def sweep_temporaries(out: Path, console: Console) -> None:
     """Removes, and names, the temporaries that writes cut off by a kill left in the
     output folder (only files named as granpack's atomic writes name them). Called
     under the folder's lock: no other run is writing there."""
-    from .pack import remove_stale_temporaries
+    from ._files import remove_stale_temporaries
 
     say_removed(remove_stale_temporaries(out), out, console)
 
@@ -101,7 +101,7 @@ def sweep_temporaries(out: Path, console: Console) -> None:
 def sweep_written(files: Sequence[Path], console: Console) -> None:
     """Removes, and names, the temporaries that a killed write of the same `files` left
     beside them (a command that writes beside its input: export, tile)."""
-    from .pack import remove_stale_temporaries
+    from ._files import remove_stale_temporaries
 
     for folder in sorted({f.parent for f in files}):
         names = [f.name for f in files if f.parent == folder]
@@ -228,7 +228,8 @@ def microstructure(console: Console, label: str, *args, **kwargs):
 def analyze_packs(paths: Sequence[Path], micro_dir: Path, console: Console) -> list:
     """Loads each pack, computes its microstructure and writes micro/pack_k.json.
     Returns [(pack, microstructure, record)] in order."""
-    from .pack import atomic_write, load_pack
+    from ._files import atomic_write
+    from .pack import load_pack
 
     out = []
     for k, path in enumerate(paths):

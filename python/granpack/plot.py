@@ -36,9 +36,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import EllipseCollection, LineCollection
 from matplotlib.figure import Figure
 
+from ._files import atomic_write
 from ._validate import InvalidParameterError
 from .analysis.container import Container
-from .pack import atomic_write
 
 __all__ = [
     "analysis_figure",
@@ -93,14 +93,10 @@ def _parts(pack):
     return dim, x, r, layer, base, float(height)
 
 
-def _container(pack) -> tuple[str, float | None]:
-    """The container of a pack's scene ("box" where the scene has none) and the
-    cylinder radius (m; None for the others)."""
-    scene = getattr(pack, "scene", None)
-    if scene is None:
-        return "box", None
-    c = Container.from_scene(scene)
-    return c.kind, c.radius
+def _container(pack) -> Container | None:
+    """The container of a generated pack (`Container.of_pack`); None for what has no
+    scene, drawn as a box."""
+    return Container.of_pack(pack) if getattr(pack, "scene", None) is not None else None
 
 
 def _walls(ax, width: float, height: float, periodic: bool = False) -> None:
@@ -280,7 +276,9 @@ def pack_figure(pack, title: str | None = None) -> Figure:
     mid-plane slice (3D). `pack` is a `Pack` or any object with ``positions``,
     ``radii`` and optionally ``layer``, ``scene`` and ``height``."""
     dim, x, r, layer, base, height = _parts(pack)
-    kind, radius = _container(pack)
+    container = _container(pack)
+    kind = "box" if container is None else container.kind
+    radius = None if container is None else container.radius
     if dim == 2:
         aspect = height / base[0] if base[0] > 0 else 1.0
         fig = _figure(8.0, max(2.5, 8.0 * aspect + 0.8))

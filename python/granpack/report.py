@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .pack import atomic_write
+from ._files import atomic_write
 
 # paper_report comes from __getattr__ below
 __all__ = ["paper_report", "ensemble_report"]  # noqa: F822
@@ -144,7 +144,7 @@ def ensemble_report(
     lines += [
         "",
         "Each pack's microstructure is in `micro/pack_k.json`; "
-        "`granpack export PACK --format vtk|lammps|csv|parquet` converts a pack.",
+        "`granpack export PACK --format vtk|lammps-data|csv|parquet` converts a pack.",
         "",
     ]
     return atomic_write(out / "report.md", "\n".join(lines).encode())

@@ -40,9 +40,9 @@ from typing import cast
 
 import polars as pl
 
+from ._files import atomic_write
 from ._validate import InvalidParameterError
 from .analysis import Microstructure
-from .pack import atomic_write
 
 __all__ = [
     "ensemble_table",

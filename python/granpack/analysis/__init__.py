@@ -41,7 +41,7 @@ without a warning (``has_forces`` is False).
 """
 
 from .compute import microstructure
-from .container import CONTAINERS, Container
+from .container import CONTAINERS, Container, ContainerTag, wall_names
 from .profiles import profiles, radial_profiles
 from .reader import read_xyzr
 from .relations import empirical_z, phi_from_void_ratio, void_ratio
@@ -68,7 +68,9 @@ __all__ = [
     "Microstructure",
     "BondOrder",
     "Container",
+    "ContainerTag",
     "CONTAINERS",
+    "wall_names",
     "CRYSTAL_THRESHOLD",
     "rdf",
     "steinhardt",

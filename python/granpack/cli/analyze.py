@@ -11,7 +11,7 @@ import numpy as np
 from .._console import Console
 from .._outputs import json_text, jsonable, microstructure
 from .._validate import GranpackError, InvalidParameterError, check_outputs
-from ..container_tag import CONTAINER_KINDS
+from ..analysis.container import CONTAINERS
 from ..io import FORMATS
 from ..io import LAYOUTS as CONTACT_LAYOUTS
 from ..io.contacts import COLUMN_NAMES
@@ -82,7 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     a.add_argument(
         "--container",
-        choices=CONTAINER_KINDS,
+        choices=CONTAINERS,
         default=None,
         help="the container to analyse in, for files that cannot say: walled box, periodic "
         "horizontal axes (periods from the box) or vertical cylinder (default: what the file "

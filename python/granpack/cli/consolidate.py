@@ -73,8 +73,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
+    from .._files import remove_stale_temporaries
     from ..consolidation import consolidate
-    from ..pack import load_pack, remove_stale_temporaries
+    from ..pack import load_pack
 
     out = args.out
     if out is None:

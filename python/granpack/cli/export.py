@@ -33,8 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     e.add_argument(
         "--format",
         choices=(
-            *("vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet", "gsd"),
-            *("kratos", "mercurydpm", "pfc", "demengine"),
+            *("vtk", "lammps-data", "liggghts", "yade", "xyz", "csv", "parquet", "gsd"),
+            *("kratos", "mercurydpm", "pfc", "demengine", "npz"),
+            "lammps",  # the former name of lammps-data, until the next release
         ),
         default=None,
         help="output format (default: from the suffix of --out)",
@@ -44,18 +45,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     from ..io import EXPORT_FORMATS as FORMATS
-    from ..io import export
+    from ..io import FORMER_FORMAT_NAMES, export
     from ..pack import load_pack
 
     fmt = args.format
     if fmt is None and args.out is None:
         raise GranpackError(
-            "give --format (vtk, lammps, liggghts, yade, xyz, csv, parquet, gsd, kratos, "
-            "mercurydpm, pfc, demengine) or an --out file name"
+            "give --format (vtk, lammps-data, liggghts, yade, xyz, csv, parquet, gsd, kratos, "
+            "mercurydpm, pfc, demengine, npz) or an --out file name"
         )
     out = args.out
     if out is None:
-        out = args.pack.with_suffix(FORMATS[fmt])
+        out = args.pack.with_suffix(FORMATS[FORMER_FORMAT_NAMES.get(fmt, fmt)])
     pack = load_pack(args.pack)
     files = export(pack, out, fmt, refuse=[args.pack], parameter="--out")
     for f in files:

@@ -200,8 +200,8 @@ def _scene_from_arg(text: str):
 
 def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
     from .. import plot, report, tables
+    from .._files import atomic_write
     from ..ensemble import ensemble_tasks, run_tasks
-    from ..pack import atomic_write
 
     t0 = time.perf_counter()
     tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)

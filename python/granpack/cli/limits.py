@@ -31,9 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
+    from .._files import atomic_write
     from .._outputs import unsettled_as_notes
     from ..density import void_ratio_limits
-    from ..pack import atomic_write
     from ..scene import PRESETS
     from .generate import _scene_from_arg
 

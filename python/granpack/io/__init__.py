@@ -30,7 +30,7 @@ Written (``export(pack, path, format=None)``): ``vtk`` (ParaView), ``lammps`` an
 Contact forces of other codes (``read_contacts``): LIGGGHTS ``pair/gran/local``, LAMMPS
 ``pair/local`` (`granpack.io.contacts`).
 
-Every writer writes through `granpack.pack.atomic_write` (a temporary file and a rename),
+Every writer writes through `granpack._files.atomic_write` (a temporary file and a rename),
 so that nothing is half-written if a run is cut off.
 """
 
@@ -39,12 +39,14 @@ from .particle_file import ParticleFile
 from .registry import (
     EXPORT_FORMATS,
     FORMATS,
+    FORMER_FORMAT_NAMES,
     READERS,
     WRITERS,
     detect_format,
     export,
     output_paths,
     read_particles,
+    write,
 )
 
 __all__ = [
@@ -52,6 +54,7 @@ __all__ = [
     "ContactFile",
     "EXPORT_FORMATS",
     "FORMATS",
+    "FORMER_FORMAT_NAMES",
     "LAYOUTS",
     "ParticleFile",
     "READERS",
@@ -61,4 +64,5 @@ __all__ = [
     "output_paths",
     "read_contacts",
     "read_particles",
+    "write",
 ]

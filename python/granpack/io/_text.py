@@ -16,8 +16,7 @@ from .._validate import (
     is_number,
     short_repr,
 )
-from ..container_tag import ContainerTag, container_tag, parse_container_tag
-from ..dem_input import container_of, lid_height
+from ..analysis.container import Container, ContainerTag
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -318,7 +317,7 @@ def _comment_tag(path: Path, lines: list[str], d: int) -> ContainerTag | None:
     for k, ln in enumerate(lines[:_SNIFF_LINES]):
         body = ln.lstrip("\ufeff").strip()
         if body.startswith("#") and "granpack" in body:
-            tag = parse_container_tag(body, path, k + 1, d)
+            tag = Container.read_tag(body, path, k + 1, d)
             if tag is not None:
                 return tag
     return None
@@ -354,7 +353,7 @@ def _tag(pack: Pack) -> str:
     """The container tag of `pack`, with its box corners (lo = 0, hi = (base, H_top)) and
     the lid of a consolidated pack."""
     lo, hi = pack.box
-    return container_tag(*container_of(pack), lo, hi, lid_height(pack))
+    return Container.of_pack(pack).tag_words()
 
 
 def _read_args(snapshot, dim) -> int:
@@ -417,7 +416,7 @@ def lammps_positions(pack: Pack) -> np.ndarray:
     """(N, 3) centres as the data file writes them: 2D at z = 0, and a periodic pack's
     wrapped into [0, L) along each periodic axis."""
     x = _pad3(pack.positions)
-    kind, _ = container_of(pack)
+    kind = Container.of_pack(pack).kind
     if kind == "periodic":
         for ax, length in enumerate(pack.scene.base):
             x[:, ax] = np.mod(x[:, ax], length)

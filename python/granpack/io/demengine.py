@@ -49,10 +49,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import InvalidParameterError
-from ..container_tag import container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from ..analysis.container import Container
 from ._text import _format_lines, _state3
 
 if TYPE_CHECKING:
@@ -210,14 +209,14 @@ def write_demengine(
     )
 
     lo, hi = pack.box
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
     tab = io.StringIO()
     tab.write(
         f"# DEM-Engine sphere templates from granpack: dim={d} N={n} seed={s.seed} "
         f"stream={s.stream} (SI units, vertical {'z' if d == 3 else 'y'}"
         f"{', 2D in the plane z = 0' if d == 2 else ''}), for {path.name}\n"
     )
-    tab.write(f"# granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
+    tab.write(f"# granpack: dim={d} {container.tag_words()}\n")
     bound = error_bound(float(r.min()), float(r.max()), max_templates) if n else 0.0
     tab.write(
         f"# templates={len(templates)} (at most {max_templates}) "

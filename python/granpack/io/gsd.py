@@ -15,7 +15,7 @@ What granpack writes (one frame, schema ``hoomd`` 1.4)
       vertical axis y as in granpack;
     * log data that only granpack reads (OVITO shows it as global attributes):
       ``log/granpack/container`` (text: ``dim=.. container=.. lo=.. hi=..``, the
-      container tag of `granpack.container_tag`), ``log/granpack/lo`` and
+      container tag of `granpack.analysis.container`), ``log/granpack/lo`` and
       ``log/granpack/hi`` (the box corners, float64) and ``log/granpack/shift`` (the
       float64 vector added back to the positions on reading, (lo + hi)/2 padded to 3).
 
@@ -70,10 +70,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import FileFormatError, GranpackError
-from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from ..analysis.container import Container
 from ._text import _frame_index, _read_args
 from .particle_file import ParticleFile
 
@@ -167,7 +166,7 @@ def _wrapped_positions(pack: Pack) -> np.ndarray:
     """(N, 3) float64 centres, 2D at z = 0, a periodic pack's wrapped into [0, L)."""
     x = np.zeros((len(pack), 3))
     x[:, : pack.dim] = np.asarray(pack.positions, dtype=np.float64)
-    kind, _ = container_of(pack)
+    kind = Container.of_pack(pack).kind
     if kind == "periodic":
         for ax, length in enumerate(pack.scene.base):
             x[:, ax] = np.mod(x[:, ax], length)
@@ -181,7 +180,7 @@ def write_gsd(pack: Pack, path: str | Path) -> Path:
 
     The layout, the float32 precision and how the periodic flags are carried are in the
     module docstring. The file is written whole to a temporary file and renamed
-    (`granpack.pack.atomic_write`): an interrupted write leaves no partial file.
+    (`granpack._files.atomic_write`): an interrupted write leaves no partial file.
 
     Raises
     ------
@@ -199,8 +198,8 @@ def write_gsd(pack: Pack, path: str | Path) -> Path:
     if dim == 2:
         position[:, 2] = 0.0
     diameter = np.ascontiguousarray(2.0 * np.asarray(pack.radii, np.float64), dtype=np.float32)
-    kind, radius = container_of(pack)
-    tag = f"dim={dim} " + container_tag(kind, radius, lo, hi, lid_height(pack))
+    container = Container.of_pack(pack)
+    tag = f"dim={dim} " + container.tag_words()
     chunks: list[tuple[str, Any]] = [
         ("configuration/step", np.array([0], dtype=np.uint64)),
         ("configuration/dimensions", np.array([dim], dtype=np.uint8)),
@@ -593,7 +592,7 @@ def _granpack_fields(fr: _Frame, text: str, d: int) -> dict:
     """ParticleFile keywords (and ``shift``) from granpack's log chunks."""
     name = LOG + "container"
     try:
-        tag = parse_container_tag(text, fr.path, 0, d)
+        tag = Container.read_tag(text, fr.path, 0, d)
     except FileFormatError as exc:
         # the tag parser names a line; here the place is the chunk
         reason = str(exc).split(": ", 1)[-1]

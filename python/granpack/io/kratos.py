@@ -30,7 +30,7 @@ Node and element ids are 1..N in the pack's order. The material goes in Kratos'
 ``Properties 1`` block is empty, and a comment line gives granpack's density, Young's
 modulus, Poisson's ratio and friction. Numbers are written at full precision (``repr``).
 
-The container is a comment line, granpack's container tag (`granpack.container_tag`): the
+The container is a comment line, granpack's container tag (`granpack.analysis.container`): the
 box or periodic cell (``lo``, ``hi``; the cell's horizontal axes are periodic) or the
 cylinder and its radius. A periodic pack's centres are wrapped into [0, L).
 
@@ -49,10 +49,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import FileFormatError, InvalidParameterError
-from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from ..analysis.container import Container
 from ._text import _format_lines, _read_text, _state3
 
 if TYPE_CHECKING:
@@ -92,7 +91,7 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
     n = len(pack)
     x, r, v, w = _state3(pack)
     ids = np.arange(1, n + 1)
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
     lo, hi = pack.box
     m = s.material
     element = ELEMENT_3D if d == 3 else ELEMENT_2D
@@ -102,7 +101,7 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
         f"// Kratos DEM model part from granpack: dim={d} N={n} seed={s.seed} stream={s.stream} "
         f"(SI units, vertical {vertical}{', discs in the plane z = 0' if d == 2 else ''})\n"
     )
-    out.write(f"// granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
+    out.write(f"// granpack: dim={d} {container.tag_words()}\n")
     mass = ""
     if d == 2:
         mass = (
@@ -348,7 +347,7 @@ def read_kratos(path: str | Path, dim: int | None = None) -> ParticleFile:
         )
     fields: dict = {}
     for k, comment in tag_lines:
-        tag = parse_container_tag(comment, path, k, d)
+        tag = Container.read_tag(comment, path, k, d)
         if tag is not None:
             fields = {
                 "container": tag.kind,

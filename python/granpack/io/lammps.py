@@ -1,6 +1,6 @@
 """LAMMPS and LIGGGHTS: ``dump custom`` files (read), data files for ``atom_style sphere``
 (read and written; `write_data`'s image flags and Velocities read), and the input that
-continues a run (`granpack.dem_input`)."""
+continues a run (`granpack.io.lammps_input`)."""
 
 from __future__ import annotations
 
@@ -12,14 +12,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
     InvalidParameterError,
     is_number,
 )
-from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import SNIPPET_NAME, container_of, lammps_input, lid_height, liggghts_input
-from ..pack import atomic_write
+from ..analysis.container import Container
+from .lammps_input import SNIPPET_NAME, lammps_input, liggghts_input
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -216,7 +216,7 @@ def read_data(path: Path, dim: int | None) -> ParticleFile:
     lo, hi = data["box"]
     # LAMMPS keeps the boundary flags in the input script, not the data file: the
     # container is known only from granpack's tag on the title line
-    tag = parse_container_tag(data["title"], path, 1, d)
+    tag = Container.read_tag(data["title"], path, 1, d)
     return ParticleFile(
         path=path,
         format="lammps-data",
@@ -261,7 +261,7 @@ def lammps_density(pack: Pack) -> np.ndarray:
 
 def input_text(pack: Pack, data_name: str, code: str) -> str:
     """The text of ``in.granpack`` for `code` ("lammps" or "liggghts") reading the data
-    file `data_name` (see `granpack.dem_input`)."""
+    file `data_name` (see `granpack.io.lammps_input`)."""
     if code == "lammps":
         return lammps_input(pack, data_name)
     if code == "liggghts":
@@ -285,7 +285,7 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     rho = lammps_density(pack)
     v = _pad3(pack.velocities)
     w = _pad3(pack.spins)
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
     top = pack.height
     rec = getattr(pack, "consolidation", None)
     if rec is not None:
@@ -304,8 +304,8 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
             if s.inertia_2d == "disc"
             else " (sphere: m = 4/3 pi r^3 rho)"
         )
-    # the container tag (granpack.container_tag): read_particles analyses the file in it
-    where = ", " + container_tag(kind, radius, lid=lid_height(pack))
+    # the container tag (`Container.tag_words`): read_particles analyses the file in it
+    where = ", " + container.tag_words(corners=False)
     # A particle touching the top sits exactly on H_top; nothing is outside the box.
     out = io.StringIO()
     out.write(
@@ -660,7 +660,7 @@ def _write_with_input(pack: Pack, path: str | Path, code: str) -> list[Path]:
 
 def write_lammps_files(pack: Pack, path: str | Path) -> list[Path]:
     """The data file at `path` and ``in.granpack`` beside it, the LAMMPS input that
-    continues the run (`granpack.dem_input`)."""
+    continues the run (`granpack.io.lammps_input`)."""
     return _write_with_input(pack, path, "lammps")
 
 

@@ -39,9 +39,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..container_tag import container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from .._files import atomic_write
+from ..analysis.container import Container
 from ._text import _format_lines
 
 if TYPE_CHECKING:
@@ -82,13 +81,11 @@ def write_mercurydpm(pack: Pack, path: str | Path) -> Path:
     r = np.asarray(pack.radii, dtype=np.float64)
     spins = np.asarray(pack.spins, dtype=np.float64)
     lo, hi = pack.box
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
     n = len(pack)
     out = io.StringIO()
     box = " ".join(repr(float(a)) for a in (*lo, *hi))
-    out.write(
-        f"{n} 0.0 {box} granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n"
-    )
+    out.write(f"{n} 0.0 {box} granpack: dim={d} {container.tag_words()}\n")
     if d == 3:
         cols = [*x.T, *v.T, r, *np.zeros((3, n)), *spins.T]
     else:

@@ -12,19 +12,20 @@ from .._validate import (
 )
 
 if TYPE_CHECKING:
-    pass
+    from ..pack import Pack
 
 from .particle_file import ParticleFile
 
 
 def read_npz(path: Path, dim: int | None) -> ParticleFile:
-    from ..dem_input import container_of, lid_height
+    from ..analysis.container import Container
     from ..pack import load_pack
 
     pack = load_pack(path)
     if dim is not None and dim != pack.dim:
         raise FileFormatError(f"{path}: dim = {dim} asked for a {pack.dim}D pack", path=path)
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
+    kind, radius = container.kind, container.radius
     return ParticleFile(
         path=path,
         format="npz",
@@ -34,7 +35,12 @@ def read_npz(path: Path, dim: int | None) -> ParticleFile:
         periodic=(kind == "periodic",) * (pack.dim - 1),
         container=kind,
         cylinder_radius=radius,
-        lid=lid_height(pack),
+        lid=container.lid_height,
         contacts=pack.contacts,
         pack=pack,
     )
+
+
+def write_npz(pack: Pack, path: Path) -> Path:
+    """Writes `pack` as granpack's own pack file (`Pack.save`)."""
+    return pack.save(path)

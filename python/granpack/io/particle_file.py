@@ -13,6 +13,7 @@ from .._validate import (
 from ..contacts import Contacts
 
 if TYPE_CHECKING:
+    from ..analysis.container import Container
     from ..pack import Pack
 
 
@@ -46,10 +47,10 @@ class ParticleFile:
     container : str or None
         The container the file says the pack lies in (one of
         `granpack.scene.CONTAINERS`): a granpack pack's scene, the
-        container tag of granpack's text exports (`granpack.container_tag`), or periodic
+        container tag of granpack's text exports (`Container.read_tag`), or periodic
         horizontal axes in `periodic`. None: the file does not say; the analysis then
         assumes a box (walls at `box`, or none without one) and says so
-        (``Microstructure.container_source``).
+        (``Microstructure.container_source``). `to_container` gives the whole container.
     cylinder_radius : float or None
         R (m) of a cylinder container.
     lid : float or None
@@ -123,6 +124,14 @@ class ParticleFile:
 
     def __len__(self) -> int:
         return int(self.radii.shape[0])
+
+    def to_container(self) -> Container:
+        """The `granpack.analysis.Container` this file is analysed in: the one it says
+        (`container`, `cylinder_radius`, `periodic`, `lid`) at its `box`, or the box that
+        the analysis assumes where it says none (``gp.microstructure(p).container``)."""
+        from ..analysis.system import analysis_container
+
+        return analysis_container(self)[0]
 
     def with_contacts(self, contacts) -> ParticleFile:
         """The same particles with `contacts` (a granpack.Contacts, or what

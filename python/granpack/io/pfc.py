@@ -41,9 +41,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..container_tag import container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from .._files import atomic_write
+from ..analysis.container import Container
 from ._text import _format_lines
 
 if TYPE_CHECKING:
@@ -83,7 +82,8 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
     spins = np.asarray(pack.spins, dtype=np.float64)
     rho = pfc_density(pack)
     lo, hi = pack.box
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
+    kind = container.kind
     periodic = [kind == "periodic" and a < d - 1 for a in range(d)]
     m = s.material
     out = io.StringIO()
@@ -92,7 +92,7 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
         f"; {program} 7 commands from granpack: dim={d} N={n} seed={s.seed} stream={s.stream} "
         f"(SI units, vertical {'z' if d == 3 else 'y'})\n"
     )
-    out.write(f"; granpack: dim={d} {container_tag(kind, radius, lo, hi, lid_height(pack))}\n")
+    out.write(f"; granpack: dim={d} {container.tag_words()}\n")
     out.write(
         f"; material: density={m.density!r} young={m.young!r} poisson={m.poisson!r} "
         f"friction={m.friction!r} damping_ratio={m.damping!r}"

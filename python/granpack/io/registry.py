@@ -3,7 +3,9 @@ by suffix and by content.
 
 A format is a row of `READERS` or `WRITERS`, naming the module of ``granpack.io`` that
 holds its reader or writer (imported when first used, so that ``import granpack`` loads
-neither polars nor gsd). Adding a format is one module and one row here.
+neither polars nor gsd). Adding a format is one module and one row here. A format both
+read and written has one name in both tables: the name `write` takes is the one
+`read_particles` reports of the file written (``ParticleFile.format``).
 
 Detection reads the content first. Where the suffix names another format than the content
 shows (a dump saved as ``.data``), the content wins and the ParticleFile's notes say so;
@@ -14,6 +16,7 @@ reader refuses what it cannot read ("no Atoms section").
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from importlib import import_module
@@ -42,7 +45,9 @@ __all__ = [
     "detect_format",
     "read_particles",
     "export",
+    "write",
     "output_paths",
+    "FORMER_FORMAT_NAMES",
 ]
 
 
@@ -125,7 +130,7 @@ FORMATS = tuple(READERS)
 
 
 def _snippet(path: Path) -> list[Path]:
-    from ..dem_input import SNIPPET_NAME
+    from .lammps_input import SNIPPET_NAME
 
     return [path.with_name(SNIPPET_NAME)]
 
@@ -147,7 +152,7 @@ WRITERS: dict[str, Writer] = {
     w.name: w
     for w in (
         Writer("vtk", "vtk", "write_vtk_files", ".vtu", (".vtu", ".vtk"), _container_file),
-        Writer("lammps", "lammps", "write_lammps_files", ".data", (".data", ".lmp"), _snippet),
+        Writer("lammps-data", "lammps", "write_lammps_files", ".data", (".data", ".lmp"), _snippet),
         Writer("liggghts", "lammps", "write_liggghts_files", ".data", (), _snippet),
         Writer("yade", "yade", "write_yade", ".txt"),
         Writer("xyz", "xyz", "write_xyz", ".xyz", (".xyz",)),
@@ -158,8 +163,12 @@ WRITERS: dict[str, Writer] = {
         Writer("mercurydpm", "mercurydpm", "write_mercurydpm", ".data"),
         Writer("pfc", "pfc", "write_pfc", ".dat", (".p3dat", ".p2dat")),
         Writer("demengine", "demengine", "write_demengine", ".csv", (), _templates),
+        Writer("npz", "npz", "write_npz", ".npz", (".npz",)),
     )
 }
+#: Former names of export formats, still taken (with a DeprecationWarning) until the next
+#: release: the name of each is now the one `read_particles` reports of its file.
+FORMER_FORMAT_NAMES = {"lammps": "lammps-data"}
 #: Export formats and the suffix of the file each writes.
 EXPORT_FORMATS = {name: w.suffix for name, w in WRITERS.items()}
 
@@ -394,9 +403,25 @@ def _format_from_suffix(path: Path) -> str:
     )
 
 
+def _current_name(format):
+    """`format`, or the name that replaced it (`FORMER_FORMAT_NAMES`), with a
+    DeprecationWarning."""
+    new = FORMER_FORMAT_NAMES.get(format) if isinstance(format, str) else None
+    if new is None:
+        return format
+    warnings.warn(
+        f"format {format!r} is now {new!r}, the name read_particles reports of the file; "
+        f"{format!r} will be removed in the next release",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return new
+
+
 def output_paths(path: str | Path, format: str) -> list[Path]:
     """Every file `export` writes for `path` in `format`, in the order it writes them."""
     path = Path(path)
+    format = _current_name(format)
     if format in ("csv", "parquet"):
         from .tables import _table_paths
 
@@ -421,11 +446,13 @@ def export(
     path : path
         Output file. For csv/parquet its stem names the two tables
         (``<stem>.particles.csv``, ``<stem>.contacts.csv``).
-    format : {"vtk", "lammps", "liggghts", "yade", "xyz", "csv", "parquet", "gsd", \
-"kratos", "mercurydpm", "pfc", "demengine"}, optional
-        Default: from the suffix of `path` (.vtu/.vtk, .data/.lmp, .xyz, .csv,
-        .parquet, .gsd, .mdpa (kratos), .p3dat/.p2dat (pfc); yade, liggghts, mercurydpm
-        and demengine are named, not guessed). demengine also writes
+    format : {"vtk", "lammps-data", "liggghts", "yade", "xyz", "csv", "parquet", "gsd", \
+"kratos", "mercurydpm", "pfc", "demengine", "npz"}, optional
+        Default: from the suffix of `path` (.vtu/.vtk, .data/.lmp (lammps-data), .xyz,
+        .csv, .parquet, .gsd, .mdpa (kratos), .p3dat/.p2dat (pfc), .npz (the pack file,
+        `Pack.save`); yade, liggghts, mercurydpm and demengine are named, not guessed).
+        ``"lammps"``, the former name of ``"lammps-data"``, is still taken, with a
+        DeprecationWarning, until the next release. demengine also writes
         ``<stem>.templates.csv``; lammps and liggghts also write ``in.granpack`` beside
         the data file; vtk also writes ``<stem>.container.vtu``.
     refuse : sequence of paths
@@ -443,6 +470,7 @@ def export(
     path = Path(path)
     if format is None:
         format = _format_from_suffix(path)
+    format = _current_name(format)
     if format not in WRITERS:
         raise InvalidParameterError(
             f"invalid format = {format!r}: choose one of {', '.join(WRITERS)}",
@@ -451,3 +479,25 @@ def export(
     check_outputs(output_paths(path, format), refuse, parameter)
     written = WRITERS[format].load()(pack, path)
     return list(written) if isinstance(written, list | tuple) else [written]
+
+
+def write(pack: Pack, path: str | Path, format: str | None = None) -> list[Path]:
+    """Writes `pack` to `path` in `format` and returns the files written: the other
+    direction of `read_particles`, with the same format names.
+
+    Parameters
+    ----------
+    pack : Pack
+    path : path
+        Output file (csv/parquet: its stem names the particle and contact tables).
+    format : str, optional
+        One of `EXPORT_FORMATS` (see `export`). Default None: from the suffix of `path`,
+        as `read_particles` does. The formats read and written carry the same name both
+        ways: ``read_particles(write(pack, "p.data")[0]).format == "lammps-data"``.
+
+    Raises
+    ------
+    InvalidParameterError
+        Before anything is written: an unknown format, or a suffix that names none.
+    """
+    return export(pack, path, format)

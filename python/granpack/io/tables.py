@@ -8,12 +8,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
 )
+from ..analysis.container import Container, ContainerTag
 from ..analysis.inputs import written_digits
-from ..container_tag import ContainerTag, parse_container_tag
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     import polars as pl
@@ -230,7 +230,7 @@ def _parquet_tag(path: Path, d: int) -> ContainerTag | None:
     except (OSError, pl.exceptions.PolarsError, ValueError):
         return None
     text = meta.get("granpack")
-    return None if text is None else parse_container_tag(text, path, 0, d)
+    return None if text is None else Container.read_tag(text, path, 0, d)
 
 
 def particle_table(pack: Pack) -> pl.DataFrame:

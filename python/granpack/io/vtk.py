@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..dem_input import container_of
-from ..pack import atomic_write
+from .._files import atomic_write
+from ..analysis.container import Container
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -180,7 +180,7 @@ def _seam_contacts(
 ) -> np.ndarray:
     """(M,) bool: particle pairs whose branch (the minimum image) is not x_j - x_i, the
     contacts across a periodic seam."""
-    if container_of(pack)[0] != "periodic" or ci.shape[0] == 0:
+    if Container.of_pack(pack).kind != "periodic" or ci.shape[0] == 0:
         return np.zeros(ci.shape[0], dtype=bool)
     pair = cj >= 0
     jj = np.where(pair, cj, ci)
@@ -204,7 +204,8 @@ def container_geometry(pack: Pack) -> tuple[np.ndarray, list[tuple[int, np.ndarr
     """(points (P, 3), [(VTK cell type, connectivity (C, k))...], kind per cell) drawing
     the pack's container up to H_top (2D in the plane z = 0, vertical y)."""
     s = pack.scene
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
+    kind, radius = container.kind, container.radius
     h = float(pack.height)
     if kind == "cylinder":
         assert radius is not None
@@ -251,7 +252,8 @@ def write_vtk_container(pack: Pack, path: str | Path) -> Path:
     conn = np.concatenate([c.ravel() for _, c in cells]).astype(np.int64)
     sizes = np.concatenate([np.full(len(c), c.shape[1]) for _, c in cells]).astype(np.int64)
     types = np.concatenate([np.full(len(c), t, np.uint8) for t, c in cells])
-    kind, radius = container_of(pack)
+    container = Container.of_pack(pack)
+    kind, radius = container.kind, container.radius
     lines = [
         '<?xml version="1.0"?>',
         f"<!-- granpack container: {kind}"

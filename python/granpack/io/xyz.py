@@ -8,13 +8,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
     is_number,
 )
-from ..container_tag import container_tag, parse_container_tag
-from ..dem_input import container_of, lid_height
-from ..pack import atomic_write
+from ..analysis.container import Container
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -221,7 +220,7 @@ def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
     if n_frames > 1:
         notes = (f"frame {k_frame} of {n_frames} read (counted from 0)",)
     # the lattice and pbc say the box and the periodic axes; granpack's tag adds a cylinder
-    tag = parse_container_tag(info.get("granpack", ""), path, c, d)
+    tag = Container.read_tag(info.get("granpack", ""), path, c, d)
     extra: dict = {}
     if tag is not None:
         extra = {"container": tag.kind, "cylinder_radius": tag.cylinder_radius, "lid": tag.lid}
@@ -244,7 +243,7 @@ def read_xyz(path: Path, snapshot: int, dim: int | None) -> ParticleFile:
 def _cell(pack: Pack) -> tuple[list[float], list[bool]]:
     """Lattice lengths (3) and periodic flags (3) of the pack's cell up to H_top."""
     s = pack.scene
-    kind, _ = container_of(pack)
+    kind = Container.of_pack(pack).kind
     periodic = kind == "periodic"
     if s.dim == 3:
         return [s.base[0], s.base[1], pack.height], [periodic, periodic, False]
@@ -268,7 +267,7 @@ def write_xyz(pack: Pack, path: str | Path) -> Path:
         "Properties=species:S:1:pos:R:3:radius:R:1 "
         f'pbc="{" ".join("T" if p else "F" for p in pbc)}" '
         f'granpack="dim={s.dim} seed={s.seed} stream={s.stream} H_top={pack.height!r} '
-        f'{container_tag(*container_of(pack), lid=lid_height(pack))}"'
+        f'{Container.of_pack(pack).tag_words(corners=False)}"'
     )
     out = io.StringIO()
     out.write(f"{len(pack)}\n{comment}\n")

@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._files import atomic_write
 from .._validate import (
     FileFormatError,
     is_number,
 )
-from ..pack import atomic_write
 
 if TYPE_CHECKING:
     from ..pack import Pack

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..pack import atomic_write
+from .._files import atomic_write
 from ..report import _col, _dev_banner, _duration, _environment_line, _grouped_links, _mean_sd, _rel
 
 __all__ = ["paper_report"]
@@ -156,7 +156,7 @@ def paper_report(
         "## Files",
         "",
         "- `packs/<example>-<on|off>/pack_k.npz`: every pack (`granpack.load_pack`; "
-        "`granpack export PACK --format vtk|lammps|csv|parquet` for ParaView, "
+        "`granpack export PACK --format vtk|lammps-data|csv|parquet` for ParaView, "
         "LAMMPS/LIGGGHTS `read_data`, tables).",
         "- `micro/<example>-<on|off>/pack_k.json`: each pack's microstructure.",
         "- `tables/`, `figures/`: what is linked above. Figures are named after the "
