@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
     from .generation import generate
     from .grading import Grading, realised_grading, target_grading
-    from .io import ContactFile, ParticleFile, read_contacts, read_particles
+    from .io import ContactFile, ParticleFile, read_contacts, read_particles, write
     from .pack import Pack, UnsettledPackWarning, load_pack
     from .scene import PRESETS, PackScene
     from .simulation import Material, Simulation
