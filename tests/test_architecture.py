@@ -43,21 +43,8 @@ def test_the_names_of_the_api_load_on_first_use():
         "assert all(getattr(gp, n) is not None for n in gp.__all__); "
         "assert gp.profiles.__module__ == 'granpack.analysis.profiles'; "
         "assert gp.analysis.microstructure is gp.microstructure; "
-        "import granpack.tile; "
-        "assert callable(gp.tile) and gp.tile.__module__ == 'granpack.tile'"
-    )
-    subprocess.run([sys.executable, "-c", code], timeout=120, check=True)
-
-
-def test_the_former_engine_module_warns_and_still_imports():
-    code = (
-        "import warnings, granpack\n"
-        "with warnings.catch_warnings(record=True) as w:\n"
-        "    warnings.simplefilter('always')\n"
-        "    from granpack.engine import Material, Simulation\n"
-        "assert Simulation is granpack.Simulation and Material is granpack.Material\n"
-        "assert [x.category for x in w] == [DeprecationWarning], w\n"
-        "assert 'granpack.simulation' in str(w[0].message)\n"
+        "import granpack.tiling; "
+        "assert callable(gp.tile) and gp.tile.__module__ == 'granpack.tiling'"
     )
     subprocess.run([sys.executable, "-c", code], timeout=120, check=True)
 

@@ -14,8 +14,8 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack import export
 from granpack.cli import main
+from granpack.io.lammps import read_lammps_data, write_lammps
 
 PNG = b"\x89PNG\r\n\x1a\n"
 TINY_TOML = """\
@@ -181,7 +181,7 @@ def test_analyze_pack_text_file_and_lammps_data(dim, tmp_path, capsys):
         " ".join(repr(float(v)) for v in row) for row in np.column_stack([*cols, pack.radii])
     )
     (tmp_path / "p.txt").write_text(text + "\n")
-    export.write_lammps(pack, tmp_path / "p.data")
+    write_lammps(pack, tmp_path / "p.data")
 
     results = {}
     for name in ("p.npz", "p.txt", "p.data"):
@@ -221,7 +221,7 @@ def test_export_command_writes_files_that_read_back(tmp_path, capsys):
 
     target = tmp_path / "lmp" / "in.data"
     assert main(["export", str(tmp_path / "p.npz"), "--out", str(target), "-q"]) == 0
-    data = export.read_lammps_data(target)
+    data = read_lammps_data(target)
     np.testing.assert_array_equal(data["positions"], pack.positions)
     np.testing.assert_array_equal(data["diameter"], 2 * pack.radii)
 

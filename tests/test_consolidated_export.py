@@ -21,7 +21,8 @@ from scenes import small_scene
 from test_peer_programs import run  # the peers' runner: log, or the failure's output
 
 import granpack as gp
-from granpack import export
+from granpack.io import export
+from granpack.io.lammps import read_lammps_data
 from granpack.io.lammps_input import lid_area, lid_force
 
 
@@ -68,8 +69,8 @@ def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
     rec = pack.consolidation
     lid = rec["walls"]["lid"]
     assert lid_force(pack) == pytest.approx(1e5 * lid_area(pack), rel=1e-3)
-    written = export.export(pack, tmp_path / "pack.data", "lammps-data")
-    data = export.read_lammps_data(written[0])
+    written = export(pack, tmp_path / "pack.data", "lammps-data")
+    data = read_lammps_data(written[0])
     assert data["box"][1][2] == lid
     assert data["box"][1][0] == rec["walls"]["x_hi"]
     text = written[1].read_text()
@@ -79,7 +80,7 @@ def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
     assert f"timestep        {rec['dt']!r}" in text
     # the walls take granpack's stiffnesses, not fix wall/gran's hertz/material
     assert "wall/gran granular hertz 71111111.1111111 " in text
-    text = export.export(pack, tmp_path / "pack.data", "liggghts")[1].read_text()
+    text = export(pack, tmp_path / "pack.data", "liggghts")[1].read_text()
     assert f"primitive type 1 zplane {lid!r} store_force yes" in text
     assert "mesh/surface/stress/servo" in text
 
@@ -87,7 +88,7 @@ def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
 def test_a_deposit_has_no_lid(tmp_path):
     pack = gp.generate(small_scene(3))
     for code in ("lammps-data", "liggghts"):
-        text = export.export(pack, tmp_path / "pack.data", code)[1].read_text()
+        text = export(pack, tmp_path / "pack.data", code)[1].read_text()
         assert "lid" not in text
         assert "fix             gravity" in text
     with pytest.raises(gp.InvalidParameterError, match="not consolidated"):
@@ -98,7 +99,7 @@ def test_a_deposit_has_no_lid(tmp_path):
 def test_the_peer_finds_granpacks_lid_force(code, consolidated, request, tmp_path):
     program = request.getfixturevalue("lmp" if code == "lammps-data" else "liggghts")
     want = lid_force(consolidated)  # about 1e5 N
-    export.export(consolidated, tmp_path / "pack.data", code)
+    export(consolidated, tmp_path / "pack.data", code)
     assert lid_force_in(program, tmp_path, 0) == pytest.approx(want, rel=1e-5)
     assert lid_force_in(program, tmp_path, 1) == pytest.approx(want, rel=1e-2)
 
@@ -109,7 +110,7 @@ def test_each_container_gives_the_lid_force(name, lmp, liggghts, tmp_path):
     want = lid_force(pack)
     codes = [("lammps-data", lmp)] + ([("liggghts", liggghts)] if pack.dim == 3 else [])
     for code, program in codes:
-        export.export(pack, tmp_path / "pack.data", code)
+        export(pack, tmp_path / "pack.data", code)
         assert lid_force_in(program, tmp_path, 0) == pytest.approx(want, rel=1e-5), code
         assert lid_force_in(program, tmp_path, 1) == pytest.approx(want, rel=1e-2), code
 
@@ -124,12 +125,12 @@ def _uncommented(text: str, steps: tuple[str, str]) -> str:
 def test_the_servo_commands_run_and_hold_the_lid(lmp, liggghts, tmp_path):
     pack = _small("cylinder, isotropic")
     want = lid_force(pack)
-    text = export.export(pack, tmp_path / "pack.data", "lammps-data")[1].read_text()
+    text = export(pack, tmp_path / "pack.data", "lammps-data")[1].read_text()
     (tmp_path / "in.servo").write_text(
         _uncommented(text, ("servo_loop loop 100", "servo_loop loop 10"))
     )
     assert _lid_printed(lmp, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
-    text = export.export(pack, tmp_path / "pack.data", "liggghts")[1].read_text()
+    text = export(pack, tmp_path / "pack.data", "liggghts")[1].read_text()
     (tmp_path / "in.servo").write_text(_uncommented(text, ("run             10000", "run 1000")))
     assert _lid_printed(liggghts, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
     assert (tmp_path / "lid.stl").read_text().startswith("solid lid")

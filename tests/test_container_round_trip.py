@@ -14,10 +14,10 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
 from granpack.analysis import MicrostructureWarning
 from granpack.analysis.container import ContainerTag
 from granpack.cli import main
+from granpack.io import export
 
 meshio = pytest.importorskip("meshio")
 
@@ -62,7 +62,7 @@ def _same_structure(m: gp.Microstructure, m0: gp.Microstructure) -> None:
 def test_an_export_read_back_is_analysed_in_the_pack_s_container(pack, fmt, tmp_path):
     m0 = _analysis(pack)
     assert m0.container_source == "scene"
-    export.export(pack, tmp_path / FORMATS[fmt].replace(".particles", ""), fmt)
+    export(pack, tmp_path / FORMATS[fmt].replace(".particles", ""), fmt)
     p = gp.read_particles(tmp_path / FORMATS[fmt])
     kind = pack.scene.container
     assert p.container == kind
@@ -104,7 +104,7 @@ def test_a_file_that_cannot_say_is_analysed_in_an_assumed_box_and_says_so(pack, 
 
 def test_the_command_line_says_what_it_assumed_and_takes_container(pack, tmp_path, capsys):
     path = tmp_path / "p.txt"
-    export.export(pack, path, "yade")
+    export(pack, path, "yade")
     # the same file without granpack's tag line: YADE's own export.text
     plain = tmp_path / "plain.txt"
     plain.write_text(
@@ -147,7 +147,7 @@ def test_a_vtk_seam_contact_is_a_short_segment_on_both_sides(tmp_path):
     dx = pack.positions[c.j[pp]] - pack.positions[c.i[pp]]
     seam = np.any(np.abs(dx) > 0.5 * np.array([*pack.scene.base, np.inf]), axis=1)
     assert seam.sum() > 0  # the check means something
-    mesh = meshio.read(export.export(pack, tmp_path / "p.vtu", "vtk")[0])
+    mesh = meshio.read(export(pack, tmp_path / "p.vtu", "vtk")[0])
     lines = mesh.cells[1].data
     kind = mesh.cell_data["kind"][1]
     assert (kind == 1).sum() == pp.sum() and (kind == 2).sum() == (~pp).sum()

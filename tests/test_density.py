@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 
 import granpack as gp
-from granpack import _core
 from granpack.density import MU_DEP_GRID, MU_DEP_MAX, sample_phi
 
 LEVELS = (0.2, 0.5, 0.8)  # where in the window the targets lie, loosest to densest
@@ -219,17 +218,17 @@ def test_a_copy_of_the_engine_steps_to_the_same_bits(servo_deposits):
     sim.step(50)
     copy = gp.Simulation.__new__(gp.Simulation)
     copy.__dict__.update(sim.__dict__)
-    copy._sim = _core.sim_clone(sim._sim)
-    _core.sim_set_friction(sim._sim, 0.05)
-    _core.sim_set_friction(copy._sim, 0.05)
+    copy._sim = sim._sim.clone()
+    sim._sim.set_friction(0.05)
+    copy._sim.set_friction(0.05)
     sim.step(200)
     copy.step(200)
     np.testing.assert_array_equal(sim.positions, copy.positions)
     np.testing.assert_array_equal(sim.spins, copy.spins)
     with pytest.raises(gp.InvalidParameterError, match="friction"):
-        _core.sim_set_friction(sim._sim, -0.1)
+        sim._sim.set_friction(-0.1)
     with pytest.raises(gp.InvalidParameterError, match="friction"):
-        _core.sim_set_friction(sim._sim, float("nan"))
+        sim._sim.set_friction(float("nan"))
 
 
 # -- records, determinism, bad input ------------------------------------------------------

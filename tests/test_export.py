@@ -11,7 +11,8 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
+from granpack.io import export
+from granpack.io.lammps import read_lammps_data, write_lammps
 
 meshio = pytest.importorskip("meshio")
 
@@ -33,7 +34,7 @@ def _pad3(a):
 
 
 def test_vtk_round_trip_particles_and_contact_lines(pack, tmp_path):
-    path = export.export(pack, tmp_path / "p.vtu", "vtk")[0]
+    path = export(pack, tmp_path / "p.vtu", "vtk")[0]
     mesh = meshio.read(path)
     n, m, d = len(pack), len(pack.contacts), pack.dim
     c = pack.contacts
@@ -73,9 +74,9 @@ def test_vtk_round_trip_particles_and_contact_lines(pack, tmp_path):
 
 
 def test_lammps_data_round_trip(pack, tmp_path):
-    path = export.export(pack, tmp_path / "p.data")[0]
+    path = export(pack, tmp_path / "p.data")[0]
     n, d = len(pack), pack.dim
-    data = export.read_lammps_data(path)
+    data = read_lammps_data(path)
     np.testing.assert_array_equal(data["id"], np.arange(1, n + 1))
     np.testing.assert_array_equal(data["type"], np.ones(n))
     np.testing.assert_array_equal(data["diameter"] / 2, pack.radii)
@@ -104,7 +105,7 @@ def test_lammps_data_round_trip(pack, tmp_path):
 
 def test_lammps_density_gives_the_disc_mass_for_inertia_2d_disc(tmp_path):
     pack = gp.generate(small_scene(2, inertia_2d="disc"))
-    data = export.read_lammps_data(export.write_lammps(pack, tmp_path / "d.data"))
+    data = read_lammps_data(write_lammps(pack, tmp_path / "d.data"))
     r = data["diameter"] / 2
     lammps_mass = data["density"] * 4 / 3 * math.pi * r**3  # what read_data computes
     np.testing.assert_allclose(lammps_mass, 1000.0 * math.pi * pack.radii**2, rtol=1e-14)
@@ -114,7 +115,7 @@ def test_csv_and_parquet_round_trip(pack, tmp_path):
     d = pack.dim
     axes = "xyz"[:d]
     for fmt in ("csv", "parquet"):
-        files = export.export(pack, tmp_path / f"p.{fmt}", fmt)
+        files = export(pack, tmp_path / f"p.{fmt}", fmt)
         assert [f.name for f in files] == [f"p.particles.{fmt}", f"p.contacts.{fmt}"]
         if fmt == "csv":
             # the particle table opens with the container tag, a comment line
@@ -140,10 +141,10 @@ def test_csv_and_parquet_round_trip(pack, tmp_path):
 
 def test_export_format_errors_name_the_choices(pack, tmp_path):
     with pytest.raises(gp.GranpackError, match="vtk, lammps-data, liggghts, yade, xyz, csv"):
-        export.export(pack, tmp_path / "p.vtu", "pdb")
+        export(pack, tmp_path / "p.vtu", "pdb")
     with pytest.raises(gp.GranpackError, match="cannot tell the export format"):
-        export.export(pack, tmp_path / "p.txt")
+        export(pack, tmp_path / "p.txt")
     with pytest.raises(gp.GranpackError, match="header says"):
         bad = tmp_path / "bad.data"
         bad.write_text("comment\n\n3 atoms\n\nAtoms # sphere\n\n1 1 0.1 1000 0 0 0\n")
-        export.read_lammps_data(bad)
+        read_lammps_data(bad)

@@ -28,8 +28,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import granpack as gp
+from granpack.io import detect_format
 from granpack.pack import _packer
-from granpack.particles import detect_format
 
 FUZZ = settings(
     max_examples=150,

@@ -15,8 +15,9 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
 from granpack.cli import main
+from granpack.io import export
+from granpack.io.lammps import read_lammps_data
 from granpack.io.lammps_input import lammps_restitution, liggghts_restitution, tsuji_alpha
 
 meshio = pytest.importorskip("meshio")
@@ -35,7 +36,7 @@ def pack3d() -> gp.Pack:
 # -- YADE and extended XYZ -------------------------------------------------------------------
 def test_yade_and_xyz_exports_read_back_with_the_same_particles(pack, tmp_path):
     for fmt, name in (("yade", "p.txt"), ("xyz", "p.xyz")):
-        (path,) = export.export(pack, tmp_path / name, fmt)
+        (path,) = export(pack, tmp_path / name, fmt)
         p = gp.read_particles(path)
         assert p.format == fmt and p.dim == pack.dim
         np.testing.assert_array_equal(p.positions, pack.positions)
@@ -48,7 +49,7 @@ def test_yade_and_xyz_exports_read_back_with_the_same_particles(pack, tmp_path):
 
 def test_ase_reads_the_xyz_export(pack3d, tmp_path):
     ase_io = pytest.importorskip("ase.io")
-    (path,) = export.export(pack3d, tmp_path / "p.xyz")
+    (path,) = export(pack3d, tmp_path / "p.xyz")
     atoms = ase_io.read(path)
     np.testing.assert_array_equal(atoms.positions, pack3d.positions)
     np.testing.assert_array_equal(atoms.arrays["radius"], pack3d.radii)
@@ -260,15 +261,15 @@ def _min_image_pairs(x, r, period: float) -> int:
 
 def test_periodic_export_wraps_every_centre_and_says_so(pack, tmp_path):
     p = _periodic(pack)
-    export.export(p, tmp_path / "pack.data", "lammps-data")
-    data = export.read_lammps_data(tmp_path / "pack.data")
+    export(p, tmp_path / "pack.data", "lammps-data")
+    data = read_lammps_data(tmp_path / "pack.data")
     x = data["positions"][:, 0]
     assert np.all((x >= 0) & (x < p.scene.base[0]))
     np.testing.assert_allclose(x, np.mod(p.positions[:, 0], p.scene.base[0]), rtol=0, atol=1e-15)
     snippet = (tmp_path / "in.granpack").read_text()
     assert ("boundary        p p m" if p.dim == 3 else "boundary        p m p") in snippet
     assert "wall_x" not in snippet and "floor" in snippet
-    (xyz,) = export.export(p, tmp_path / "p.xyz")
+    (xyz,) = export(p, tmp_path / "p.xyz")
     assert gp.read_particles(xyz).periodic == ((True, True, False) if p.dim == 3 else (True, False))
 
 
@@ -278,7 +279,7 @@ def test_container_files_draw_box_periodic_cell_and_cylinder(pack3d, tmp_path):
         ("periodic", _periodic(pack3d), {0, 1}),
         ("cylinder", _cylinder(pack3d), {0}),
     ):
-        files = export.export(p, tmp_path / f"{name}.vtu")
+        files = export(p, tmp_path / f"{name}.vtu")
         assert files[1].name == f"{name}.container.vtu"
         mesh = meshio.read(files[1])
         assert set(np.concatenate(mesh.cell_data["kind"]).tolist()) == kinds
@@ -295,11 +296,11 @@ def test_container_files_draw_box_periodic_cell_and_cylinder(pack3d, tmp_path):
 
 def test_cylinder_snippets_use_the_cylinder_wall(pack3d, tmp_path):
     p = _cylinder(pack3d)
-    export.export(p, tmp_path / "pack.data", "lammps-data")
+    export(p, tmp_path / "pack.data", "lammps-data")
     text = (tmp_path / "in.granpack").read_text()
     assert "region          can cylinder z 0.1 0.1 0.1" in text and "wall/gran/region" in text
     assert "wall_x" not in text
-    export.export(p, tmp_path / "pack.data", "liggghts")
+    export(p, tmp_path / "pack.data", "liggghts")
     text = (tmp_path / "in.granpack").read_text()
     assert "zcylinder 0.1 0.1 0.1" in text and "xplane" not in text
 
@@ -331,18 +332,18 @@ def _thermo(log: str) -> list[list[float]]:
 
 def test_lammps_runs_periodic_and_cylinder_packs(lmp, pack, pack3d, tmp_path):
     p = _periodic(pack)
-    export.export(p, tmp_path / "pack.data", "lammps-data")
+    export(p, tmp_path / "pack.data", "lammps-data")
     step0 = _thermo(_run(lmp, tmp_path, 0))[0]
     # contact/atom across the seam: the minimum-image count of the wrapped pack
     assert step0[3] == 2 * _min_image_pairs(p.positions, p.radii, p.scene.base[0])
     c = _cylinder(pack3d)
-    export.export(c, tmp_path / "pack.data", "lammps-data")
+    export(c, tmp_path / "pack.data", "lammps-data")
     assert _thermo(_run(lmp, tmp_path, 10))[-1][1] == len(c)  # nobody lost
 
 
 def test_liggghts_runs_periodic_and_cylinder_packs(liggghts, pack3d, tmp_path):
     for p in (_periodic(pack3d), _cylinder(pack3d)):
-        export.export(p, tmp_path / "pack.data", "liggghts")
+        export(p, tmp_path / "pack.data", "liggghts")
         rows = _thermo(_run(liggghts, tmp_path, 10))
         assert rows[-1][1] == len(p)  # nobody lost
 

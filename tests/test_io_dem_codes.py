@@ -26,7 +26,7 @@ import granpack as gp
 from granpack.analysis.container import Container
 from granpack.cli import main
 from granpack.errors import FileFormatError
-from granpack.export import FORMATS, export, lammps_positions
+from granpack.io import EXPORT_FORMATS, detect_format, export
 from granpack.io.demengine import (
     COLUMNS,
     MAX_TEMPLATES,
@@ -36,9 +36,9 @@ from granpack.io.demengine import (
     write_demengine,
 )
 from granpack.io.kratos import read_kratos, write_kratos
+from granpack.io.lammps import lammps_positions
 from granpack.io.mercurydpm import write_mercurydpm
 from granpack.io.pfc import DOMAIN_MARGIN, write_pfc
-from granpack.particles import detect_format
 
 CASES = [(3, "box"), (3, "periodic"), (3, "cylinder"), (2, "box"), (2, "periodic")]
 
@@ -696,7 +696,7 @@ def test_sphere_templates_bound_the_radius_error():
 # --------------------------------------------------------------------------------------
 def test_export_names_the_dem_codes(tmp_path):
     pack = gp.generate(small_scene(3).fast())
-    assert {"kratos", "mercurydpm", "pfc", "demengine"} <= set(FORMATS)
+    assert {"kratos", "mercurydpm", "pfc", "demengine"} <= set(EXPORT_FORMATS)
     assert export(pack, tmp_path / "a.mdpa") == [tmp_path / "a.mdpa"]
     assert export(pack, tmp_path / "a.p3dat") == [tmp_path / "a.p3dat"]
     # .data stays LAMMPS' and .csv granpack's tables: MercuryDPM and DEM-Engine are named
@@ -714,7 +714,7 @@ def test_command_line_exports_and_analyses_a_model_part(tmp_path, capsys):
     src = pack.save(tmp_path / "pack.npz")
     for fmt in ("kratos", "mercurydpm", "pfc", "demengine"):
         assert main(["export", str(src), "--format", fmt, "-q"]) == 0
-    suffix = {k: FORMATS[k] for k in ("kratos", "mercurydpm", "pfc", "demengine")}
+    suffix = {k: EXPORT_FORMATS[k] for k in ("kratos", "mercurydpm", "pfc", "demengine")}
     for s in suffix.values():
         assert (tmp_path / f"pack{s}").exists()
     capsys.readouterr()

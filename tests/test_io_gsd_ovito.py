@@ -24,11 +24,11 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
 from granpack.analysis import MicrostructureWarning
 from granpack.cli import main
+from granpack.io import detect_format, export
 from granpack.io.gsd import GSD_MAGIC, read_gsd, write_gsd
-from granpack.particles import detect_format
+from granpack.io.lammps import lammps_positions
 
 CASES = [(3, "box"), (3, "periodic"), (3, "cylinder"), (2, "box"), (2, "periodic")]
 IDS = [f"{d}d-{c}" for d, c in CASES]
@@ -45,7 +45,7 @@ def _analysis(subject=None, **kw) -> gp.Microstructure:
 def _wrapped(pack: gp.Pack) -> np.ndarray:
     """The pack's centres as the exports write them: a periodic pack's wrapped into
     [0, L) (LAMMPS data, XYZ and gsd alike)."""
-    return export.lammps_positions(pack)[:, : pack.dim]
+    return lammps_positions(pack)[:, : pack.dim]
 
 
 def _shift(pack: gp.Pack) -> np.ndarray:
@@ -115,7 +115,7 @@ def test_gsd_holds_the_pack_as_the_gsd_package_reads_it(gsd_hoomd, pack, tmp_pat
 
 
 def test_gsd_read_back_keeps_the_container_and_the_structure(gsd_hoomd, pack, tmp_path):
-    written = export.export(pack, tmp_path / "p.gsd")  # the format from the suffix
+    written = export(pack, tmp_path / "p.gsd")  # the format from the suffix
     assert written == [tmp_path / "p.gsd"]
     assert detect_format(written[0]) == "gsd"
     p = gp.read_particles(written[0])
@@ -450,7 +450,7 @@ def _radius32(pack: gp.Pack) -> float:
 
 
 def test_ovito_reads_the_xyz_export(ovito_io, mono, tmp_path):
-    path = export.export(mono, tmp_path / "p.xyz")[0]
+    path = export(mono, tmp_path / "p.xyz")[0]
     data, counted = _ovito(ovito_io, path, _radius(mono))  # the file's own pbc
     n, dim = len(mono), mono.dim
     assert data.particles.count == n
@@ -465,7 +465,7 @@ def test_ovito_reads_the_xyz_export(ovito_io, mono, tmp_path):
 
 
 def test_ovito_reads_the_gsd_export(ovito_io, gsd_hoomd, mono, tmp_path):
-    path = export.export(mono, tmp_path / "p.gsd")[0]
+    path = export(mono, tmp_path / "p.gsd")[0]
     data, counted = _ovito(ovito_io, path, _radius32(mono), pbc=_pbc(mono))
     n, dim = len(mono), mono.dim
     assert data.particles.count == n
@@ -485,7 +485,7 @@ def test_ovito_reads_the_gsd_export(ovito_io, gsd_hoomd, mono, tmp_path):
 
 
 def test_ovito_reads_the_lammps_data_export(ovito_io, mono, tmp_path):
-    path = export.export(mono, tmp_path / "p.data", "lammps-data")[0]
+    path = export(mono, tmp_path / "p.data", "lammps-data")[0]
     # a data file carries no boundary (LAMMPS' input does): the count takes the container's
     data, counted = _ovito(ovito_io, path, _radius(mono), pbc=_pbc(mono), atom_style="sphere")
     dim = mono.dim
@@ -503,7 +503,7 @@ def test_ovito_reads_the_lammps_data_export(ovito_io, mono, tmp_path):
 
 
 def test_ovito_reads_lammps_dump_of_the_data_export(ovito_io, lmp, mono, tmp_path):
-    export.export(mono, tmp_path / "pack.data", "lammps-data")
+    export(mono, tmp_path / "pack.data", "lammps-data")
     script = (
         "include in.granpack\n"
         "write_dump all custom state.dump id type x y z radius modify format float %.17g\n"
@@ -545,7 +545,7 @@ def test_ovito_counts_the_contacts_of_example_4_3(ovito_io, gsd_hoomd, example_4
         ("p.data", _radius(pack), {"pbc": _pbc(pack), "atom_style": "sphere"}),
         ("p.gsd", _radius32(pack), {"pbc": _pbc(pack)}),
     ):
-        path = export.export(pack, tmp_path / name)[0]
+        path = export(pack, tmp_path / name)[0]
         _, counts[name] = _ovito(ovito_io, path, r, **kw)
     n_gsd = _analysis(gp.read_particles(tmp_path / "p.gsd")).n_contacts
     print(f"example 4.3: {len(pack)} spheres, N_c {n_c}, gsd read back {n_gsd}, OVITO {counts}")

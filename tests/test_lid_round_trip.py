@@ -15,11 +15,11 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
 from granpack.analysis import MicrostructureWarning
 from granpack.analysis.container import ContainerTag
 from granpack.cli import main
 from granpack.contacts import LID_ID
+from granpack.io import export
 from granpack.io.lammps_input import lid_height
 
 # every container a consolidation closes, with the mode that moves its side walls where
@@ -92,7 +92,7 @@ def _same_sample(p, pack: gp.Pack, rel: float) -> None:
 
 @pytest.mark.parametrize("fmt", list(FORMATS))
 def test_a_consolidated_sample_read_back_is_analysed_up_to_its_lid(sample, fmt, tmp_path):
-    export.export(sample, tmp_path / FORMATS[fmt].replace(".particles", ""), fmt)
+    export(sample, tmp_path / FORMATS[fmt].replace(".particles", ""), fmt)
     p = gp.read_particles(tmp_path / FORMATS[fmt])
     assert p.lid == lid_height(sample) == sample.consolidation["height"]
     # the side walls where the consolidation left them: the box's corners
@@ -114,7 +114,7 @@ def test_a_consolidated_pack_file_read_back_keeps_its_lid_and_forces(sample, tmp
 def test_the_lid_contacts_found_in_a_file_are_the_engines(sample, tmp_path):
     # a file holds no contacts: the analysis finds the lid's as the engine lists them (the
     # same particles, overlaps, normals and branches)
-    export.export(sample, tmp_path / "p.txt", "yade")
+    export(sample, tmp_path / "p.txt", "yade")
     s = gp.analysis.System.from_any(gp.read_particles(tmp_path / "p.txt"))
     engine = sample.contacts.select(sample.contacts.j == LID_ID)
     found = s.contacts.select(s.contacts.j == LID_ID)
@@ -131,7 +131,7 @@ def test_a_deposit_s_export_says_no_lid(tmp_path):
         warnings.simplefilter("ignore", gp.UnsettledPackWarning)
         deposit = gp.generate(small_scene(2))
     for fmt, name in FORMATS.items():
-        export.export(deposit, tmp_path / name.replace(".particles", ""), fmt)
+        export(deposit, tmp_path / name.replace(".particles", ""), fmt)
         p = gp.read_particles(tmp_path / name)
         assert p.lid is None, fmt
         s = gp.analysis.System.from_any(p)
@@ -179,7 +179,7 @@ def test_a_file_without_a_tag_is_told_its_lid(sample, tmp_path, capsys):
     assert (told.z, told.n_wall_contacts) == (m0.z, m0.n_wall_contacts)
     # the command line: --lid, and a file's lid kept when --box replaces its box
     path = tmp_path / "p.txt"
-    export.export(sample, path, "yade")
+    export(sample, path, "yade")
     lo, hi = sample.box
     box = [repr(float(v)) for pair in zip(lo, hi, strict=True) for v in pair]
     for argv in (["--lid", repr(lid)], ["--box", *box]):

@@ -1,5 +1,5 @@
 """`granpack paper` runs the 2D cases under both mass conventions and reports them beside
-the paper's phi and LAMMPS' (granpack.mass2d)."""
+the paper's phi and LAMMPS' (granpack.paper.mass2d)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack import mass2d
 from granpack.cli import main
+from granpack.paper import mass2d
 
 
 def test_convention_table_puts_each_phi_in_its_column():

@@ -165,7 +165,7 @@ def test_commands_refuse_an_unwritable_output_before_the_stage(
     def never(*args, **kwargs):
         raise AssertionError(f"{stage} ran although its output cannot be written")
 
-    module = {"consolidate": "granpack.consolidation", "tile": "granpack.tile"}[stage]
+    module = {"consolidate": "granpack.consolidation", "tile": "granpack.tiling"}[stage]
     monkeypatch.setattr(importlib.import_module(module), stage, never)
     out = _blocked(tmp_path)
     argv = [a.format(pack=periodic_pack, out=out) for a in argv]

@@ -12,7 +12,7 @@ import pytest
 
 import granpack as gp
 from granpack.cli import main
-from granpack.export import FORMATS, export, output_paths
+from granpack.io import EXPORT_FORMATS, export, output_paths
 
 TINY = gp.PackScene.preset("4.1").replace(base=(0.2,), height=0.06, settle_time=0.5)
 TINY_3D = gp.PackScene.preset("4.3").replace(base=(0.2, 0.2), height=0.06, settle_time=0.5)
@@ -53,27 +53,27 @@ def test_a_data_file_named_as_its_input_script_is_refused(pack, pack_3d, fmt, tm
     assert [p.name for p in written] == ["pack.data", "in.granpack"]
 
 
-@pytest.mark.parametrize("fmt", sorted(FORMATS))
+@pytest.mark.parametrize("fmt", sorted(EXPORT_FORMATS))
 def test_no_format_writes_over_its_input(pack, pack_3d, fmt, tmp_path):
     subject = pack_3d if fmt == "liggghts" else pack
-    outputs = output_paths(tmp_path / f"out{FORMATS[fmt]}", fmt)
+    outputs = output_paths(tmp_path / f"out{EXPORT_FORMATS[fmt]}", fmt)
     assert len({os.path.abspath(p) for p in outputs}) == len(outputs)
     for target in outputs:
         # the pack file read lies where one of the outputs would go
         subject.save(target)
         before = _snapshot(tmp_path)
         with pytest.raises(gp.InvalidParameterError, match="would be overwritten") as e:
-            export(subject, tmp_path / f"out{FORMATS[fmt]}", fmt, refuse=[target])
+            export(subject, tmp_path / f"out{EXPORT_FORMATS[fmt]}", fmt, refuse=[target])
         assert e.value.parameter == "path"
         assert _snapshot(tmp_path) == before
         # the same file under another name (a hard link) is the same input
         link = tmp_path / "hard.npz"
         os.link(target, link)
         with pytest.raises(gp.InvalidParameterError, match="would be overwritten"):
-            export(subject, tmp_path / f"out{FORMATS[fmt]}", fmt, refuse=[link])
+            export(subject, tmp_path / f"out{EXPORT_FORMATS[fmt]}", fmt, refuse=[link])
         link.unlink()
         target.unlink()
-    written = export(subject, tmp_path / f"out{FORMATS[fmt]}", fmt)
+    written = export(subject, tmp_path / f"out{EXPORT_FORMATS[fmt]}", fmt)
     assert sorted(written) == sorted(outputs)
 
 
@@ -95,20 +95,23 @@ def test_the_command_line_refuses_the_reported_case(pack, pack_3d, fmt, tmp_path
     assert sorted(p.name for p in out.iterdir()) == ["in.granpack", "pack.data"]
 
 
-@pytest.mark.parametrize("fmt", sorted(FORMATS))
+@pytest.mark.parametrize("fmt", sorted(EXPORT_FORMATS))
 def test_the_command_line_refuses_every_format_over_its_input(pack, pack_3d, fmt, tmp_path, capsys):
     subject = pack_3d if fmt == "liggghts" else pack
-    for target in output_paths(tmp_path / f"x{FORMATS[fmt]}", fmt):
+    for target in output_paths(tmp_path / f"x{EXPORT_FORMATS[fmt]}", fmt):
         src = subject.save(target)  # the pack file is named as an output
         before = _snapshot(tmp_path)
-        assert _export(str(src), "--format", fmt, "--out", str(tmp_path / f"x{FORMATS[fmt]}")) == 2
+        assert (
+            _export(str(src), "--format", fmt, "--out", str(tmp_path / f"x{EXPORT_FORMATS[fmt]}"))
+            == 2
+        )
         assert "would be overwritten" in capsys.readouterr().err
         assert _snapshot(tmp_path) == before
         src.unlink()
     if fmt in ("csv", "parquet"):
         return  # their default names are the tables', never the pack's
     # the default name beside a pack whose own name is that default
-    disguised = subject.save(tmp_path / f"p{FORMATS[fmt]}")
+    disguised = subject.save(tmp_path / f"p{EXPORT_FORMATS[fmt]}")
     before = _snapshot(tmp_path)
     assert _export(str(disguised), "--format", fmt) == 2
     assert _snapshot(tmp_path) == before

@@ -25,16 +25,6 @@ def test_reproduce_is_importable_and_documents_each_parameter():
     assert "::: granpack.paper" in (ROOT / "docs" / "api.md").read_text()
 
 
-def test_the_former_homes_of_the_papers_pieces_still_import():
-    from granpack import mass2d, report
-    from granpack.paper import mass2d as paper_mass2d
-    from granpack.paper import report as paper_report
-
-    assert report.paper_report is paper_report.paper_report
-    assert mass2d.convention_table is paper_mass2d.convention_table
-    assert mass2d.OTHER == paper_mass2d.OTHER
-
-
 def test_reproduce_refuses_an_unknown_example_before_any_work(tmp_path):
     out = tmp_path / "paper"
     with pytest.raises(InvalidParameterError, match="5.1"):

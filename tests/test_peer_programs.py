@@ -22,7 +22,8 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import export
+from granpack.io import export
+from granpack.io.lammps import read_lammps_data
 
 CORE = 0.02  # a core window that fits in the small packs (m)
 
@@ -90,7 +91,7 @@ def _check_state(pack: gp.Pack, state) -> None:
 
 def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(lmp, tmp_path, pack3d, pack2d):
     for pack in (pack3d, pack2d):
-        written = export.export(pack, tmp_path / "pack.data", "lammps-data")
+        written = export(pack, tmp_path / "pack.data", "lammps-data")
         assert [p.name for p in written] == ["pack.data", "in.granpack"]
         log = run(lmp, tmp_path, "include in.granpack\n" + AFTER)
         assert _contacts_printed(log) == 2 * n_pairs(pack)
@@ -105,7 +106,7 @@ def test_lammps_runs_the_snippet_with_the_same_contacts_and_masses(lmp, tmp_path
 
 def test_liggghts_runs_the_snippet_with_the_same_contacts_and_masses(liggghts, tmp_path, pack3d):
     pack = pack3d
-    written = export.export(pack, tmp_path / "pack.data", "liggghts")
+    written = export(pack, tmp_path / "pack.data", "liggghts")
     assert "atom_style      granular" in written[1].read_text()
     log = run(liggghts, tmp_path, "include in.granpack\n" + AFTER_LIGGGHTS)
     assert _contacts_printed(log) == 2 * n_pairs(pack)
@@ -118,7 +119,7 @@ def test_liggghts_runs_the_snippet_with_the_same_contacts_and_masses(liggghts, t
 
 def test_liggghts_refuses_a_2d_pack(tmp_path, pack2d):
     with pytest.raises(gp.InvalidParameterError, match="no 2D granular model"):
-        export.export(pack2d, tmp_path / "pack.data", "liggghts")
+        export(pack2d, tmp_path / "pack.data", "liggghts")
     assert not (tmp_path / "pack.data").exists()
 
 
@@ -166,7 +167,7 @@ run             1
 
 def test_liggghts_pair_forces_give_the_hand_computed_f0_an_at(liggghts, tmp_path, pack3d):
     pack = pack3d
-    export.export(pack, tmp_path / "pack.data", "liggghts")
+    export(pack, tmp_path / "pack.data", "liggghts")
     snippet = (tmp_path / "in.granpack").read_text()
     cols = " ".join(f"c_pairs[{k}]" for k in range(1, 13))
     extra = LIGGGHTS_PAIRS.format(cols=cols, fmt=" ".join(["%.17g"] * 12))
@@ -205,7 +206,7 @@ run             0
 
 def test_lammps_pair_local_read_by_read_contacts(lmp, tmp_path, pack3d):
     pack = pack3d
-    export.export(pack, tmp_path / "pack.data", "lammps-data")
+    export(pack, tmp_path / "pack.data", "lammps-data")
     snippet = (tmp_path / "in.granpack").read_text()
     text = snippet.replace("run             ${steps}", LAMMPS_PAIRS) + AFTER
     run(lmp, tmp_path, text)
@@ -251,10 +252,10 @@ def test_peers_count_the_contacts_of_packs_made_in_each_container(name, lmp, lig
     # the engine's periodic and cylinder packs: LAMMPS (and LIGGGHTS in 3D) find the
     # same particle-particle contacts, across the seam too
     pack = gp.generate(CONTAINER_SCENES[name])
-    export.export(pack, tmp_path / "pack.data", "lammps-data")
+    export(pack, tmp_path / "pack.data", "lammps-data")
     assert _step0_contacts(lmp, tmp_path) == 2 * n_pairs(pack)
     if pack.dim == 3:
-        export.export(pack, tmp_path / "pack.data", "liggghts")
+        export(pack, tmp_path / "pack.data", "liggghts")
         assert _step0_contacts(liggghts, tmp_path) == 2 * n_pairs(pack)
 
 
@@ -263,7 +264,7 @@ def test_lammps_write_data_of_the_4_3_pack_reads_back(lmp, tmp_path, example_4_3
     # write_data (image flags on every Atoms row, a Velocities section); granpack reads
     # that back with the pack's ids, positions, radii, velocities and box, bit for bit
     pack = example_4_3
-    export.export(pack, tmp_path / "pack.data", "lammps-data")
+    export(pack, tmp_path / "pack.data", "lammps-data")
     run(
         lmp,
         tmp_path,
@@ -280,7 +281,7 @@ def test_lammps_write_data_of_the_4_3_pack_reads_back(lmp, tmp_path, example_4_3
     np.testing.assert_array_equal(p.radii, pack.radii)
     np.testing.assert_array_equal(p.box[0], pack.box[0])
     np.testing.assert_array_equal(p.box[1], pack.box[1])
-    data = export.read_lammps_data(tmp_path / "out.data")
+    data = read_lammps_data(tmp_path / "out.data")
     np.testing.assert_array_equal(data["velocities"], pack.velocities)
     # LAMMPS' own file carries no container: the analysis says it assumed the box
     m = gp.microstructure(p, core_margin=0.05)

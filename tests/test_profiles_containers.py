@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import granpack as gp
 from granpack.analysis import cylinder_volumes, slab_volumes
-from granpack.analysis.prepare import _prepare
+from granpack.analysis.system import _prepare
 
 PROPS = settings(
     max_examples=30,

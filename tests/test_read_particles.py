@@ -15,9 +15,9 @@ import polars as pl
 import pytest
 
 import granpack as gp
-from granpack import export
 from granpack.cli import main
-from granpack.particles import FORMATS, detect_format
+from granpack.io import FORMATS, detect_format, export
+from granpack.io.lammps import read_lammps_data
 
 # Four spheres in a 1 x 1 x 2 box, no two touching; every value exact in binary so that
 # the reader's output can be compared with ==.
@@ -204,17 +204,17 @@ def test_format_detection_by_content_and_suffix(tmp_path, pack2d, two_snapshots)
             flags="ff ff pp",
         )
     )
-    export.export(pack2d, files["lammps-data"])
+    export(pack2d, files["lammps-data"])
     text = "\n".join(
         f"{_f(x)} {_f(y)} {_f(r)}" for (x, y), r in zip(pack2d.positions, pack2d.radii, strict=True)
     )
     files["xyzr"].write_text("# x y r\n" + text + "\n")
-    export.export(pack2d, files["yade"], "yade")
-    export.export(pack2d, files["xyz"])
-    export.export(pack2d, tmp_path / "pack.csv")
-    export.export(pack2d, tmp_path / "pack.parquet")
+    export(pack2d, files["yade"], "yade")
+    export(pack2d, files["xyz"])
+    export(pack2d, tmp_path / "pack.csv")
+    export(pack2d, tmp_path / "pack.parquet")
     pack2d.save(files["npz"])
-    files["kratos"] = export.export(pack2d, tmp_path / "pack.mdpa")[0]
+    files["kratos"] = export(pack2d, tmp_path / "pack.mdpa")[0]
     # gsd holds float32 positions: its own tests (test_io_gsd_ovito.py) check it
     assert sorted(files) == sorted(set(FORMATS) - {"gsd"})
     m_pack = gp.microstructure(pack2d, core_margin=CORE)
@@ -403,7 +403,7 @@ def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d, pack
     for pack in (pack2d, pack3d):
         run_dir = tmp_path / f"{pack.dim}d"
         run_dir.mkdir()
-        export.export(pack, run_dir / "pack.data")
+        export(pack, run_dir / "pack.data")
         boundary = "f f f" if pack.dim == 3 else "f f p"
         run_peer(LMP, run_dir, LAMMPS_INPUT.format(dim=pack.dim, boundary=boundary))
         default = gp.read_particles(run_dir / "default.dump")
@@ -447,7 +447,7 @@ write_dump all custom pack.dump id type x y z radius mass
 @pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)")
 def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
     pack = pack3d
-    export.export(pack, tmp_path / "pack.data")
+    export(pack, tmp_path / "pack.data")
     run_peer(LIGGGHTS, tmp_path, LIGGGHTS_INPUT)
     p = gp.read_particles(tmp_path / "pack.dump")
     # LIGGGHTS writes the rows in its own order, with a mass column and trailing spaces
@@ -517,12 +517,12 @@ def test_lammps_write_data_reads_back_with_and_without_velocities(tmp_path, lmp)
         np.testing.assert_array_equal(p.box[0], LO)
         np.testing.assert_array_equal(p.box[1], HI)
         assert any("2 atoms with non-zero image flags" in note for note in p.notes), p.notes
-    data = export.read_lammps_data(tmp_path / "3d" / "out.data")
+    data = read_lammps_data(tmp_path / "3d" / "out.data")
     np.testing.assert_array_equal(data["image"], [[1, -1, 0], [0, 0, 0], [0, 0, 0], [0, 2, 0]])
     np.testing.assert_array_equal(data["velocities"], np.tile([0.5, -0.25, 0.0], (4, 1)))
     np.testing.assert_array_equal(data["type"], [1, 2, 1, 2])
     assert data["style"] == "sphere"
-    np.testing.assert_array_equal(export.read_lammps_data(without)["velocities"], 0.0)
+    np.testing.assert_array_equal(read_lammps_data(without)["velocities"], 0.0)
 
     x2 = np.array([[0.25, 0.5, 0.0], [0.75, 1.5, 0.0]])
     flat = lammps_write_data(lmp, tmp_path / "2d", x2, R[:2], dim=2)
@@ -832,10 +832,10 @@ def test_byte_order_mark_is_accepted_by_every_text_reader(tmp_path, pack2d, two_
     # Excel and Windows editors start UTF-8 text with the byte-order mark EF BB BF
     files = {
         "lammps-dump": two_snapshots,
-        "lammps-data": export.export(pack2d, tmp_path / "p.data")[0],
-        "yade": export.export(pack2d, tmp_path / "y.txt", "yade")[0],
-        "xyz": export.export(pack2d, tmp_path / "p.xyz")[0],
-        "csv": export.export(pack2d, tmp_path / "p.csv")[0],
+        "lammps-data": export(pack2d, tmp_path / "p.data")[0],
+        "yade": export(pack2d, tmp_path / "y.txt", "yade")[0],
+        "xyz": export(pack2d, tmp_path / "p.xyz")[0],
+        "csv": export(pack2d, tmp_path / "p.csv")[0],
         "xyzr": tmp_path / "p.xyzr",
     }
     np.savetxt(files["xyzr"], np.column_stack([pack2d.positions, pack2d.radii]))

@@ -13,7 +13,7 @@ from scenes import outputs_on_threads, small_scene
 
 import granpack as gp
 from granpack.cli import main
-from granpack.tile import MAX_TILED_PARTICLES
+from granpack.tiling import MAX_TILED_PARTICLES
 
 COUNTS = {2: (3,), 3: (2, 3)}
 
@@ -210,7 +210,7 @@ def test_a_walled_pack_is_refused(tiny_scene_2d):
 def test_bad_counts_are_refused_naming_the_range(dim, counts, words, monkeypatch):
     pack = gp.generate(small_scene(dim, container="periodic", height=0.04))
     # nothing is built before the counts are checked
-    monkeypatch.setattr(sys.modules["granpack.tile"], "_tiled_contacts", _never)
+    monkeypatch.setattr(sys.modules["granpack.tiling"], "_tiled_contacts", _never)
     with pytest.raises(gp.InvalidParameterError, match=words) as exc:
         gp.tile(pack, counts)
     assert exc.value.parameter == "counts"

@@ -19,9 +19,10 @@ from test_consolidated_export import lid_force_in
 from test_peer_programs import run
 
 import granpack as gp
-from granpack import export
 from granpack.analysis import MicrostructureWarning
 from granpack.contacts import LID_ID
+from granpack.io import export
+from granpack.io.lammps import read_lammps_data
 from granpack.io.lammps_input import lid_force
 
 COUNTS = {2: (3,), 3: (2, 2)}
@@ -87,8 +88,8 @@ def test_a_tiled_consolidated_sample_keeps_its_lid_and_records(consolidated, tmp
 def test_a_tiled_consolidated_sample_is_exported_with_its_lid(consolidated, tmp_path):
     tiled = gp.tile(consolidated, COUNTS[consolidated.dim])
     lid = tiled.consolidation["walls"]["lid"]
-    written = export.export(tiled, tmp_path / "pack.data", "lammps-data")
-    data = export.read_lammps_data(written[0])
+    written = export(tiled, tmp_path / "pack.data", "lammps-data")
+    data = read_lammps_data(written[0])
     assert data["box"][1][tiled.dim - 1] == lid
     text = written[1].read_text()
     plane = "zplane" if tiled.dim == 3 else "yplane"
@@ -114,7 +115,7 @@ def test_lammps_continues_a_tiled_sample_as_its_original(consolidated, lmp, tmp_
     for name, p in (("original", pack), ("tiled", tiled)):
         where = tmp_path / name
         where.mkdir()
-        export.export(p, where / "pack.data", "lammps-data")
+        export(p, where / "pack.data", "lammps-data")
         assert lid_force_in(lmp, where, 0) == pytest.approx(lid_force(p), rel=1e-5)
         log = run(
             lmp,

@@ -1,7 +1,7 @@
 """granpack's YADE export runs in YADE itself, and YADE's own collider finds granpack's
 contacts.
 
-The export (``granpack.export.export(pack, path, "yade")``) is read by ``ymport.text`` in
+The export (``granpack.export(pack, path, "yade")``) is read by ``ymport.text`` in
 a YADE script run as ``yade -n -x script.py ...``; one ``O.step()`` with the
 InsertionSortCollider and ``Ig2_Sphere_Sphere_ScGeom`` makes YADE's interactions, and
 ``O.interactions.countReal()`` counts them. A periodic pack runs in a periodic YADE cell
@@ -27,7 +27,8 @@ import pytest
 from scenes import small_scene
 
 import granpack as gp
-from granpack import _core, export
+from granpack import _core
+from granpack.io import export
 
 #: Pairs within TOL (r_i + r_j) of touching count as touching, in YADE and in granpack.
 TOL = 1e-9
@@ -86,7 +87,7 @@ PACKS = {"4.3": None, "4.3-periodic": pack_43_periodic, "2d-periodic": pack_2d_p
 
 def run_yade(yade: str, pack: gp.Pack, folder) -> dict:
     """YADE's interactions, positions and radii of granpack's YADE export of `pack`."""
-    data = export.export(pack, folder / "pack.txt", "yade")[0]
+    data = export(pack, folder / "pack.txt", "yade")[0]
     script = folder / "count.py"
     script.write_text(SCRIPT)
     out = folder / "yade.json"

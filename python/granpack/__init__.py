@@ -11,8 +11,6 @@ the API, and numpy, polars and the rest with it, is imported on first use.
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING
 
 from ._core import __version__ as __version__
@@ -40,7 +38,7 @@ if TYPE_CHECKING:
     from .pack import Pack, UnsettledPackWarning, load_pack
     from .scene import PRESETS, PackScene
     from .simulation import Material, Simulation
-    from .tile import tile
+    from .tiling import tile
 
 #: Where each name of the API loaded on first use lives.
 _LAZY = {
@@ -71,7 +69,7 @@ _LAZY = {
     "load_pack": "pack",
     "PRESETS": "scene",
     "PackScene": "scene",
-    "tile": "tile",
+    "tile": "tiling",
 }
 #: The modules that ``import granpack`` loaded before the API was loaded on first use, still
 #: reachable as attributes of the package (``granpack.analysis``) without their own import.
@@ -87,22 +85,8 @@ _SUBMODULES = frozenset(
         "scene",
         "simulation",
     )
-    + ("tile", "container_tag", "dem_input", "_validate")
+    + ("tiling", "container_tag", "dem_input", "_validate")
 )
-
-
-class _Package(types.ModuleType):
-    """The package's module type. Importing the submodule ``granpack.tile`` binds the name
-    ``tile`` in the package to that module; the API's function of that name keeps it, as
-    it did when the package imported the function itself."""
-
-    def __setattr__(self, name: str, value: object) -> None:
-        if name == "tile" and isinstance(value, types.ModuleType):
-            value = value.tile
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str):

@@ -31,12 +31,6 @@ __all__ = [
     "resolve_scene",
     "number_fractions",
     "sample_radii",
-    "sim_add_lid",
-    "sim_walls",
-    "sim_force_balance",
-    "sim_consolidate",
-    "sim_set_friction",
-    "sim_clone",
 ]
 
 __version__: str
@@ -283,6 +277,35 @@ class Simulation:
     def contacts(self) -> ContactArrays:
         """Columns i, j, normal, overlap, force_normal, force_tangential, branch."""
     def __len__(self) -> int: ...
+    # The consolidation stage's methods.
+    def add_lid(self, z: float) -> int:
+        """Adds the lid, a plane facing down at height z (m), after the container's walls;
+        returns its index in the wall list."""
+    def walls(self) -> _Walls:
+        """Each wall's position (m), area (m^2; NaN for a side wall before the lid), the
+        force the particles put on it along its outward normal (N), its contacts'
+        stiffness (N/m) and count."""
+    def force_balance(self) -> _Balance:
+        """The balance of forces: YADE's unbalanced ratio and PFC's maximum ratio."""
+    def consolidate(
+        self,
+        targets: list[tuple[int, float]],
+        *,
+        stress_tol: float,
+        unbalanced_tol: float,
+        hold: int,
+        check_every: int,
+        max_steps: int,
+        max_wall_speed: float,
+        gain: float,
+        local_damping: float,
+    ) -> _ServoReport:
+        """The consolidation stage on (wall index, target stress) pairs; GIL released."""
+    def set_friction(self, friction: float) -> None:
+        """Sets the Coulomb friction coefficient (-) of particles and walls from the next
+        step on (finite, >= 0)."""
+    def clone(self) -> Simulation:
+        """A copy of the engine's whole state: stepping it gives the original's bits."""
 
 @final
 class LayerPacker:
@@ -391,37 +414,3 @@ class _ServoReport(TypedDict):
     steps: int
     max_speed: float
     history: _ServoHistory
-
-def sim_add_lid(sim: Simulation, z: float) -> int:
-    """Adds the lid, a plane facing down at height z (m), after the container's walls;
-    returns its index in the wall list."""
-
-def sim_walls(sim: Simulation) -> _Walls:
-    """Each wall's position (m), area (m^2; NaN for a side wall before the lid), the force
-    the particles put on it along its outward normal (N), its contacts' stiffness (N/m)
-    and count."""
-
-def sim_force_balance(sim: Simulation) -> _Balance:
-    """The balance of forces: YADE's unbalanced ratio and PFC's maximum ratio."""
-
-def sim_consolidate(
-    sim: Simulation,
-    targets: list[tuple[int, float]],
-    *,
-    stress_tol: float,
-    unbalanced_tol: float,
-    hold: int,
-    check_every: int,
-    max_steps: int,
-    max_wall_speed: float,
-    gain: float,
-    local_damping: float,
-) -> _ServoReport:
-    """The consolidation stage on (wall index, target stress) pairs; GIL released."""
-
-def sim_set_friction(sim: Simulation, friction: float) -> None:
-    """Sets the Coulomb friction coefficient (-) of particles and walls from the next step
-    on (finite, >= 0)."""
-
-def sim_clone(sim: Simulation) -> Simulation:
-    """A copy of the engine's whole state: stepping it gives the original's bits."""

@@ -2,7 +2,7 @@
 held there until it is in static equilibrium (a sample ready for an element test).
 
 `consolidate` closes the container with a lid on the pack's top, and moves the controlled
-walls with the engine's servo (``granpack._core.sim_consolidate``; the law and its
+walls with the engine's servo (``granpack._core.Simulation.consolidate``; the law and its
 reasons are in docs/consolidation.md) until, for `hold` consecutive checks, every
 controlled stress is within `stress_tol` of its target and YADE's unbalanced-force ratio
 is at most `unbalanced_tol`. It returns a new `Pack` whose `consolidation` record holds
@@ -261,7 +261,7 @@ def consolidate(
         )
 
     sim = _simulation(pack, step, gravity, drag=0.0)
-    lid = _core.sim_add_lid(sim._sim, height)
+    lid = sim._sim.add_lid(height)
     names = _wall_names(kind, dim)
     assert lid == len(names) - 1
     index = {n: k for k, n in enumerate(names)}
@@ -270,8 +270,7 @@ def consolidate(
 
     def run() -> dict:
         out: dict = dict(
-            _core.sim_consolidate(
-                sim._sim,
+            sim._sim.consolidate(
                 [(index[n], targets[n]) for n in order],
                 stress_tol=s["stress_tol"],
                 unbalanced_tol=s["unbalanced_tol"],
@@ -337,7 +336,7 @@ def _check_converged(rep: dict, order: list[str], s: dict) -> None:
 
 def _wall_positions(sim: Simulation, names: list[str]) -> dict[str, float]:
     """Each wall's position now (m), by name."""
-    walls = _core.sim_walls(sim._sim)
+    walls = sim._sim.walls()
     return {n: float(walls["position"][k]) for k, n in enumerate(names)}
 
 
@@ -392,7 +391,7 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
         return rep, record(phi0, "reached at the material's friction")
     below = [(mu0, phi0)]  # phases kept, all looser than the target
     above: tuple[float, float] | None = None  # the nearest phase that overshot
-    snapshot = _core.sim_clone(sim._sim)
+    snapshot = sim._sim.clone()
     reached = False
     for _ in range(MAX_FRICTION_PHASES):
         mu_lo, phi_lo = below[-1]
@@ -409,7 +408,7 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             mu = mu_lo * factor
             if mu < FRICTION_FLOOR * mu0:
                 mu = 0.0
-        _core.sim_set_friction(sim._sim, mu)
+        sim._sim.set_friction(mu)
         rep = run()
         steps += int(rep["steps"])
         phi = phi_now()
@@ -421,12 +420,12 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             if mu == 0.0:
                 raise _beyond_zero_friction(target, phi0, phi)
             below.append((mu, phi))
-            snapshot = _core.sim_clone(sim._sim)
+            snapshot = sim._sim.clone()
         else:
             # overshot: back to the last kept phase's state, bit for bit
             phases[-1]["kept"] = False
             above = (mu, phi)
-            sim._sim = _core.sim_clone(snapshot)
+            sim._sim = snapshot.clone()
     if not reached:
         raise _servo_error(
             f"target_phi = {target:g} not reached in {MAX_FRICTION_PHASES} friction phases "
@@ -437,7 +436,7 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             phi0,
             min((p["phi"] for p in phases), key=lambda v: abs(v - target)),
         )
-    _core.sim_set_friction(sim._sim, mu0)
+    sim._sim.set_friction(mu0)
     rep = run()
     steps += int(rep["steps"])
     phi = phi_now()
@@ -547,8 +546,7 @@ def settle(
     sc = pack.scene
     sim = _simulation(pack, float(sc.dt), True, float(sc.drag))
     start = time.perf_counter()
-    rep = _core.sim_consolidate(
-        sim._sim,
+    rep = sim._sim.consolidate(
         [],
         stress_tol=1e-3,
         unbalanced_tol=unbalanced_tol,
@@ -574,7 +572,7 @@ def settle(
     contacts = sim.contacts()
     x = np.array(sim.positions, dtype=np.float64)
     r = pack.radii
-    balance = _core.sim_force_balance(sim._sim)
+    balance = sim._sim.force_balance()
     record = {
         "unbalanced_tol": unbalanced_tol,
         "hold": hold,
@@ -605,7 +603,7 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
     """The new Pack and its record: walls moved to the origin's corner, the stresses."""
     dim = pack.dim
     sc = pack.scene
-    walls = _core.sim_walls(sim._sim)
+    walls = sim._sim.walls()
     pos = {n: float(walls["position"][k]) for k, n in enumerate(names)}
     wall_stress = {n: float(walls["force"][k] / walls["area"][k]) for k, n in enumerate(names)}
     # in the cell: the engine wraps periodic axes
@@ -667,7 +665,7 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         sides = [n for n in names if n not in ("floor", "lid")]
         lateral = float(np.mean([wall_stress[n] for n in sides]))
         lateral_source = "walls"
-    balance = _core.sim_force_balance(sim._sim)
+    balance = sim._sim.force_balance()
     hist = rep["history"]
     record = {
         **settings,

@@ -9,8 +9,8 @@ from .simulation import MAX_STEPS_PER_CALL, Material, Simulation
 __all__ = ["Material", "Simulation", "MAX_STEPS_PER_CALL"]
 
 warnings.warn(
-    "granpack.engine is now granpack.simulation; import Material and Simulation from "
-    "granpack (or granpack.simulation): granpack.engine goes in the next release",
+    "granpack.engine is now granpack.simulation; import from granpack.simulation in new"
+    " code: granpack.engine is removed in the next release",
     DeprecationWarning,
     stacklevel=2,
 )

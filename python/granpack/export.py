@@ -1,7 +1,9 @@
-"""The former home of :func:`export` and the writers, kept so that existing scripts run
-unchanged: every format now lives in `granpack.io`, one module per format family (its
-writer beside its reader), behind one registry (`granpack.io.registry`). Import from
-`granpack.io` in new code; the layouts are described in each format's module."""
+"""The former home of :func:`export` and the writers: every format now lives in
+`granpack.io`, one module per format family (its writer beside its reader), behind one
+registry (`granpack.io.registry`). Importing this module still works for one release, with
+a `DeprecationWarning`; import from `granpack.io` in new code."""
+
+import warnings
 
 from .io._text import contact_counts
 from .io.lammps import (
@@ -46,3 +48,10 @@ __all__ = [
     "write_xyz",
     "write_yade",
 ]
+
+warnings.warn(
+    "granpack.export is now granpack.io; import from granpack.io in new code: "
+    "granpack.export is removed in the next release",
+    DeprecationWarning,
+    stacklevel=2,
+)

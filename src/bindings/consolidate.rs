@@ -1,7 +1,8 @@
-//! The lid, the loads on the walls and the consolidation stage, as functions of a
-//! `Simulation` (see `granpack.consolidation`).
+//! The lid, the loads on the walls and the consolidation stage: the bodies of the
+//! stage methods of `Simulation` (see its `#[pymethods]` in `bindings/mod.rs`, and
+//! `granpack.consolidation`).
 
-use super::{bad, signal_poll, SimInner, Simulation};
+use super::{bad, signal_poll, SimInner};
 use crate::math::Real;
 use crate::pipeline::consolidate::{consolidate, ConsolidateConfig, ServoTarget};
 use crate::pipeline::world::ForceBalance;
@@ -10,19 +11,17 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// Adds the lid at height `z` (m); returns its index in the wall list.
-#[pyfunction]
-fn sim_add_lid(sim: &mut Simulation, z: f64) -> PyResult<usize> {
-    Ok(with_world!(&mut sim.inner, w, _D, w.add_lid(z))?)
+pub(super) fn add_lid(inner: &mut SimInner, z: f64) -> PyResult<usize> {
+    Ok(with_world!(inner, w, _D, w.add_lid(z))?)
 }
 
 /// Each wall's position (m: a plane's coordinate, the cylinder's radius), the force
 /// the particles put on it along its outward normal (N), the stiffness of its contacts
 /// (N/m), its contacts, and its area (m^2; NaN where it has none yet: a side wall
 /// before the lid).
-#[pyfunction]
-fn sim_walls<'py>(py: Python<'py>, sim: &mut Simulation) -> PyResult<Bound<'py, PyDict>> {
+pub(super) fn walls<'py>(py: Python<'py>, inner: &mut SimInner) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    with_world!(&mut sim.inner, w, _D, {
+    with_world!(inner, w, _D, {
         w.refresh_forces()?;
         let loads = w.wall_loads();
         let n = w.wall_count();
@@ -73,9 +72,11 @@ fn balance_dict<'py>(py: Python<'py>, fb: &ForceBalance) -> PyResult<Bound<'py, 
 }
 
 /// The balance of forces: YADE's unbalanced ratio and PFC's maximum ratio.
-#[pyfunction]
-fn sim_force_balance<'py>(py: Python<'py>, sim: &mut Simulation) -> PyResult<Bound<'py, PyDict>> {
-    let fb = with_world!(&mut sim.inner, w, _D, {
+pub(super) fn force_balance<'py>(
+    py: Python<'py>,
+    inner: &mut SimInner,
+) -> PyResult<Bound<'py, PyDict>> {
+    let fb = with_world!(inner, w, _D, {
         w.refresh_forces()?;
         w.force_balance()
     });
@@ -84,13 +85,10 @@ fn sim_force_balance<'py>(py: Python<'py>, sim: &mut Simulation) -> PyResult<Bou
 
 /// Runs the consolidation stage (see `pipeline::consolidate`) with the GIL released;
 /// Ctrl-C stops it after the current check (KeyboardInterrupt).
-#[pyfunction]
-#[pyo3(signature = (sim, targets, *, stress_tol, unbalanced_tol, hold, check_every, max_steps,
-                    max_wall_speed, gain, local_damping))]
 #[allow(clippy::too_many_arguments)]
-fn sim_consolidate<'py>(
+pub(super) fn consolidate_stage<'py>(
     py: Python<'py>,
-    sim: &mut Simulation,
+    inner: &mut SimInner,
     targets: Vec<(usize, f64)>,
     stress_tol: f64,
     unbalanced_tol: f64,
@@ -115,7 +113,6 @@ fn sim_consolidate<'py>(
         gain,
         local_damping,
     };
-    let inner: &mut SimInner = &mut sim.inner;
     let mut raised = None;
     let report = py.detach(|| {
         let mut poll = signal_poll(&mut raised);
@@ -160,32 +157,6 @@ fn sim_consolidate<'py>(
 
 /// Sets the Coulomb friction coefficient (-) of particles and walls from the next
 /// step on (finite, >= 0).
-#[pyfunction]
-fn sim_set_friction(sim: &mut Simulation, friction: f64) -> PyResult<()> {
-    Ok(with_world!(
-        &mut sim.inner,
-        w,
-        _D,
-        w.set_friction(friction)
-    )?)
-}
-
-/// A copy of the engine's whole state (particles, pair list and tangential history,
-/// walls, clocks): stepping the copy gives the same bits as stepping the original.
-#[pyfunction]
-fn sim_clone(sim: &Simulation) -> Simulation {
-    Simulation {
-        inner: sim.inner.clone(),
-    }
-}
-
-/// Registers this file's functions in `granpack._core`.
-pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(sim_add_lid, m)?)?;
-    m.add_function(wrap_pyfunction!(sim_walls, m)?)?;
-    m.add_function(wrap_pyfunction!(sim_force_balance, m)?)?;
-    m.add_function(wrap_pyfunction!(sim_consolidate, m)?)?;
-    m.add_function(wrap_pyfunction!(sim_set_friction, m)?)?;
-    m.add_function(wrap_pyfunction!(sim_clone, m)?)?;
-    Ok(())
+pub(super) fn set_friction(inner: &mut SimInner, friction: f64) -> PyResult<()> {
+    Ok(with_world!(inner, w, _D, w.set_friction(friction))?)
 }

@@ -573,6 +573,75 @@ impl Simulation {
             contacts_to_py(py, c)
         })
     }
+
+    // The consolidation stage's methods (bodies in `consolidate.rs`).
+
+    /// Adds the lid at height `z` (m); returns its index in the wall list.
+    fn add_lid(&mut self, z: f64) -> PyResult<usize> {
+        consolidate::add_lid(&mut self.inner, z)
+    }
+
+    /// Each wall's position (m: a plane's coordinate, the cylinder's radius), the force
+    /// the particles put on it along its outward normal (N), the stiffness of its
+    /// contacts (N/m), its contacts, and its area (m^2; NaN where it has none yet: a
+    /// side wall before the lid).
+    fn walls<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        consolidate::walls(py, &mut self.inner)
+    }
+
+    /// The balance of forces: YADE's unbalanced ratio and PFC's maximum ratio.
+    fn force_balance<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        consolidate::force_balance(py, &mut self.inner)
+    }
+
+    /// Runs the consolidation stage (see `pipeline::consolidate`) with the GIL
+    /// released; Ctrl-C stops it after the current check (KeyboardInterrupt).
+    #[pyo3(signature = (targets, *, stress_tol, unbalanced_tol, hold, check_every, max_steps,
+                        max_wall_speed, gain, local_damping))]
+    #[allow(clippy::too_many_arguments)]
+    fn consolidate<'py>(
+        &mut self,
+        py: Python<'py>,
+        targets: Vec<(usize, f64)>,
+        stress_tol: f64,
+        unbalanced_tol: f64,
+        hold: u32,
+        check_every: u64,
+        max_steps: u64,
+        max_wall_speed: f64,
+        gain: f64,
+        local_damping: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        consolidate::consolidate_stage(
+            py,
+            &mut self.inner,
+            targets,
+            stress_tol,
+            unbalanced_tol,
+            hold,
+            check_every,
+            max_steps,
+            max_wall_speed,
+            gain,
+            local_damping,
+        )
+    }
+
+    /// Sets the Coulomb friction coefficient (-) of particles and walls from the next
+    /// step on (finite, >= 0).
+    fn set_friction(&mut self, friction: f64) -> PyResult<()> {
+        consolidate::set_friction(&mut self.inner, friction)
+    }
+
+    /// A copy of the engine's whole state (particles, pair list and tangential
+    /// history, walls, clocks): stepping the copy gives the same bits as stepping the
+    /// original.
+    #[pyo3(name = "clone")]
+    fn copy_state(&self) -> Simulation {
+        Simulation {
+            inner: self.inner.clone(),
+        }
+    }
 }
 
 enum PackInner {
@@ -1199,10 +1268,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "MAX_STEPS_PER_CALL",
         crate::pipeline::world::MAX_STEPS_PER_CALL,
     )?;
-    m.add(
-        "MAX_STEPS_PER_LAYER",
-        crate::pipeline::pack::MAX_STEPS_PER_LAYER,
-    )?;
+    m.add("MAX_STEPS_PER_LAYER", crate::scene::MAX_STEPS_PER_LAYER)?;
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
@@ -1211,6 +1277,5 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
     scene::register(m)?;
-    consolidate::register(m)?;
     Ok(())
 }

@@ -6,7 +6,6 @@ pub mod pack;
 pub mod rsa;
 pub mod world;
 
-pub use crate::scene::radius_law as sizes;
 pub use crate::scene::{DiscreteLaw, FractionsBy, SieveLaw};
 pub use consolidate::{consolidate, ConsolidateConfig, ConsolidateReport, ServoCheck, ServoTarget};
 pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};

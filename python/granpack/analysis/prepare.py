@@ -5,6 +5,7 @@ networks, bond order), and the slice stress the profiles share."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -13,13 +14,25 @@ from .coordination import coordination_distribution, degrees, rattlers_iterative
 from .order import bond_order
 from .stress import contact_forces, k0, love_weber
 from .system import System
-from .system import _prepare as _prepare  # the former home of the System's coercion
 from .tensors import ANISOTROPY_FACTOR, anisotropy_magnitude, fabric_tensor
 
 __all__ = ["MAX_SLICES", "FORCE_BIN", "force_balance", "stress_slices"]
 
-#: The former name of :class:`System`.
-Prepared = System
+
+def __getattr__(name: str):
+    # `Prepared` is the former name of `System`, until the next release; it warns on first
+    # use only, as the name is then bound here
+    if name == "Prepared":
+        warnings.warn(
+            "granpack.analysis.prepare.Prepared is now granpack.analysis.system.System; "
+            "Prepared is removed in the next release",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        globals()[name] = System
+        return System
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: Most slices of a depth profile.
 MAX_SLICES = 10_000

@@ -7,9 +7,9 @@ import argparse
 import time
 from pathlib import Path
 
+from .._console import Console
+from .._outputs import say_removed
 from .._validate import check_outputs
-from ._common import say_removed
-from ._console import Console
 
 HELP = "consolidate a pack to a target stress with servo walls, until it is at rest"
 DESCRIPTION = (

@@ -6,8 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from .._console import Console
 from .._validate import check_outputs
-from ._console import Console
 
 HELP = "e_min and e_max of the model for a scene, over packs"
 DESCRIPTION = (

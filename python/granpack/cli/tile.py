@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     from ..pack import load_pack
-    from ..tile import tile
+    from ..tiling import tile
 
     counts = tuple(args.counts)
     out = args.out

@@ -11,7 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_write
-from ..report import _col, _dev_banner, _duration, _environment_line, _grouped_links, _mean_sd, _rel
+from .._report_page import (
+    column,
+    dev_banner,
+    duration,
+    environment_line,
+    grouped_links,
+    mean_sd,
+    rel_link,
+)
 
 __all__ = ["paper_report"]
 
@@ -92,11 +100,11 @@ def paper_report(
             "reproduction and reuses the packs made here.",
             "",
         ]
-    lines += _dev_banner(dev_changes or {})
+    lines += dev_banner(dev_changes or {})
     lines += [
         f"`{cmd}`: examples {', '.join(examples)}, rotations ON and OFF, {n_packs} "
         f"pack(s) each, master seed {seed} (pack k uses random stream k). "
-        f"{_environment_line(wall_time)}; packs {_duration(pack_time)}.",
+        f"{environment_line(wall_time)}; packs {duration(pack_time)}.",
         "",
         "## Summary: ours beside the paper",
         "",
@@ -108,13 +116,13 @@ def paper_report(
         for rot in (True, False):
             recs = records.get((ex, rot), [])
             figs = figures.get((ex, rot), {})
-            links = " · ".join(f"[{name}]({_rel(p, out)})" for name, p in figs.items())
-            n_mean = np.mean(_col(recs, "n_particles")) if recs else float("nan")
+            links = " · ".join(f"[{name}]({rel_link(p, out)})" for name, p in figs.items())
+            n_mean = np.mean(column(recs, "n_particles")) if recs else float("nan")
             paper = paper_phi.get((ex, rot))
             lines.append(
                 f"| {ex} | {'ON' if rot else 'OFF'} | {len(recs)} | {n_mean:.0f} "
-                f"| {_mean_sd(_col(recs, 'phi'))} | {_mean_sd(paper) if paper else 'n/a'} "
-                f"| {_mean_sd(_col(recs, 'z'), 2)} | {_mean_sd(_col(recs, 'z_mech'), 2)} "
+                f"| {mean_sd(column(recs, 'phi'))} | {mean_sd(paper) if paper else 'n/a'} "
+                f"| {mean_sd(column(recs, 'z'), 2)} | {mean_sd(column(recs, 'z_mech'), 2)} "
                 f"| {links} |"
             )
     lines += [
@@ -128,12 +136,12 @@ def paper_report(
         from .mass2d import report_lines
 
         csv = out / "tables" / "mass_2d.csv"
-        lines += report_lines(mass_2d, _default_2d_convention(), _rel(csv, out))
+        lines += report_lines(mass_2d, _default_2d_convention(), rel_link(csv, out))
     lines += [
         "## Tables",
         "",
     ]
-    groups = _grouped_links(table_files, out)
+    groups = grouped_links(table_files, out)
     for stem in sorted(groups, key=_table_sort_key):
         m = re.fullmatch(r"table(\d+)", stem)
         if m and int(m.group(1)) in _TABLE_TOPICS:
@@ -149,7 +157,7 @@ def paper_report(
             "",
             "## Packing fraction over the ensembles",
             "",
-            " · ".join(f"[example {ex}]({_rel(p, out)})" for ex, p in phi_figs),
+            " · ".join(f"[example {ex}]({rel_link(p, out)})" for ex, p in phi_figs),
         ]
     lines += [
         "",

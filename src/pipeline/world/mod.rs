@@ -6,7 +6,7 @@
 //! 2. rebuild the pair list if it may miss a contact (two particles have together
 //!    travelled more than their half skins, see `integrate::Travel`),
 //! 3. pair forces (one pass over the pair list, each pair independent; the law runs
-//!    over blocks of consecutive pairs, `dynamics::block`),
+//!    over blocks of consecutive pairs, `dynamics::batched_law`),
 //! 4. gather forces per particle (fixed order: no atomics, no order-dependent sums),
 //!    plus walls and body forces,
 //! 5. second half kick, with the blow-up guards.
@@ -31,7 +31,7 @@
 //! (max, min index) or per-chunk partial sums added in chunk order, so results are
 //! bit-identical on any number of threads.
 
-use crate::dynamics::block::{
+use crate::dynamics::batched_law::{
     clear_lanes, geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors,
     PairRecord, BLOCK, BLOCK_SHIFT, LANES,
 };
