@@ -45,6 +45,7 @@ import math
 
 from ._validate import InvalidParameterError
 from .analysis.container import Container
+from .history import stage_table
 from .pack import Pack
 
 __all__ = [
@@ -76,7 +77,7 @@ def container_of(pack: Pack) -> tuple[str, float | None]:
 
 def _record(pack: Pack) -> dict | None:
     """The consolidation record of a consolidated pack, None for a deposit."""
-    rec = getattr(pack, "consolidation", None)
+    rec = stage_table(pack, "consolidate")
     return rec if isinstance(rec, dict) and "walls" in rec else None
 
 

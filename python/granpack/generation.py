@@ -1,6 +1,6 @@
-"""`generate`: the layer loop (`granpack.pack.deposit`), then the stages a scene asks
-for after it: its density target (`granpack.density`), the settling to rest
-(`rest_tol`) and the consolidation (`[consolidate]`, `granpack.consolidation`)."""
+"""`generate`: the deposit, then each stage the scene lists, in order
+(`granpack.stages`); or, for a scene with a density target, the search over that list
+(`granpack.density`)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import dataclasses
 import time
 from collections.abc import Callable
 
-from .consolidation import consolidate, settle
-from .density import generate_at_density
+from . import density, stages
 from .errors import InvalidParameterError
-from .pack import Pack, deposit
+from .pack import Pack
 from .scene import PackScene
 
 __all__ = ["generate"]
@@ -51,13 +50,13 @@ def generate(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
-    if scene.density_target is not None:
-        return generate_at_density(scene, progress)
+    target = density.spec_of(scene)
+    if target is not None:
+        return density.run(scene, target, progress)
     t0 = time.perf_counter()
-    pack = deposit(scene, progress, _stacklevel=3)
-    if scene.rest_tol is not None:
-        pack = settle(pack, scene.rest_tol)
-    if scene.consolidate is not None:
-        sample = consolidate(pack, **scene.consolidate)
-        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
+    steps = stages.plan(scene)
+    pack = stages.run(scene, steps, progress, _stacklevel=3)
+    if len(steps) > 1:
+        # the time of every stage, not the layer loop's alone
+        pack = dataclasses.replace(pack, wall_time=time.perf_counter() - t0)
     return pack

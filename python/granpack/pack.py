@@ -17,7 +17,7 @@ import warnings
 import zipfile
 import zlib
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -27,6 +27,7 @@ from . import _core
 from ._memory import memory_limit
 from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
 from .contacts import Contacts
+from .history import STAGE_NAMES, TABLE_NAMES, StageRecord
 from .scene import PackScene
 
 __all__ = [
@@ -40,7 +41,12 @@ __all__ = [
     "remove_stale_temporaries",
 ]
 
-FORMAT_VERSION = 1
+#: The pack file's format: 2 keeps the stages' records as one ``history`` list; 1
+#: (granpack 0.1.0) kept them as the tables ``trim``, ``rest``, ``consolidation``,
+#: ``density`` and ``tiled``, which `load_pack` still reads into the history.
+FORMAT_VERSION = 2
+#: The oldest format `load_pack` reads.
+OLDEST_FORMAT_VERSION = 1
 
 #: Said by `load_pack` of a pack written in a newer format (and only then), so that
 #: callers can tell "a pack this version cannot read" from a damaged file.
@@ -106,39 +112,12 @@ class Pack:
         wall_seconds.
     wall_time : float
         Seconds spent generating.
-    trim : dict or None
-        What the flat top did (``PackScene.trim``): ``removed`` (particles taken out
-        above H_d), ``top`` (the final H_top after the relax, m, <= H_d), ``phi_hd``
-        (solid fraction of the container up to H_d), ``steps`` (relax steps). None for
-        a pack made without it.
-    consolidation : dict or None
-        What `granpack.consolidate` did, for a consolidated pack (None for a deposit):
-        ``mode``, ``targets`` and the tolerances and settings it ran with (``dt``,
-        ``max_wall_speed``, ``gain``, ``local_damping``, ``gravity``), ``walls`` (each
-        wall's position, m: ``floor``, the side walls or ``cylinder`` (its radius),
-        ``lid``), ``wall_stress`` (force over area on each wall, Pa),
-        ``love_weber`` and ``boundary_stress`` (D x D, Pa; in a periodic cell only the
-        latter's vertical row and column, the rest NaN), ``k0``, ``phi`` and
-        ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
-        ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
-        pack's ``height`` is then the lid's height.
-    rest : dict or None
-        What `granpack.settle` (the scene's ``rest_tol``) did: ``unbalanced`` and
-        ``max_ratio`` at the end, ``unbalanced_tol``, ``local_damping``, ``steps``,
-        ``seconds`` and the ``history``. None for a pack not settled so.
-    density : dict or None
-        How a density target (``PackScene.target_phi``, ``target_void_ratio``,
-        ``target_relative_density``) was reached: ``target`` (key and value),
-        ``target_phi``, ``density_tol``, ``measure`` ("sample": floor to lid;
-        "core": the core window), ``method``, ``friction`` (the deposition friction the
-        layers were jammed with), ``phi``, ``void_ratio``, ``generations``, the search
-        ``history`` and, where known, ``e_min``, ``e_max`` and ``relative_density``.
-        None for a pack made without a target.
-    tiled : dict or None
-        What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
-        horizontal axis), ``particles`` (N of the original), ``base`` (the original's
-        periods, m), ``seed``, ``stream`` and ``scene_sha256`` (the SHA-256 of the
-        original's scene TOML). None for a pack that was not tiled.
+    history : tuple of StageRecord
+        One record per stage run after the layer loop, in order (`granpack.history`):
+        the flat top ("trim"), the settling to rest ("rest"), the consolidation
+        ("consolidate"), the density target ("density"), the tiling ("tile"). Each
+        holds the settings the stage ran with, what it measured, its seconds and its
+        time steps; `record` finds one by its stage. Empty for a plain deposit.
     """
 
     scene: PackScene
@@ -151,11 +130,66 @@ class Pack:
     height: float
     layers: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
-    trim: dict | None = None
-    tiled: dict | None = None
-    consolidation: dict | None = None
-    rest: dict | None = None
-    density: dict | None = None
+    history: tuple[StageRecord, ...] = ()
+
+    def record(self, stage: str) -> StageRecord | None:
+        """The last record of `stage` ("trim", "rest", "consolidate", "density",
+        "tile") in the pack's history, or None where that stage did not run."""
+        if stage not in STAGE_NAMES:
+            raise InvalidParameterError(
+                f"invalid stage = {stage!r}: expected one of {', '.join(STAGE_NAMES)}",
+                parameter="stage",
+                value=stage,
+                expected=f"one of {STAGE_NAMES}",
+            )
+        for rec in reversed(self.history):
+            if rec.stage == stage:
+                return rec
+        return None
+
+    def with_record(self, record: StageRecord, **changes: Any) -> Pack:
+        """A copy of the pack with `changes` (`dataclasses.replace`'s) and `record`
+        added to its history."""
+        return replace(self, history=(*self.history, record), **changes)
+
+    def _table(self, stage: str) -> dict | None:
+        warnings.warn(
+            f"Pack.{TABLE_NAMES[stage]} is deprecated and will be removed in the next "
+            f"release: use Pack.record({stage!r}) (a StageRecord: settings, report, "
+            "seconds, steps), or its .table() for this table",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        rec = self.record(stage)
+        return None if rec is None else rec.table()
+
+    @property
+    def trim(self) -> dict | None:
+        """Deprecated: ``record("trim").table()``, the flat top's table (``removed``,
+        ``top``, ``phi_hd``, ``steps``), or None."""
+        return self._table("trim")
+
+    @property
+    def tiled(self) -> dict | None:
+        """Deprecated: ``record("tile").table()``, the tiling's table, or None."""
+        return self._table("tile")
+
+    @property
+    def consolidation(self) -> dict | None:
+        """Deprecated: ``record("consolidate").table()``, the consolidation's table, or
+        None."""
+        return self._table("consolidate")
+
+    @property
+    def rest(self) -> dict | None:
+        """Deprecated: ``record("rest").table()``, the settling's table, or None."""
+        return self._table("rest")
+
+    @property
+    def density(self) -> dict | None:
+        """Deprecated: ``record("density").table()``, the density target's table, or
+        None."""
+        return self._table("density")
 
     @property
     def dim(self) -> int:
@@ -204,16 +238,8 @@ class Pack:
             "layers": self.layers,
             "wall_time": self.wall_time,
         }
-        if self.trim is not None:
-            meta["trim"] = self.trim
-        if self.tiled is not None:
-            meta["tiled"] = self.tiled
-        if self.consolidation is not None:
-            meta["consolidation"] = self.consolidation
-        if self.rest is not None:
-            meta["rest"] = self.rest
-        if self.density is not None:
-            meta["density"] = self.density
+        if self.history:
+            meta["history"] = [rec.to_json() for rec in self.history]
         arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
         arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
         # Stored, not deflated: float64 positions and forces barely compress (a 1e6-sphere
@@ -437,13 +463,17 @@ def load_pack(path: str | Path) -> Pack:
     if isinstance(version, int) and not isinstance(version, bool) and version > FORMAT_VERSION:
         raise FileFormatError(
             f"cannot read pack {path}: written in pack format version {version}; this "
-            f"granpack reads version {FORMAT_VERSION}: {NEWER_FORMAT}",
+            f"granpack reads versions up to {FORMAT_VERSION}: {NEWER_FORMAT}",
             path=path,
         )
-    if version != FORMAT_VERSION:
+    if not (
+        isinstance(version, int)
+        and not isinstance(version, bool)
+        and OLDEST_FORMAT_VERSION <= version <= FORMAT_VERSION
+    ):
         raise FileFormatError(
             f"cannot read pack {path}: damaged pack record (format version "
-            f"{short_repr(version)}; expected {FORMAT_VERSION})",
+            f"{short_repr(version)}; expected {OLDEST_FORMAT_VERSION} to {FORMAT_VERSION})",
             path=path,
         )
     try:
@@ -463,11 +493,7 @@ def load_pack(path: str | Path) -> Pack:
             height=_finite_field(meta, "height"),
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
-            trim=_trim_record(meta.get("trim")),
-            tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
-            consolidation=_consolidation_record(meta.get("consolidation")),
-            rest=_rest_record(meta.get("rest")),
-            density=_density_record(meta.get("density")),
+            history=_history(meta, version, scene.dim, len(data["radii"])),
         )
     except (
         KeyError,
@@ -495,6 +521,31 @@ def _finite_field(meta: dict, key: str) -> float:
     if not math.isfinite(v):
         raise ValueError(f"{key!r} is {v}, expected a finite number")
     return v
+
+
+def _history(meta: dict, version: int, dim: int, n: int) -> tuple[StageRecord, ...]:
+    """The stages' records of a pack record: its ``history`` list (format 2), or the
+    five tables of a 0.1.0 file (format 1) read into records, in the order `generate`
+    runs them. Each stage's table is checked as 0.1.0 checked it, in either format."""
+    checks = {
+        "trim": _trim_record,
+        "rest": _rest_record,
+        "consolidate": _consolidation_record,
+        "density": _density_record,
+        "tile": lambda table: _tiled_record(table, dim, n),
+    }
+    if version >= 2:
+        history = meta.get("history", [])
+        if not isinstance(history, list):
+            raise ValueError(f"'history' is {type(history).__name__}, expected a list")
+        records = tuple(StageRecord.from_json(rec) for rec in history)
+        for rec in records:
+            checks[rec.stage](rec.table())
+        return records
+    tables = {stage: check(meta.get(TABLE_NAMES[stage])) for stage, check in checks.items()}
+    return tuple(
+        StageRecord.from_table(stage, table) for stage, table in tables.items() if table is not None
+    )
 
 
 def _trim_record(value) -> dict | None:
@@ -806,7 +857,7 @@ def deposit(
         height=height,
         layers=reports,
         wall_time=time.perf_counter() - t0,
-        trim=trim,
+        history=() if trim is None else (StageRecord.from_table("trim", trim),),
     )
     issue = settling_issue(pack)
     if issue is not None:

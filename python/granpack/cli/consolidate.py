@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from .._validate import check_outputs
+from ..history import stage_table
 from ._common import say_removed
 from ._console import Console
 
@@ -99,7 +100,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         density_tol=args.density_tol,
     )
     path = done.save(out)  # atomic: a temporary file, then a rename
-    r = done.consolidation
+    r = stage_table(done, "consolidate")
     assert r is not None
     stresses = ", ".join(f"{n} {v:.6g}" for n, v in r["wall_stress"].items())
     console.say(

@@ -19,6 +19,7 @@ from .._validate import (
 )
 from ..container_tag import container_tag, parse_container_tag
 from ..dem_input import SNIPPET_NAME, container_of, lammps_input, lid_height, liggghts_input
+from ..history import stage_table
 from ..pack import atomic_write
 
 if TYPE_CHECKING:
@@ -287,7 +288,7 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     w = _pad3(pack.spins)
     kind, radius = container_of(pack)
     top = pack.height
-    rec = getattr(pack, "consolidation", None)
+    rec = stage_table(pack, "consolidate")
     if rec is not None:
         # a consolidated pack: the box is the walls' (the sides at 0 and base, where the
         # consolidation left them), closed at the lid
