@@ -34,7 +34,9 @@ if TYPE_CHECKING:
     from .consolidation import consolidate, settle
     from .contacts import Contacts
     from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
+    from .ensemble_run import generate_ensemble
     from .generation import generate
+    from .history import StageRecord
     from .grading import Grading, realised_grading, target_grading
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
     from .pack import Pack, UnsettledPackWarning, load_pack
@@ -67,6 +69,8 @@ _LAZY = {
     "Pack": "pack",
     "UnsettledPackWarning": "pack",
     "generate": "generation",
+    "generate_ensemble": "ensemble_run",
+    "StageRecord": "history",
     "load_pack": "pack",
     "PRESETS": "scene",
     "PackScene": "scene",
@@ -81,10 +85,12 @@ _SUBMODULES = frozenset(
         "contacts",
         "density",
         "grading",
+        "history",
         "io",
         "pack",
         "scene",
         "simulation",
+        "stages",
     )
     + ("tile", "container_tag", "dem_input", "_validate")
 )
@@ -135,6 +141,8 @@ __all__ = [
     "PackScene",
     "PRESETS",
     "generate",
+    "generate_ensemble",
+    "StageRecord",
     "load_pack",
     "tile",
     "consolidate",
