@@ -36,8 +36,8 @@ if TYPE_CHECKING:
     from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
     from .ensemble_run import generate_ensemble
     from .generation import generate
-    from .history import StageRecord
     from .grading import Grading, realised_grading, target_grading
+    from .history import StageRecord
     from .io import ContactFile, ParticleFile, read_contacts, read_particles
     from .pack import Pack, UnsettledPackWarning, load_pack
     from .scene import PRESETS, PackScene
