@@ -81,8 +81,7 @@ def write(f: BinaryIO, pack: Any) -> None:
     # disk speed. np.load reads both, so older files still load. The zip goes
     # straight into the temporary file: built in memory first, it held a second
     # copy of the pack (336 MB at 922 075 spheres) at the generation's peak.
-    # (numpy's stub types the keyword arrays as its allow_pickle flag)
-    np.savez(f, **arrays)  # type: ignore[arg-type]
+    np.savez(f, **arrays)
 
 
 def scene_record_error(path: str | Path) -> str | None:
