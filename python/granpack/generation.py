@@ -20,12 +20,15 @@ def generate(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
 ) -> Pack:
-    """Builds one pack layer by layer (RSA layer, DEM jamming run, new height) until the
-    height reaches `scene.height`, then runs the stages the scene asks for: the flat top
-    (`trim`), the settling to rest (`rest_tol`) and the consolidation (`[consolidate]`).
-    A scene with a density target (``target_phi``, ``target_void_ratio`` or
-    ``target_relative_density``) is built by `granpack.density.generate_at_density`,
-    which may generate several packs of the scene (docs/density.md).
+    """Builds one pack: the deposit, layer by layer (RSA layer, DEM jamming run, new
+    height) until the height reaches `scene.height`, with the flat top (`trim`) where
+    the scene asks; then each stage the scene lists, in the order of
+    `granpack.stages.STAGES`: the settling to rest (`rest_tol`), the consolidation
+    (`[consolidate]`). Each stage adds its record to the pack's `history`. A scene with
+    a density target (``target_phi``, ``target_void_ratio`` or
+    ``target_relative_density``) is built by the density target's search
+    (`granpack.density.run`), which runs that list again with the deposit's friction
+    changed and so may generate several packs of the scene (docs/density.md).
 
     Parameters
     ----------
