@@ -66,7 +66,7 @@ def _lid_printed(program: str, run_dir, script: str) -> float:
 
 def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
     pack = consolidated
-    rec = pack.consolidation
+    rec = pack.record("consolidate").table()
     lid = rec["walls"]["lid"]
     assert lid_force(pack) == pytest.approx(1e5 * lid_area(pack), rel=1e-3)
     written = export(pack, tmp_path / "pack.data", "lammps-data")

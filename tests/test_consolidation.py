@@ -40,7 +40,7 @@ def _residual(pack: gp.Pack) -> np.ndarray:
     """(1/V) sum_i x_i (x) F_i, the virial of the particles' net forces (from the contact
     table, gravity included where the stage had it): the part by which Love-Weber and
     the boundary stress differ away from equilibrium."""
-    c, rec, d = pack.contacts, pack.consolidation, pack.dim
+    c, rec, d = pack.contacts, pack.record("consolidate").table(), pack.dim
     f = c.force_normal[:, None] * c.normal + c.force_tangential  # on j (or the wall)
     net = np.zeros((len(pack), d))
     np.add.at(net, c.i, -f)
@@ -63,7 +63,7 @@ def test_stage_reaches_its_target_in_equilibrium(deposits, name):
     dep = deposits[name]
     stress = 1e3 if name == "2d" else 1e4
     pack = gp.consolidate(dep, stress, gravity=False)
-    rec = pack.consolidation
+    rec = pack.record("consolidate").table()
     assert abs(rec["wall_stress"]["lid"] - stress) <= 1e-3 * stress
     assert rec["unbalanced"] <= 1e-4
     assert rec["max_ratio"] >= rec["unbalanced"]
@@ -102,7 +102,7 @@ def test_stage_reaches_its_target_in_equilibrium(deposits, name):
 
 def test_isotropic_box_holds_every_wall(deposits):
     pack = gp.consolidate(deposits["box"], 1e4, "isotropic", gravity=False)
-    rec = pack.consolidation
+    rec = pack.record("consolidate").table()
     for n in ("x_lo", "x_hi", "y_lo", "y_hi", "lid"):
         assert abs(rec["wall_stress"][n] - 1e4) <= 1e-3 * 1e4
     assert rec["k0"] == pytest.approx(1.0, abs=2e-3)
@@ -116,12 +116,12 @@ def test_isotropic_box_holds_every_wall(deposits):
 
 def test_anisotropic_cylinder_and_box(deposits):
     cyl = gp.consolidate(deposits["cylinder"], 2e4, "anisotropic", lateral=1e4, gravity=False)
-    ws = cyl.consolidation["wall_stress"]
+    ws = cyl.record("consolidate").table()["wall_stress"]
     assert ws["lid"] == pytest.approx(2e4, rel=1e-3)
     assert ws["cylinder"] == pytest.approx(1e4, rel=1e-3)
-    assert cyl.consolidation["k0"] == pytest.approx(0.5, rel=2e-3)
+    assert cyl.record("consolidate").table()["k0"] == pytest.approx(0.5, rel=2e-3)
     box = gp.consolidate(deposits["box"], 2e4, "anisotropic", lateral=(1e4, 1.5e4), gravity=False)
-    ws = box.consolidation["wall_stress"]
+    ws = box.record("consolidate").table()["wall_stress"]
     assert ws["x_hi"] == pytest.approx(1e4, rel=1e-3)
     assert ws["y_lo"] == pytest.approx(1.5e4, rel=1e-3)
 
@@ -136,10 +136,10 @@ def test_denser_and_more_connected_as_the_stress_rises(deposits):
     for stress in (1e4, 1e5, 1e6):
         pack = gp.consolidate(dep, stress, gravity=False)
         pair = pack.contacts.j >= 0
-        volume = pack.scene.base_area * pack.consolidation["height"]
+        volume = pack.scene.base_area * pack.record("consolidate").table()["height"]
         rows.append(
             (
-                pack.consolidation["phi"],
+                pack.record("consolidate").table()["phi"],
                 gp.microstructure(pack, core_margin=0.02).z,
                 float(np.mean(pack.contacts.overlap[pair])),
                 stress * volume / np.count_nonzero(pair),
@@ -160,17 +160,17 @@ def test_denser_and_more_connected_as_the_stress_rises(deposits):
 
 def test_record_round_trips_and_deposits_have_none(deposits, tmp_path):
     dep = deposits["box"]
-    assert dep.consolidation is None
+    assert dep.record("consolidate") is None
     dep.save(tmp_path / "dep.npz")
-    assert gp.load_pack(tmp_path / "dep.npz").consolidation is None
+    assert gp.load_pack(tmp_path / "dep.npz").record("consolidate") is None
     pack = gp.consolidate(dep, 1e4, gravity=False)
     pack.save(tmp_path / "c.npz")
     back = gp.load_pack(tmp_path / "c.npz")
-    assert back.consolidation == pack.consolidation
+    assert back.record("consolidate").table() == pack.record("consolidate").table()
     np.testing.assert_array_equal(back.positions, pack.positions)
     assert back.height == pack.height
-    hist = back.consolidation["history"]
-    assert len(hist["step"]) == pack.consolidation["steps"] // 100
+    hist = back.record("consolidate").table()["history"]
+    assert len(hist["step"]) == pack.record("consolidate").table()["steps"] // 100
     assert hist["stress_error"][-1] <= 1e-3
 
 
@@ -180,9 +180,9 @@ def test_gravity_default_follows_the_weight_stress(deposits):
     weight = np.sum(4 / 3 * np.pi * r**3) * dep.scene.material.density * dep.scene.gravity
     weight /= dep.scene.base_area
     low = gp.consolidate(dep, 50 * weight)
-    assert low.consolidation["gravity"] is True
+    assert low.record("consolidate").table()["gravity"] is True
     high = gp.consolidate(dep, 200 * weight)
-    assert high.consolidation["gravity"] is False
+    assert high.record("consolidate").table()["gravity"] is False
 
 
 _DIGEST = """
@@ -194,7 +194,7 @@ for mode in ("oedometric", "isotropic", "anisotropic"):
     h = hashlib.sha256()
     for a in (p.positions, p.velocities, p.spins, p.contacts.force_normal):
         h.update(a.tobytes())
-    print(mode, p.consolidation["steps"], h.hexdigest())
+    print(mode, p.record("consolidate").table()["steps"], h.hexdigest())
 """
 
 
@@ -301,7 +301,7 @@ def test_command_line(deposits, tmp_path):
     cmd = [sys.executable, "-m", "granpack.cli", "consolidate", str(src), "--stress", "1e4"]
     done = subprocess.run([*cmd, "--out", str(out)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    rec = gp.load_pack(out).consolidation
+    rec = gp.load_pack(out).record("consolidate").table()
     assert rec["mode"] == "oedometric" and rec["targets"] == {"lid": 1e4}
     assert "K0" in done.stdout
     bad = subprocess.run(
@@ -317,7 +317,7 @@ def test_scene_table_consolidates_each_generated_pack():
     sc = SMALL["box"].replace(consolidate={"stress": 1e4, "gravity": False}).fast()
     assert gp.PackScene.from_toml_string(sc.to_toml()) == sc
     pack = gp.generate(sc)
-    rec = pack.consolidation
+    rec = pack.record("consolidate").table()
     assert rec["targets"] == {"lid": 1e4} and rec["gravity"] is False
     assert rec["wall_stress"]["lid"] == pytest.approx(1e4, rel=1e-3)
     # the same as consolidating the deposit afterwards, bit for bit
@@ -349,7 +349,7 @@ def test_settle_brings_a_deposit_to_rest(deposits):
     dep = deposits["box"]
     before = gp.microstructure(dep, core_margin=0.02)
     rested = gp.settle(dep, 1e-4)
-    rec = rested.rest
+    rec = rested.record("rest").table()
     assert rec["unbalanced"] <= 1e-4 and rec["steps"] % 100 == 0
     after = gp.microstructure(rested, core_margin=0.02)
     # the analysis counts no drag; at rest the drag is nothing
@@ -370,9 +370,9 @@ def test_settle_brings_a_deposit_to_rest(deposits):
 def test_scene_rest_tol_settles_each_generated_pack(tmp_path):
     sc = SMALL["box"].replace(rest_tol=1e-4).fast()
     pack = gp.generate(sc)
-    assert pack.rest is not None and pack.rest["unbalanced"] <= 1e-4
+    assert pack.record("rest") is not None and pack.record("rest").table()["unbalanced"] <= 1e-4
     pack.save(tmp_path / "p.npz")
-    assert gp.load_pack(tmp_path / "p.npz").rest == pack.rest
+    assert gp.load_pack(tmp_path / "p.npz").record("rest").table() == pack.record("rest").table()
     with pytest.raises(gp.InvalidParameterError) as err:
         SMALL["box"].replace(rest_tol=0.0)
     assert err.value.parameter == "rest_tol"

@@ -50,7 +50,7 @@ def _level(w: gp.VoidRatioLimits, f: float) -> float:
 def test_deposition_friction_reaches_targets_in_the_periodic_cell(window3, level):
     target = round(_level(window3, level), 4)
     pack = gp.generate(P3.replace(target_phi=target))
-    d = pack.density
+    d = pack.record("density").table()
     assert d["method"] == "deposition" and d["measure"] == "core"
     assert abs(d["phi"] - target) <= 0.002
     # the record's phi is the pack's own core phi, with the material's friction back
@@ -66,7 +66,7 @@ def test_deposition_friction_reaches_targets_in_the_periodic_cell(window3, level
 def test_deposition_friction_reaches_void_ratio_targets_in_the_2d_box(window2, level):
     e = round(1.0 / _level(window2, level) - 1.0, 4)
     pack = gp.generate(B2.replace(target_void_ratio=e))
-    d = pack.density
+    d = pack.record("density").table()
     tol = 0.002 * (1.0 + e) ** 2  # 0.002 in phi, as e
     assert abs(d["void_ratio"] - e) <= tol
     assert d["density_tol"] == pytest.approx(tol)
@@ -86,7 +86,7 @@ def test_the_window_is_ordered_over_the_measured_grid(window3, window2):
 
 def test_relative_density_uses_the_windows_ends(window3):
     pack = gp.generate(P3.replace(target_relative_density=0.5))
-    d = pack.density
+    d = pack.record("density").table()
     # the same seed's ends are e_min and e_max, bit for bit
     assert d["e_min"] == window3.e_min and d["e_max"] == window3.e_max
     e_t = window3.e_max - 0.5 * (window3.e_max - window3.e_min)
@@ -161,7 +161,7 @@ def servo_deposits():
 
 
 def _servo_window(pack, stress):
-    lo = gp.consolidate(pack, stress).consolidation["phi"]
+    lo = gp.consolidate(pack, stress).record("consolidate").table()["phi"]
     with pytest.raises(gp.DensityTargetError) as info:
         gp.consolidate(pack, stress, target_phi=0.95)
     assert info.value.phi_min == lo  # the same first equilibrium, bit for bit
@@ -177,7 +177,7 @@ def test_lowering_friction_under_the_servo_reaches_targets(servo_deposits, name,
     for level in LEVELS:
         target = round(lo + level * (hi - lo), 4)
         sample = gp.consolidate(pack, stress, target_phi=target)
-        rec = sample.consolidation
+        rec = sample.record("consolidate").table()
         assert abs(rec["phi"] - target) <= 0.002
         d = rec["density"]
         assert d["phi"] == rec["phi"]
@@ -190,7 +190,7 @@ def test_lowering_friction_under_the_servo_reaches_targets(servo_deposits, name,
 
 def test_the_servo_only_densifies(servo_deposits):
     pack = servo_deposits["box"]
-    phi0 = gp.consolidate(pack, 1e4).consolidation["phi"]
+    phi0 = gp.consolidate(pack, 1e4).record("consolidate").table()["phi"]
     with pytest.raises(gp.DensityTargetError, match="only densifies") as info:
         gp.consolidate(pack, 1e4, target_phi=round(phi0 - 0.01, 4))
     assert info.value.phi_min == phi0
@@ -202,7 +202,7 @@ def test_auto_lowers_friction_under_the_servo_in_one_generation(servo_deposits):
     target = round(0.5 * (lo + hi), 4)
     scene = pack.scene.replace(consolidate={"stress": 1e4}, target_phi=target)
     sample = gp.generate(scene)
-    d = sample.density
+    d = sample.record("density").table()
     assert d["method"] == "servo" and d["generations"] == 1 and d["measure"] == "sample"
     assert abs(d["phi"] - target) <= 0.002
     # the same bits as consolidating the recipe's deposit to the target by hand
@@ -239,7 +239,7 @@ def test_the_record_survives_the_pack_file(tmp_path, window2):
     pack = gp.generate(B2.replace(target_phi=target))
     pack.save(tmp_path / "p.npz")
     back = gp.load_pack(tmp_path / "p.npz")
-    assert back.density == pack.density
+    assert back.record("density").table() == pack.record("density").table()
     assert back.scene == pack.scene
 
 
@@ -253,14 +253,15 @@ _DETERMINISM = textwrap.dedent(
     p = gp.generate(sc.replace(target_relative_density=0.5))
     h.update(np.ascontiguousarray(p.positions).tobytes())
     # the search's packs, without their wall-clock seconds
-    h.update(repr([(g["friction"], g["phi"]) for g in p.density["history"]]).encode())
+    search = p.record("density").report["history"]
+    h.update(repr([(g["friction"], g["phi"]) for g in search]).encode())
     deposit = gp.generate(sc)
-    phi0 = gp.consolidate(deposit, 1e3).consolidation["phi"]
+    phi0 = gp.consolidate(deposit, 1e3).record("consolidate").table()["phi"]
     try:
         s = gp.consolidate(deposit, 1e3, target_phi=round(phi0 + 0.006, 4))
         h.update(np.ascontiguousarray(s.positions).tobytes())
-        h.update(repr(s.consolidation["density"]).encode())
-        h.update(repr(s.consolidation["phi"]).encode())
+        h.update(repr(s.record("consolidate").table()["density"]).encode())
+        h.update(repr(s.record("consolidate").table()["phi"]).encode())
     except gp.DensityTargetError as e:  # a step of phi beyond the tolerance: same bits
         h.update(str(e).encode())
     print(h.hexdigest())
@@ -342,7 +343,7 @@ def test_the_command_line_passes_the_target(tmp_path, window2):
     )
     assert rc == 0
     pack = gp.load_pack(out / "packs" / "pack_000.npz")
-    assert abs(pack.density["phi"] - target) <= 0.002
+    assert abs(pack.record("density").table()["phi"] - target) <= 0.002
     assert "Density target target_phi" in (out / "report.md").read_text()
     with pytest.raises(SystemExit):
         main(["generate", str(toml), "--target-phi", "0.8", "--target-void-ratio", "0.2"])

@@ -84,14 +84,17 @@ def test_a_consolidating_scenes_window_holds_the_servos_end(window42c):
     # a target that only the servo reaches is met, and lies inside the window
     target = round(max(dep) + 0.5 * (servo[0] - max(dep)), 4)
     sample = gp.generate(BOX42_C.replace(target_phi=target))
-    assert sample.density["method"] == "servo"
-    e = sample.density["void_ratio"]
+    assert sample.record("density").table()["method"] == "servo"
+    e = sample.record("density").table()["void_ratio"]
     assert w.e_min <= e <= w.e_max
     # and the same target as a relative density reports Dr in [0, 1]
     dr = round(w.relative_density(1.0 / target - 1.0), 4)
     again = gp.generate(BOX42_C.replace(target_relative_density=dr))
-    assert again.density["e_min"] == w.e_min and again.density["e_max"] == w.e_max
-    assert 0.0 <= again.density["relative_density"] <= 1.0
+    assert (
+        again.record("density").table()["e_min"] == w.e_min
+        and again.record("density").table()["e_max"] == w.e_max
+    )
+    assert 0.0 <= again.record("density").table()["relative_density"] <= 1.0
 
 
 def test_a_target_out_of_reach_is_refused_with_the_ordered_window(window41):
@@ -118,8 +121,8 @@ def test_a_target_between_the_frictionless_pack_and_the_densest_is_met(window41)
     target = round(window41.phi_max - 0.0003, 4)
     assert target > phis[0.0] + 0.002
     pack = gp.generate(BOX41.replace(target_phi=target))
-    assert abs(pack.density["phi"] - target) <= 0.002
-    assert pack.density["generations"] <= 12
+    assert abs(pack.record("density").table()["phi"] - target) <= 0.002
+    assert pack.record("density").table()["generations"] <= 12
 
 
 def test_a_target_in_a_gap_of_phi_is_refused_with_the_span_the_packs_made(window41):
@@ -151,8 +154,8 @@ def test_a_frictionless_material_has_an_ordered_window():
     assert w.phi_max == pytest.approx(max(phis), rel=1e-12)
     assert w.phi_min == pytest.approx(min(phis), rel=1e-12)
     if w.e_max > w.e_min:
-        loose = gp.generate(scene.replace(target_relative_density=0.0)).density
-        dense = gp.generate(scene.replace(target_relative_density=1.0)).density
+        loose = gp.generate(scene.replace(target_relative_density=0.0)).record("density").table()
+        dense = gp.generate(scene.replace(target_relative_density=1.0)).record("density").table()
         # Dr 1 is the denser
         assert dense["void_ratio"] <= loose["void_ratio"]
     else:
@@ -236,6 +239,11 @@ def test_every_sample_lies_in_its_window_or_a_warning_says_why(name, seed, kind,
         if not issubclass(c.category, (DensityWindowWarning, gp.UnsettledPackWarning))
     ]
     assert not others, [str(c.message) for c in others]
-    if pack.density is not None and "relative_density" in pack.density:
-        assert pack.density["e_min"] == w.e_min and pack.density["e_max"] == w.e_max
-        assert math.isclose(pack.density["relative_density"], w.relative_density(e))
+    if pack.record("density") is not None and "relative_density" in pack.record("density").table():
+        assert (
+            pack.record("density").table()["e_min"] == w.e_min
+            and pack.record("density").table()["e_max"] == w.e_max
+        )
+        assert math.isclose(
+            pack.record("density").table()["relative_density"], w.relative_density(e)
+        )

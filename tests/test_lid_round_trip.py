@@ -56,7 +56,10 @@ def sample(request) -> gp.Pack:
     # lies apart from the lid (so max(z + r) would give another phi)
     assert np.count_nonzero(pack.contacts.j == LID_ID) > 0
     top = float(np.max(pack.positions[:, -1] + pack.radii))
-    assert abs(top - pack.consolidation["height"]) > 1e-6 * pack.consolidation["height"]
+    assert (
+        abs(top - pack.record("consolidate").table()["height"])
+        > 1e-6 * pack.record("consolidate").table()["height"]
+    )
     return pack
 
 
@@ -77,7 +80,9 @@ def _same_sample(p, pack: gp.Pack, rel: float) -> None:
     m0, m = _analysis(pack), _analysis(p)
     assert m.container == m0.container
     assert m.phi == pytest.approx(m0.phi, rel=rel, abs=0)
-    assert m.phi == pytest.approx(pack.consolidation["phi"], rel=max(rel, 1e-12), abs=0)
+    assert m.phi == pytest.approx(
+        pack.record("consolidate").table()["phi"], rel=max(rel, 1e-12), abs=0
+    )
     assert m.container_volume == pytest.approx(m0.container_volume, rel=rel, abs=0)
     assert m.z == m0.z
     assert m.n_contacts == m0.n_contacts and m.n_wall_contacts == m0.n_wall_contacts
@@ -86,7 +91,9 @@ def _same_sample(p, pack: gp.Pack, rel: float) -> None:
     np.testing.assert_array_equal(_lid_contacts(s), _lid_contacts(s0))
     lid0, lid = (x.contacts.select(x.contacts.j == LID_ID) for x in (s0, s))
     o0, o = (np.sort(x.overlap) for x in (lid0, lid))
-    np.testing.assert_allclose(o, o0, rtol=0, atol=rel * pack.consolidation["height"])
+    np.testing.assert_allclose(
+        o, o0, rtol=0, atol=rel * pack.record("consolidate").table()["height"]
+    )
     np.testing.assert_allclose(m.fabric, m0.fabric, rtol=0, atol=max(rel, 1e-12))
 
 
@@ -94,7 +101,7 @@ def _same_sample(p, pack: gp.Pack, rel: float) -> None:
 def test_a_consolidated_sample_read_back_is_analysed_up_to_its_lid(sample, fmt, tmp_path):
     export(sample, tmp_path / FORMATS[fmt].replace(".particles", ""), fmt)
     p = gp.read_particles(tmp_path / FORMATS[fmt])
-    assert p.lid == lid_height(sample) == sample.consolidation["height"]
+    assert p.lid == lid_height(sample) == sample.record("consolidate").table()["height"]
     # the side walls where the consolidation left them: the box's corners
     assert p.box is not None
     np.testing.assert_array_equal(p.box[1][:-1], sample.scene.base)
@@ -104,7 +111,7 @@ def test_a_consolidated_sample_read_back_is_analysed_up_to_its_lid(sample, fmt, 
 
 def test_a_consolidated_pack_file_read_back_keeps_its_lid_and_forces(sample, tmp_path):
     p = gp.read_particles(sample.save(tmp_path / "p.npz"))
-    assert p.lid == sample.consolidation["height"]
+    assert p.lid == sample.record("consolidate").table()["height"]
     _same_sample(p, sample, 1e-12)
     m0, m = _analysis(sample), _analysis(p)
     assert m.f0 == pytest.approx(m0.f0, rel=1e-12)
@@ -165,7 +172,7 @@ def test_a_wrong_lid_is_refused_naming_the_line(text, match, tmp_path):
 
 def test_a_file_without_a_tag_is_told_its_lid(sample, tmp_path, capsys):
     # a dump LAMMPS writes has no tag: its top is open unless the caller gives the lid
-    lid = sample.consolidation["height"]
+    lid = sample.record("consolidate").table()["height"]
     m0 = _analysis(sample)
     kind = gp.analysis.System.from_any(sample).container
     where: dict = {"box": sample.box, "container": kind.kind}

@@ -66,7 +66,7 @@ def test_limits_does_not_warn_for_deposits_it_brings_to_rest():
     with warnings.catch_warnings():
         warnings.simplefilter("error", gp.UnsettledPackWarning)
         pack = _deposit_at(scene, MU_DEP_MAX)
-    assert pack.rest is not None and pack.rest["unbalanced"] <= 1e-4
+    assert pack.record("rest") is not None and pack.record("rest").table()["unbalanced"] <= 1e-4
     # a consolidating scene's packs are all brought to equilibrium by the servo
     with warnings.catch_warnings():
         warnings.simplefilter("error", gp.UnsettledPackWarning)

@@ -29,7 +29,7 @@ def samples() -> dict[str, gp.Pack]:
 @pytest.mark.parametrize("name", list(SCENES))
 def test_the_lateral_entries_are_nan_and_the_vertical_row_is_love_weber(samples, name):
     pack = samples[name]
-    rec = pack.consolidation
+    rec = pack.record("consolidate").table()
     bd = np.array(rec["boundary_stress"])
     lw = np.array(rec["love_weber"])
     stress = rec["targets"]["lid"]
@@ -51,13 +51,13 @@ def test_the_lateral_entries_are_nan_and_the_vertical_row_is_love_weber(samples,
 def test_the_record_keeps_its_nan_through_the_pack_file(samples, tmp_path):
     pack = samples["3d"]
     back = gp.load_pack(pack.save(tmp_path / "p.npz"))
-    a = np.array(pack.consolidation["boundary_stress"])
-    b = np.array(back.consolidation["boundary_stress"])
+    a = np.array(pack.record("consolidate").table()["boundary_stress"])
+    b = np.array(back.record("consolidate").table()["boundary_stress"])
     np.testing.assert_array_equal(a, b)  # NaN where NaN
 
 
 def test_a_walled_sample_keeps_every_entry():
     sc = gp.PackScene.preset("4.1").replace(seed=3, base=(0.4,), height=0.3)
     pack = gp.consolidate(gp.generate(sc.fast()), 1e3, gravity=False)
-    bd = np.array(pack.consolidation["boundary_stress"])
+    bd = np.array(pack.record("consolidate").table()["boundary_stress"])
     assert np.all(np.isfinite(bd)) and np.array_equal(bd, bd.T)

@@ -140,9 +140,9 @@ def test_side_walls_that_stay_a_diameter_apart_keep_the_sample(wide):
     done = gp.consolidate(wide, 1e3, "isotropic")
     (width,) = done.scene.base
     assert 2 * WIDE.r_max <= width < WIDE.base[0]
-    assert done.consolidation["walls"]["x_hi"] - done.consolidation["walls"][
-        "x_lo"
-    ] == pytest.approx(width)
+    assert done.record("consolidate").table()["walls"]["x_hi"] - done.record("consolidate").table()[
+        "walls"
+    ]["x_lo"] == pytest.approx(width)
 
 
 @pytest.mark.parametrize("stress", [5e-324, 1e-300, 0.0])

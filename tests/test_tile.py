@@ -228,32 +228,34 @@ def test_save_and_load_keep_the_tiling_record(periodic_pack, tmp_path):
     pack = periodic_pack
     counts = COUNTS[pack.dim]
     tiled = gp.tile(pack, counts)
-    record = tiled.tiled
+    record = tiled.record("tile").table()
     assert record["counts"] == list(counts)
     assert record["particles"] == len(pack)
     assert record["base"] == list(pack.scene.base)
     assert (record["seed"], record["stream"]) == (pack.scene.seed, pack.scene.stream)
     assert len(record["scene_sha256"]) == 64
     back = gp.load_pack(tiled.save(tmp_path / "tiled.npz"))
-    assert back.tiled == record
+    assert back.record("tile").table() == record
     np.testing.assert_array_equal(back.positions, tiled.positions)
     assert back.scene == tiled.scene
     # a pack that was not tiled has no record, before and after a save (files written
     # before tiling existed have none either)
-    assert pack.tiled is None
-    assert gp.load_pack(pack.save(tmp_path / "plain.npz")).tiled is None
+    assert pack.record("tile") is None
+    assert gp.load_pack(pack.save(tmp_path / "plain.npz")).record("tile") is None
     meta = json.loads(np.load(tmp_path / "plain.npz")["meta.json"].tobytes())
     assert "tiled" not in meta
     # tiling a tiled pack counts the copies of the first original
     again = gp.tile(back, (2,) * (pack.dim - 1))
-    assert again.tiled["counts"] == [2 * c for c in counts]
-    assert again.tiled["particles"] == len(pack)
-    assert len(again) == len(pack) * int(np.prod(again.tiled["counts"]))
+    assert again.record("tile").table()["counts"] == [2 * c for c in counts]
+    assert again.record("tile").table()["particles"] == len(pack)
+    assert len(again) == len(pack) * int(np.prod(again.record("tile").table()["counts"]))
 
 
 def test_a_tiling_record_that_does_not_match_the_pack_is_refused(periodic_pack, tmp_path):
     tiled = gp.tile(periodic_pack, COUNTS[periodic_pack.dim])
-    bad = dataclasses.replace(tiled, tiled={**tiled.tiled, "particles": 1})
+    rec = tiled.record("tile")
+    wrong = dataclasses.replace(rec, report={**rec.report, "particles": 1})
+    bad = dataclasses.replace(tiled, history=tuple(wrong if r is rec else r for r in tiled.history))
     path = bad.save(tmp_path / "bad.npz")
     with pytest.raises(gp.FileFormatError, match="'tiled' says 1 particles"):
         gp.load_pack(path)
@@ -266,12 +268,12 @@ def test_the_command_line_tiles_a_pack(tmp_path, capsys):
     assert main(["tile", str(src), "2", "3", "--out", str(out)]) == 0
     said = capsys.readouterr().out
     big = gp.load_pack(out)
-    assert len(big) == 6 * len(pack) and big.tiled["counts"] == [2, 3]
+    assert len(big) == 6 * len(pack) and big.record("tile").table()["counts"] == [2, 3]
     assert f"{6 * len(pack)} particles" in said
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
     # default name beside the input
     assert main(["tile", str(src), "2", "2", "-q"]) == 0
-    assert gp.load_pack(tmp_path / "small_tiled_2x2.npz").tiled["counts"] == [2, 2]
+    assert gp.load_pack(tmp_path / "small_tiled_2x2.npz").record("tile").table()["counts"] == [2, 2]
     # the input is never the output
     before = src.read_bytes()
     assert main(["tile", str(src), "2", "2", "--out", str(src)]) == 2

@@ -6,7 +6,6 @@ compressed sample bursts)."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import re
@@ -21,6 +20,7 @@ from test_peer_programs import run
 import granpack as gp
 from granpack.analysis import MicrostructureWarning
 from granpack.contacts import LID_ID
+from granpack.history import StageRecord
 from granpack.io import export
 from granpack.io.lammps import read_lammps_data
 from granpack.io.lammps_input import lid_force
@@ -37,10 +37,11 @@ def consolidated(request) -> gp.Pack:
         warnings.simplefilter("ignore", gp.UnsettledPackWarning)
         deposit = gp.generate(small_scene(dim, container="periodic"))
     pack = gp.consolidate(gp.settle(deposit, 1e-3), 1e4)
-    assert pack.rest is not None and np.count_nonzero(pack.contacts.j == LID_ID) > 0
+    assert pack.record("rest") is not None and np.count_nonzero(pack.contacts.j == LID_ID) > 0
     # a density record as a density target leaves it (granpack.density): carried as it is
-    density = {"target": {"target_phi": 0.5}, "phi": pack.consolidation["phi"], "history": [1]}
-    return dataclasses.replace(pack, density=density)
+    phi = pack.record("consolidate").report["phi"]
+    density = {"target": {"target_phi": 0.5}, "phi": phi, "history": [1], "seconds": 0.0}
+    return pack.with_record(StageRecord.from_table("density", density))
 
 
 def _analysis(subject) -> gp.Microstructure:
@@ -54,7 +55,7 @@ def test_a_tiled_consolidated_sample_keeps_its_lid_and_records(consolidated, tmp
     counts = COUNTS[pack.dim]
     copies = math.prod(counts)
     tiled = gp.tile(pack, counts)
-    rec, rec0 = tiled.consolidation, pack.consolidation
+    rec, rec0 = tiled.record("consolidate").table(), pack.record("consolidate").table()
     assert rec is not None
     # the lid stands where it stood, over the whole tiled base
     assert tiled.height == pack.height == rec["height"] == rec0["height"]
@@ -63,7 +64,10 @@ def test_a_tiled_consolidated_sample_keeps_its_lid_and_records(consolidated, tmp
     assert rec["phi"] == rec0["phi"] and rec["k0"] == rec0["k0"]
     assert rec["wall_contacts"] == {n: v * copies for n, v in rec0["wall_contacts"].items()}
     assert rec["deposit_base"] == [b * c for b, c in zip(rec0["deposit_base"], counts, strict=True)]
-    assert tiled.rest == pack.rest and tiled.density == pack.density
+    assert (
+        tiled.record("rest").table() == pack.record("rest").table()
+        and tiled.record("density").table() == pack.record("density").table()
+    )
     # the lid's contacts are copied with their particles
     assert np.count_nonzero(tiled.contacts.j == LID_ID) == copies * np.count_nonzero(
         pack.contacts.j == LID_ID
@@ -80,14 +84,16 @@ def test_a_tiled_consolidated_sample_keeps_its_lid_and_records(consolidated, tmp
     # the records survive the pack file
     back = gp.load_pack(tiled.save(tmp_path / "tiled.npz"))
     # (json's text compares the NaN entries that a periodic sample's boundary_stress holds)
-    assert json.dumps(back.consolidation, sort_keys=True) == json.dumps(rec, sort_keys=True)
-    assert back.rest == tiled.rest
-    assert back.density == tiled.density
+    assert json.dumps(back.record("consolidate").table(), sort_keys=True) == json.dumps(
+        rec, sort_keys=True
+    )
+    assert back.record("rest").table() == tiled.record("rest").table()
+    assert back.record("density").table() == tiled.record("density").table()
 
 
 def test_a_tiled_consolidated_sample_is_exported_with_its_lid(consolidated, tmp_path):
     tiled = gp.tile(consolidated, COUNTS[consolidated.dim])
-    lid = tiled.consolidation["walls"]["lid"]
+    lid = tiled.record("consolidate").table()["walls"]["lid"]
     written = export(tiled, tmp_path / "pack.data", "lammps-data")
     data = read_lammps_data(written[0])
     assert data["box"][1][tiled.dim - 1] == lid
@@ -96,7 +102,7 @@ def test_a_tiled_consolidated_sample_is_exported_with_its_lid(consolidated, tmp_
     assert f"{plane} NULL {lid!r} contacts" in text and "v_lid_force" in text
     # and the export read back is the tiled sample up to its lid
     p = gp.read_particles(written[0])
-    assert p.lid == tiled.consolidation["height"]
+    assert p.lid == tiled.record("consolidate").table()["height"]
     m0, m = _analysis(tiled), _analysis(p)
     assert m.phi == pytest.approx(m0.phi, rel=1e-12)
     assert (m.z, m.n_wall_contacts) == (m0.z, m0.n_wall_contacts)

@@ -65,8 +65,8 @@ def test_trim_cuts_at_the_desired_height(name):
     # nothing left the container while relaxing
     assert _inside(cut) and _inside(full)
     # what was done, recorded
-    t = cut.trim
-    assert t is not None and full.trim is None
+    t = cut.record("trim").table()
+    assert t is not None and full.record("trim") is None
     assert t["removed"] == len(full) - len(cut) and t["top"] == cut.height and t["steps"] > 0
     vol = np.pi * cut.radii**2 if scene.dim == 2 else 4 / 3 * np.pi * cut.radii**3
     assert t["phi_hd"] == pytest.approx(vol.sum() / (scene.base_area * hd), rel=1e-12)
@@ -78,16 +78,16 @@ def test_trim_is_saved_with_the_pack_and_reported(tmp_path):
     pack = gp.generate(scene)
     path = pack.save(tmp_path / "p.npz")
     again = gp.load_pack(path)
-    assert again.trim == pack.trim and again.scene.trim is True
+    assert again.record("trim").table() == pack.record("trim").table() and again.scene.trim is True
     assert gp.PackScene.from_toml_string(scene.to_toml()) == scene
     rec = {
         "pack": 0,
         "n_particles": len(pack),
         "height": pack.height,
         "phi": pack.phi,
-        "trim_removed": pack.trim["removed"],
-        "trim_top": pack.trim["top"],
-        "phi_hd": pack.trim["phi_hd"],
+        "trim_removed": pack.record("trim").table()["removed"],
+        "trim_top": pack.record("trim").table()["top"],
+        "phi_hd": pack.record("trim").table()["phi_hd"],
     }
     report = ensemble_report(
         tmp_path,
@@ -98,7 +98,7 @@ def test_trim_is_saved_with_the_pack_and_reported(tmp_path):
         figures=[],
         wall_time=1.0,
     ).read_text()
-    assert "Flat top (trim)" in report and f"{pack.trim['phi_hd']:.4f}" in report
+    assert "Flat top (trim)" in report and f"{pack.record('trim').table()['phi_hd']:.4f}" in report
 
 
 def test_trim_must_be_a_bool():
@@ -127,4 +127,4 @@ def test_generate_trim_flag_cuts_every_pack(tmp_path, capsys):
     assert "Flat top (trim)" in (out / "report.md").read_text()
     for k in range(2):
         pack = gp.load_pack(out / "packs" / f"pack_{k:03d}.npz")
-        assert pack.trim is not None and pack.height <= SCENES["2d"].height
+        assert pack.record("trim") is not None and pack.height <= SCENES["2d"].height

@@ -54,7 +54,7 @@ def test_generate_refuses_a_flat_top_that_would_empty_the_pack():
     assert f">= {lowest!r} m" in err.expected and f"height >= {lowest!r}" in str(err)
     # the height it names keeps particles
     kept = gp.generate(LOW.replace(trim=True, height=lowest))
-    assert len(kept) >= 1 and kept.trim["removed"] == len(full) - len(kept)
+    assert len(kept) >= 1 and kept.record("trim").table()["removed"] == len(full) - len(kept)
 
 
 def test_the_engine_refuses_the_same_and_stays_usable():

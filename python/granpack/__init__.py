@@ -32,8 +32,10 @@ if TYPE_CHECKING:
     from .consolidation import consolidate, settle
     from .contacts import Contacts
     from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
+    from .ensemble_run import generate_ensemble
     from .generation import generate
     from .grading import Grading, realised_grading, target_grading
+    from .history import StageRecord
     from .io import ContactFile, ParticleFile, read_contacts, read_particles, write
     from .pack import Pack, UnsettledPackWarning, load_pack
     from .scene import PRESETS, PackScene
@@ -66,6 +68,8 @@ _LAZY = {
     "Pack": "pack",
     "UnsettledPackWarning": "pack",
     "generate": "generation",
+    "generate_ensemble": "ensemble_run",
+    "StageRecord": "history",
     "load_pack": "pack",
     "PRESETS": "scene",
     "PackScene": "scene",
@@ -80,10 +84,12 @@ _SUBMODULES = frozenset(
         "contacts",
         "density",
         "grading",
+        "history",
         "io",
         "pack",
         "scene",
         "simulation",
+        "stages",
     )
     + ("tiling", "container_tag", "dem_input", "_validate")
 )
@@ -120,6 +126,8 @@ __all__ = [
     "PackScene",
     "PRESETS",
     "generate",
+    "generate_ensemble",
+    "StageRecord",
     "load_pack",
     "tile",
     "consolidate",

@@ -17,6 +17,7 @@ import numpy as np
 
 from ._console import Console
 from ._validate import GranpackError, InvalidParameterError, check_outputs
+from .history import stage_table
 
 #: The lock file of an output folder (see `locked`).
 LOCK_NAME = ".granpack.lock"
@@ -175,20 +176,19 @@ def micro_record(pack, m, k: int) -> dict:
         "height": pack.height,
         "wall_time": pack.wall_time,
     }
-    if pack.trim is not None:
-        rec.update(
-            trim_removed=pack.trim["removed"], trim_top=pack.trim["top"], phi_hd=pack.trim["phi_hd"]
-        )
-    if pack.consolidation is not None:
-        c = pack.consolidation
+    trim = stage_table(pack, "trim")
+    if trim is not None:
+        rec.update(trim_removed=trim["removed"], trim_top=trim["top"], phi_hd=trim["phi_hd"])
+    c = stage_table(pack, "consolidate")
+    if c is not None:
         rec.update(
             consolidation_mode=c["mode"],
             lid_stress=c["wall_stress"]["lid"],
             consolidation_k0=c["k0"],
             consolidation_steps=c["steps"],
         )
-    if pack.density is not None:
-        d = pack.density
+    d = stage_table(pack, "density")
+    if d is not None:
         rec.update(
             density_target=next(iter(d["target"])),
             density_target_value=next(iter(d["target"].values())),

@@ -32,6 +32,7 @@ from ._validate import as_int, as_real, short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
 from .errors import ConsolidationError, DensityTargetError, InvalidParameterError
+from .history import StageRecord
 from .pack import Pack
 from .simulation import Simulation
 from .stage_settings import (
@@ -210,7 +211,7 @@ def consolidate(
             "invalid pack: it holds no particle; there is nothing to consolidate",
             parameter="pack",
         )
-    if pack.consolidation is not None:
+    if pack.record("consolidate") is not None:
         raise InvalidParameterError(
             "invalid pack: it is consolidated already (its lid is in its record); "
             "consolidate the deposit it came from",
@@ -309,10 +310,8 @@ def consolidate(
             "max_wall_speed": max_wall_speed,
             "dt": step,
         },
+        density=density,
     )
-    if density is not None:
-        assert record.consolidation is not None
-        record.consolidation["density"] = density
     return record
 
 
@@ -533,7 +532,7 @@ def settle(
         raise InvalidParameterError(
             "invalid pack: it holds no particle; there is nothing to settle", parameter="pack"
         )
-    if pack.consolidation is not None:
+    if pack.record("consolidate") is not None:
         raise InvalidParameterError(
             "invalid pack: it is consolidated, and so at rest under its lid already",
             parameter="pack",
@@ -595,12 +594,13 @@ def settle(
         spins=np.array(sim.spins),
         contacts=contacts,
         height=float(np.max(x[:, -1] + r)),
-        rest=record,
+        history=(*pack.history, StageRecord.from_table("rest", record)),
     )
 
 
-def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pack:
-    """The new Pack and its record: walls moved to the origin's corner, the stresses."""
+def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings, density=None) -> Pack:
+    """The new Pack and its record: walls moved to the origin's corner, the stresses
+    (and the phases of a density target, `density`, where the friction was lowered)."""
     dim = pack.dim
     sc = pack.scene
     walls = sim._sim.walls()
@@ -697,6 +697,8 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
             "max_ratio": hist["max_ratio"].tolist(),
         },
     }
+    if density is not None:
+        record["density"] = density
     return dataclasses.replace(
         pack,
         scene=scene,
@@ -705,7 +707,7 @@ def _consolidated_pack(pack, sim, names, targets, rep, seconds, settings) -> Pac
         spins=np.array(sim.spins),
         contacts=Contacts.from_dict({**contacts.to_dict(), "j": j}),
         height=lid,
-        consolidation=record,
+        history=(*pack.history, StageRecord.from_table("consolidate", record)),
     )
 
 

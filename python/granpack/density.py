@@ -50,12 +50,16 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
+from . import stages
 from ._validate import as_int
 from .analysis import microstructure
-from .consolidation import consolidate, settle
 from .errors import DensityTargetError, InvalidParameterError
-from .pack import Pack, UnsettledPackWarning, deposit
+from .history import StageRecord
+from .pack import Pack, UnsettledPackWarning
 from .scene import PackScene
+from .stages import consolidate as consolidate_stage
+from .stages import deposit as deposit_stage
+from .stages import rest as rest_stage
 
 __all__ = [
     "VoidRatioLimits",
@@ -65,6 +69,9 @@ __all__ = [
     "DensityWindowWarning",
     "MU_DEP_MAX",
     "MU_DEP_GRID",
+    "Spec",
+    "spec_of",
+    "run",
 ]
 
 #: The loosest deposition friction the search tries (-): between mu_dep = 1 and 2 the
@@ -103,17 +110,45 @@ REST_TOL = 1e-4
 #: so that it lowers the friction to zero and reports the phi it reached there.
 _SERVO_PROBE = 0.9999
 
-#: The scene's keys that the layer loop does not run: the pack is generated without
-#: them (`_plain`), and its scene gets them back at the end.
-_STAGE_FIELDS = (
-    "target_phi",
-    "target_void_ratio",
-    "target_relative_density",
-    "density_tol",
-    "density_method",
-    "consolidate",
-    "rest_tol",
-)
+
+@dataclasses.dataclass(frozen=True)
+class Spec:
+    """A density target as the scene gives it.
+
+    Attributes
+    ----------
+    target : str
+        Its key: "target_phi", "target_void_ratio" or "target_relative_density".
+    value : float
+        Its value, in that key's quantity.
+    tol : float or None
+        The scene's ``density_tol``; None: the default of `_band`.
+    method : str
+        The scene's ``density_method``: "auto", "deposition" or "servo".
+    """
+
+    target: str
+    value: float
+    tol: float | None
+    method: str
+
+
+def spec_of(scene: PackScene) -> Spec | None:
+    """The density target `scene` gives, or None."""
+    target = scene.density_target
+    if target is None:
+        return None
+    return Spec(target[0], target[1], scene.density_tol, scene.density_method)
+
+
+def run(scene: PackScene, spec: Spec, progress: bool | Callable[[dict], None] = False) -> Pack:
+    """The pack of `scene`'s stages at the density target `spec` (`generate_at_density`);
+    its history ends with the "density" record."""
+    if spec != spec_of(scene):
+        changes: dict[str, Any] = {k: None for k in PackScene.TARGET_KEYS}
+        changes.update({spec.target: spec.value, "density_tol": spec.tol})
+        scene = scene.replace(**changes, density_method=spec.method)
+    return generate_at_density(scene, progress)
 
 
 class DensityWindowWarning(UserWarning):
@@ -128,8 +163,9 @@ def sample_phi(pack: Pack) -> tuple[float, str]:
     """The packing fraction a density target is measured by, and which one it is:
     ("sample": between the floor and the lid) for a consolidated pack, ("core": the core
     window's, `Microstructure.phi_core`) for a deposit."""
-    if pack.consolidation is not None:
-        return float(pack.consolidation["phi"]), "sample"
+    rec = pack.record("consolidate")
+    if rec is not None:
+        return float(rec.report["phi"]), "sample"
     return float(microstructure(pack).phi_core), "core"
 
 
@@ -156,34 +192,42 @@ def _measured_phi(pack: Pack, parameter: str, value: object) -> float:
     return phi
 
 
-def _plain(scene: PackScene) -> PackScene:
-    """The scene without its target, settling and consolidation: the layer loop's part."""
-    defaults = {f.name: f.default for f in dataclasses.fields(PackScene)}
-    return scene.replace(**{k: defaults[k] for k in _STAGE_FIELDS})
-
-
 def _deposit_at(
     scene: PackScene, mu_dep: float, progress: bool | Callable[[dict], None] = False
 ) -> Pack:
     """The scene's deposit with every layer jammed at friction `mu_dep`, the material's
-    friction restored and the pack settled where needed (not consolidated)."""
-    plain = _plain(scene)
+    friction restored and the pack settled where needed (not consolidated): the scene's
+    stages up to the consolidation, with the deposit's friction changed, and a settling
+    (to REST_TOL where the scene sets no rest_tol) where the friction was above the
+    material's."""
     mat = scene.material
-    jam = plain
-    if mu_dep != mat.friction:
-        jam = plain.replace(material=dataclasses.replace(mat, friction=mu_dep))
     settles = mu_dep > mat.friction or scene.rest_tol is not None
+    tol = scene.rest_tol if scene.rest_tol is not None else REST_TOL
+    steps = stages.with_spec(stages.plan(scene), "deposit", deposit_stage.Spec(friction=mu_dep))
+    steps = stages.with_spec(steps, "rest", rest_stage.Spec(tol) if settles else None)
+    steps = stages.with_spec(steps, "consolidate", None)
     with warnings.catch_warnings():
         if settles or scene.consolidate is not None:
             # the deposit is brought to rest right after (settled below, or consolidated
             # to equilibrium by the caller): its motion at the end of the layer loop is
             # not the sample's
             warnings.simplefilter("ignore", UnsettledPackWarning)
-        pack = deposit(jam, progress, _stacklevel=4)
-    pack = dataclasses.replace(pack, scene=plain)
-    if settles:
-        pack = settle(pack, scene.rest_tol if scene.rest_tol is not None else REST_TOL)
-    return pack
+        return stages.run(scene, steps, progress, _stacklevel=3)
+
+
+def _consolidated(scene: PackScene, pack: Pack, **changes: Any) -> Pack:
+    """`pack` consolidated as the scene's consolidation stage, its spec changed by
+    `changes` (the servo's ``target_phi`` and ``density_tol``)."""
+    spec = consolidate_stage.spec_of(scene)
+    assert spec is not None
+    return consolidate_stage.run(pack, stages.replace_spec(spec, **changes))
+
+
+def _consolidation_report(pack: Pack) -> dict[str, Any]:
+    """What a consolidated pack's consolidation measured."""
+    rec = pack.record("consolidate")
+    assert rec is not None
+    return rec.report
 
 
 def _at_friction(
@@ -198,7 +242,7 @@ def _at_friction(
     (lowering the friction under the servo to `servo_phi` when given)."""
     pack = _deposit_at(scene, mu_dep, progress)
     if scene.consolidate is not None:
-        pack = consolidate(pack, **scene.consolidate, target_phi=servo_phi, density_tol=servo_tol)
+        pack = _consolidated(scene, pack, target_phi=servo_phi, density_tol=servo_tol)
     return pack
 
 
@@ -208,13 +252,13 @@ def _servo_end(scene: PackScene, deposit_pack: Pack) -> tuple[float, float]:
     servo's window."""
     assert scene.consolidate is not None
     try:
-        sample = consolidate(deposit_pack, **scene.consolidate, target_phi=_SERVO_PROBE)
+        sample = _consolidated(scene, deposit_pack, target_phi=_SERVO_PROBE)
     except DensityTargetError as e:
         if math.isfinite(e.phi_max):
             return float(e.phi_min), float(e.phi_max)
         raise
     # reached the probe: no pack is that dense, but were it, it is the end
-    rec = sample.consolidation or {}
+    rec = _consolidation_report(sample)
     return float(rec["density"]["phi_before"]), float(rec["phi"])
 
 
@@ -354,7 +398,7 @@ def void_ratio_limits(
         for mu in _grid(sc):
             t0 = time.perf_counter()
             dep = _deposit_at(sc, mu)
-            pack = consolidate(dep, **sc.consolidate) if sc.consolidate is not None else dep
+            pack = _consolidated(sc, dep) if sc.consolidate is not None else dep
             here.append(("deposition", mu, _measured_phi(pack, "scene", None)))
             _report_point(progress, stream, here[-1], t0)
             if mu == sc.material.friction and _uses_servo(sc):
@@ -491,7 +535,7 @@ class _Runs:
             t = time.perf_counter()
             pack = self.deposit(mu)
             if self.scene.consolidate is not None:
-                pack = consolidate(pack, **self.scene.consolidate)
+                pack = _consolidated(self.scene, pack)
             phi = _measured_phi(pack, self.key, self.value)
             self.packs[mu] = pack
             if mu not in self.phi:
@@ -625,10 +669,8 @@ def generate_at_density(
                     DensityWindowWarning,
                     stacklevel=4,
                 )
-        return dataclasses.replace(
-            pack,
-            scene=pack.scene.replace(**{k: getattr(scene, k) for k in _STAGE_FIELDS}),
-            density=record,
+        return pack.with_record(
+            StageRecord.from_table("density", record),
             wall_time=time.perf_counter() - t0,
         )
 
@@ -646,9 +688,9 @@ def generate_at_density(
         if scene.density_method == "servo" or phi0 is None or phi0 < phi_t:
             t = time.perf_counter()
             try:
-                pack = consolidate(
+                pack = _consolidated(
+                    scene,
                     runs.deposit(runs.mu0),
-                    **(scene.consolidate or {}),
                     target_phi=phi_t,
                     density_tol=min(hi - phi_t, phi_t - lo),
                 )
@@ -659,7 +701,7 @@ def generate_at_density(
                         "phi": phi,
                         "method": "servo",
                         "seconds": time.perf_counter() - t,
-                        "phases": (pack.consolidation or {})["density"]["phases"],
+                        "phases": _consolidation_report(pack)["density"]["phases"],
                     }
                 )
                 return finish(pack, phi, "servo", runs.mu0)

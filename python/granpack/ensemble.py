@@ -44,14 +44,8 @@ from typing import Any
 
 from ._validate import FileFormatError, GranpackError, InvalidParameterError, as_int
 from .generation import generate
-from .pack import (
-    NEWER_FORMAT,
-    Pack,
-    UnsettledPackWarning,
-    load_pack,
-    scene_record_error,
-    settling_issue,
-)
+from .pack import Pack, UnsettledPackWarning, load_pack, settling_issue
+from .packfile import NEWER_FORMAT, scene_record_error
 from .scene import PackScene
 
 __all__ = [

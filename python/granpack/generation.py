@@ -1,6 +1,6 @@
-"""`generate`: the layer loop (`granpack.pack.deposit`), then the stages a scene asks
-for after it: its density target (`granpack.density`), the settling to rest
-(`rest_tol`) and the consolidation (`[consolidate]`, `granpack.consolidation`)."""
+"""`generate`: the deposit, then each stage the scene lists, in order
+(`granpack.stages`); or, for a scene with a density target, the search over that list
+(`granpack.density`)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import dataclasses
 import time
 from collections.abc import Callable
 
-from .consolidation import consolidate, settle
-from .density import generate_at_density
+from . import density, stages
 from .errors import InvalidParameterError
-from .pack import Pack, deposit
+from .pack import Pack
 from .scene import PackScene
 
 __all__ = ["generate"]
@@ -21,12 +20,15 @@ def generate(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
 ) -> Pack:
-    """Builds one pack layer by layer (RSA layer, DEM jamming run, new height) until the
-    height reaches `scene.height`, then runs the stages the scene asks for: the flat top
-    (`trim`), the settling to rest (`rest_tol`) and the consolidation (`[consolidate]`).
-    A scene with a density target (``target_phi``, ``target_void_ratio`` or
-    ``target_relative_density``) is built by `granpack.density.generate_at_density`,
-    which may generate several packs of the scene (docs/density.md).
+    """Builds one pack: the deposit, layer by layer (RSA layer, DEM jamming run, new
+    height) until the height reaches `scene.height`, with the flat top (`trim`) where
+    the scene asks; then each stage the scene lists, in the order of
+    `granpack.stages.STAGES`: the settling to rest (`rest_tol`), the consolidation
+    (`[consolidate]`). Each stage adds its record to the pack's `history`. A scene with
+    a density target (``target_phi``, ``target_void_ratio`` or
+    ``target_relative_density``) is built by the density target's search
+    (`granpack.density.run`), which runs that list again with the deposit's friction
+    changed and so may generate several packs of the scene (docs/density.md).
 
     Parameters
     ----------
@@ -51,13 +53,13 @@ def generate(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
-    if scene.density_target is not None:
-        return generate_at_density(scene, progress)
+    target = density.spec_of(scene)
+    if target is not None:
+        return density.run(scene, target, progress)
     t0 = time.perf_counter()
-    pack = deposit(scene, progress, _stacklevel=3)
-    if scene.rest_tol is not None:
-        pack = settle(pack, scene.rest_tol)
-    if scene.consolidate is not None:
-        sample = consolidate(pack, **scene.consolidate)
-        return dataclasses.replace(sample, wall_time=time.perf_counter() - t0)
+    steps = stages.plan(scene)
+    pack = stages.run(scene, steps, progress, _stacklevel=3)
+    if len(steps) > 1:
+        # the time of every stage, not the layer loop's alone
+        pack = dataclasses.replace(pack, wall_time=time.perf_counter() - t0)
     return pack

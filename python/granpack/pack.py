@@ -2,28 +2,28 @@
 
 from __future__ import annotations
 
-import json
-import lzma
 import math
-import os
-import struct
 import time
-import tomllib
 import warnings
-import zipfile
-import zlib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from . import _core
+from . import _core, packfile
 from ._files import atomic_write, remove_stale_temporaries
 from ._memory import memory_limit
-from ._validate import FileFormatError, GranpackError, InvalidParameterError, short_repr
+from ._validate import InvalidParameterError
 from .contacts import Contacts
+from .history import STAGE_NAMES, TABLE_NAMES, StageRecord
+
+# the pack file's versions and its check of a newer scene record, where they were
+from .packfile import FORMAT_VERSION as FORMAT_VERSION
+from .packfile import NEWER_FORMAT as NEWER_FORMAT
+from .packfile import OLDEST_FORMAT_VERSION as OLDEST_FORMAT_VERSION
+from .packfile import scene_record_error as scene_record_error
 from .scene import PackScene
 
 __all__ = [
@@ -36,12 +36,6 @@ __all__ = [
     "fall_time",
     "remove_stale_temporaries",
 ]
-
-FORMAT_VERSION = 1
-
-#: Said by `load_pack` of a pack written in a newer format (and only then), so that
-#: callers can tell "a pack this version cannot read" from a damaged file.
-NEWER_FORMAT = "upgrade granpack to read it"
 
 #: A pack counts as unsettled when its particles' mean translational kinetic energy
 #: exceeds this fraction of m g r (each particle's own): settled packs of the presets
@@ -103,39 +97,12 @@ class Pack:
         wall_seconds.
     wall_time : float
         Seconds spent generating.
-    trim : dict or None
-        What the flat top did (``PackScene.trim``): ``removed`` (particles taken out
-        above H_d), ``top`` (the final H_top after the relax, m, <= H_d), ``phi_hd``
-        (solid fraction of the container up to H_d), ``steps`` (relax steps). None for
-        a pack made without it.
-    consolidation : dict or None
-        What `granpack.consolidate` did, for a consolidated pack (None for a deposit):
-        ``mode``, ``targets`` and the tolerances and settings it ran with (``dt``,
-        ``max_wall_speed``, ``gain``, ``local_damping``, ``gravity``), ``walls`` (each
-        wall's position, m: ``floor``, the side walls or ``cylinder`` (its radius),
-        ``lid``), ``wall_stress`` (force over area on each wall, Pa),
-        ``love_weber`` and ``boundary_stress`` (D x D, Pa; in a periodic cell only the
-        latter's vertical row and column, the rest NaN), ``k0``, ``phi`` and
-        ``void_ratio`` between the floor and the lid, ``unbalanced`` and ``max_ratio``,
-        ``steps``, ``seconds``, ``max_speed`` and the convergence ``history``. The
-        pack's ``height`` is then the lid's height.
-    rest : dict or None
-        What `granpack.settle` (the scene's ``rest_tol``) did: ``unbalanced`` and
-        ``max_ratio`` at the end, ``unbalanced_tol``, ``local_damping``, ``steps``,
-        ``seconds`` and the ``history``. None for a pack not settled so.
-    density : dict or None
-        How a density target (``PackScene.target_phi``, ``target_void_ratio``,
-        ``target_relative_density``) was reached: ``target`` (key and value),
-        ``target_phi``, ``density_tol``, ``measure`` ("sample": floor to lid;
-        "core": the core window), ``method``, ``friction`` (the deposition friction the
-        layers were jammed with), ``phi``, ``void_ratio``, ``generations``, the search
-        ``history`` and, where known, ``e_min``, ``e_max`` and ``relative_density``.
-        None for a pack made without a target.
-    tiled : dict or None
-        What `granpack.tile` copied, for a tiled pack: ``counts`` (copies along each
-        horizontal axis), ``particles`` (N of the original), ``base`` (the original's
-        periods, m), ``seed``, ``stream`` and ``scene_sha256`` (the SHA-256 of the
-        original's scene TOML). None for a pack that was not tiled.
+    history : tuple of StageRecord
+        One record per stage run after the layer loop, in order (`granpack.history`):
+        the flat top ("trim"), the settling to rest ("rest"), the consolidation
+        ("consolidate"), the density target ("density"), the tiling ("tile"). Each
+        holds the settings the stage ran with, what it measured, its seconds and its
+        time steps; `record` finds one by its stage. Empty for a plain deposit.
     """
 
     scene: PackScene
@@ -148,11 +115,66 @@ class Pack:
     height: float
     layers: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
-    trim: dict | None = None
-    tiled: dict | None = None
-    consolidation: dict | None = None
-    rest: dict | None = None
-    density: dict | None = None
+    history: tuple[StageRecord, ...] = ()
+
+    def record(self, stage: str) -> StageRecord | None:
+        """The last record of `stage` ("trim", "rest", "consolidate", "density",
+        "tile") in the pack's history, or None where that stage did not run."""
+        if stage not in STAGE_NAMES:
+            raise InvalidParameterError(
+                f"invalid stage = {stage!r}: expected one of {', '.join(STAGE_NAMES)}",
+                parameter="stage",
+                value=stage,
+                expected=f"one of {STAGE_NAMES}",
+            )
+        for rec in reversed(self.history):
+            if rec.stage == stage:
+                return rec
+        return None
+
+    def with_record(self, record: StageRecord, **changes: Any) -> Pack:
+        """A copy of the pack with `changes` (`dataclasses.replace`'s) and `record`
+        added to its history."""
+        return replace(self, history=(*self.history, record), **changes)
+
+    def _table(self, stage: str) -> dict | None:
+        warnings.warn(
+            f"Pack.{TABLE_NAMES[stage]} is deprecated and will be removed in the next "
+            f"release: use Pack.record({stage!r}) (a StageRecord: settings, report, "
+            "seconds, steps), or its .table() for this table",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        rec = self.record(stage)
+        return None if rec is None else rec.table()
+
+    @property
+    def trim(self) -> dict | None:
+        """Deprecated: ``record("trim").table()``, the flat top's table (``removed``,
+        ``top``, ``phi_hd``, ``steps``), or None."""
+        return self._table("trim")
+
+    @property
+    def tiled(self) -> dict | None:
+        """Deprecated: ``record("tile").table()``, the tiling's table, or None."""
+        return self._table("tile")
+
+    @property
+    def consolidation(self) -> dict | None:
+        """Deprecated: ``record("consolidate").table()``, the consolidation's table, or
+        None."""
+        return self._table("consolidate")
+
+    @property
+    def rest(self) -> dict | None:
+        """Deprecated: ``record("rest").table()``, the settling's table, or None."""
+        return self._table("rest")
+
+    @property
+    def density(self) -> dict | None:
+        """Deprecated: ``record("density").table()``, the density target's table, or
+        None."""
+        return self._table("density")
 
     @property
     def dim(self) -> int:
@@ -185,332 +207,15 @@ class Pack:
 
     # -- files ------------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
-        """Writes the pack to a `.npz` file atomically (temporary file, then rename)."""
-        arrays = {
-            "positions": self.positions,
-            "radii": self.radii,
-            "velocities": self.velocities,
-            "spins": self.spins,
-            "layer": self.layer,
-        }
-        arrays.update({f"contacts.{k}": v for k, v in self.contacts.to_dict().items()})
-        meta = {
-            "format": "granpack-pack",
-            "version": FORMAT_VERSION,
-            "height": self.height,
-            "layers": self.layers,
-            "wall_time": self.wall_time,
-        }
-        if self.trim is not None:
-            meta["trim"] = self.trim
-        if self.tiled is not None:
-            meta["tiled"] = self.tiled
-        if self.consolidation is not None:
-            meta["consolidation"] = self.consolidation
-        if self.rest is not None:
-            meta["rest"] = self.rest
-        if self.density is not None:
-            meta["density"] = self.density
-        arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
-        arrays["scene.toml"] = np.frombuffer(self.scene.to_toml().encode(), dtype=np.uint8)
-        # Stored, not deflated: float64 positions and forces barely compress (a 1e6-sphere
-        # pack: 300 MB deflated at 14 MB/s), while a stored zip is written and read at
-        # disk speed. np.load reads both, so older files still load. The zip goes
-        # straight into the temporary file: built in memory first, it held a second
-        # copy of the pack (336 MB at 922 075 spheres) at the generation's peak.
-        # (numpy's stub types the keyword arrays as its allow_pickle flag)
-        return atomic_write(path, lambda f: np.savez(f, **arrays))  # type: ignore[arg-type]
-
-
-def scene_record_error(path: str | Path) -> str | None:
-    """Why this version cannot read the scene of a granpack pack file, or None: a file
-    that is a granpack pack (its record says so) and whose scene record is whole TOML,
-    but names a key or value this version does not know (a newer granpack wrote it).
-    None too for a file that is not a pack or is damaged."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            meta = json.loads(_member_text(z, "meta.json"))
-            text = _member_text(z, "scene.toml")
-    except Exception:  # not a pack archive, or damaged: not this case
-        return None
-    if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
-        return None
-    try:
-        doc = tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, RecursionError):
-        return None  # a damaged record
-    try:
-        PackScene.from_dict(doc)
-    except GranpackError as exc:
-        return str(exc)
-    return None
-
-
-def _member_text(z: zipfile.ZipFile, key: str) -> str:
-    """A text member of a pack archive (UTF-8 bytes stored as a 1-D uint8 array)."""
-    with z.open(f"{key}.npy") as f:
-        a = np.lib.format.read_array(f, allow_pickle=False)
-    if a.dtype != np.uint8 or a.ndim != 1:
-        raise ValueError(f"{key!r} is not a byte string")
-    return a.tobytes().decode()
+        """Writes the pack to a `.npz` file atomically (temporary file, then rename); the
+        format is `granpack.packfile`'s."""
+        return atomic_write(path, lambda f: packfile.write(f, self))
 
 
 def load_pack(path: str | Path) -> Pack:
-    """Reads a pack written by `Pack.save`; a truncated or foreign file is a
-    GranpackError, never a crash."""
-    if not isinstance(path, str | os.PathLike):
-        raise InvalidParameterError(
-            f"invalid path = {path!r}: expected a file name", parameter="path"
-        )
-    path = Path(path)
-    try:
-        f = path.open("rb")
-    except FileNotFoundError:
-        raise FileFormatError(
-            f"cannot read pack {path}: no such file", path=path, reason="no such file"
-        ) from None
-    except OSError as exc:
-        raise FileFormatError(
-            f"cannot read pack {path}: {exc.strerror or exc}", path=path
-        ) from None
-    try:
-        # Each array is read from the open file in turn (the `with` closes it whatever
-        # happens): read whole into memory first, the file stood beside its arrays, twice
-        # the pack at the peak of a load.
-        with f:
-            z = np.load(f, allow_pickle=False)
-            if not isinstance(z, np.lib.npyio.NpzFile):
-                raise ValueError("a single .npy array, not a pack archive")
-            with z:
-                data = {k: z[k] for k in z.files}
-    except (
-        zipfile.BadZipFile,
-        zlib.error,
-        lzma.LZMAError,
-        struct.error,
-        NotImplementedError,
-        RuntimeError,
-        ValueError,
-        OSError,
-        EOFError,
-        KeyError,
-        MemoryError,
-    ) as exc:
-        # A corrupt zip header can name an unknown compression method or zip version
-        # (NotImplementedError) or set the encryption flag (RuntimeError); a corrupt
-        # array header can announce an absurd shape (MemoryError). numpy's own words
-        # for pickled data advise allow_pickle, which no granpack pack needs and which
-        # would run code from the file: they are not passed on.
-        detail = f"{type(exc).__name__}: {exc}"
-        if "pickle" in str(exc):
-            detail = "it holds pickled Python objects, which a granpack pack never does"
-        reason = f"the file is damaged (corrupt or truncated) or not a granpack pack ({detail})"
-        raise FileFormatError(
-            f"cannot read pack {path}: {reason}", path=path, reason=reason
-        ) from None
-    if "meta.json" not in data:
-        raise FileFormatError(
-            f"cannot read pack {path}: not a granpack pack (an .npz archive without the "
-            f"pack record meta.json; members: {short_repr(sorted(data))})",
-            path=path,
-        )
-    try:
-        meta = json.loads(_text(data, "meta.json"))
-    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
-        raise FileFormatError(
-            f"cannot read pack {path}: damaged pack record ({exc})", path=path
-        ) from None
-    if not isinstance(meta, dict) or meta.get("format") != "granpack-pack":
-        raise FileFormatError(
-            f"cannot read pack {path}: not a granpack pack (its meta.json does not say "
-            "format = granpack-pack)",
-            path=path,
-        )
-    version = meta.get("version")
-    if isinstance(version, int) and not isinstance(version, bool) and version > FORMAT_VERSION:
-        raise FileFormatError(
-            f"cannot read pack {path}: written in pack format version {version}; this "
-            f"granpack reads version {FORMAT_VERSION}: {NEWER_FORMAT}",
-            path=path,
-        )
-    if version != FORMAT_VERSION:
-        raise FileFormatError(
-            f"cannot read pack {path}: damaged pack record (format version "
-            f"{short_repr(version)}; expected {FORMAT_VERSION})",
-            path=path,
-        )
-    try:
-        scene = PackScene.from_toml_string(_text(data, "scene.toml"))
-        contacts = Contacts.from_dict(
-            {k.split(".", 1)[1]: v for k, v in data.items() if k.startswith("contacts.")}
-        )
-        _check_arrays(data, scene.dim, contacts)
-        return Pack(
-            scene=scene,
-            positions=data["positions"],
-            radii=data["radii"],
-            velocities=data["velocities"],
-            spins=data["spins"],
-            layer=data["layer"],
-            contacts=contacts,
-            height=_finite_field(meta, "height"),
-            layers=list(meta["layers"]),
-            wall_time=float(meta["wall_time"]),
-            trim=_trim_record(meta.get("trim")),
-            tiled=_tiled_record(meta.get("tiled"), scene.dim, len(data["radii"])),
-            consolidation=_consolidation_record(meta.get("consolidation")),
-            rest=_rest_record(meta.get("rest")),
-            density=_density_record(meta.get("density")),
-        )
-    except (
-        KeyError,
-        ValueError,
-        UnicodeDecodeError,
-        TypeError,
-        OverflowError,
-        RecursionError,
-    ) as exc:
-        reason = f"missing or invalid field ({exc})"
-        raise FileFormatError(
-            f"cannot read pack {path}: {reason}", path=path, reason=reason
-        ) from None
-
-
-def _finite_field(meta: dict, key: str) -> float:
-    """A number of the pack record that must be finite (a ValueError naming it if not)."""
-    value = meta[key]
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"{key!r} is {short_repr(value)}, expected a number")
-    try:
-        v = float(value)
-    except OverflowError:  # an integer beyond any float
-        v = math.inf
-    if not math.isfinite(v):
-        raise ValueError(f"{key!r} is {v}, expected a finite number")
-    return v
-
-
-def _trim_record(value) -> dict | None:
-    """The flat top's record of a pack file (None when it has none)."""
-    if value is None:
-        return None
-    if not isinstance(value, dict):
-        raise ValueError(f"'trim' is {type(value).__name__}, expected a table")
-    return {
-        "removed": int(value["removed"]),
-        "top": float(value["top"]),
-        "phi_hd": float(value["phi_hd"]),
-        "steps": int(value["steps"]),
-    }
-
-
-def _consolidation_record(value) -> dict | None:
-    """The consolidation record of a pack file (absent in deposits and older files)."""
-    if value is None:
-        return None
-    if not isinstance(value, dict) or not isinstance(value.get("walls"), dict):
-        raise ValueError("consolidation record: expected a table with the walls")
-    for key in ("phi", "k0", "height"):
-        if not math.isfinite(float(value[key])):
-            raise ValueError(f"consolidation record: {key} is not finite")
-    return value
-
-
-def _rest_record(value) -> dict | None:
-    """The settling record of a pack file (absent unless `settle` ran)."""
-    return _checked_record(value, "rest", "unbalanced", "unbalanced ratio")
-
-
-def _density_record(value) -> dict | None:
-    """The density target's record of a pack file (absent unless the scene had one)."""
-    return _checked_record(value, "density", "phi", "phi")
-
-
-def _checked_record(value, name: str, key: str, what: str) -> dict | None:
-    """A stage's record of a pack file: None where absent, else a table whose `key` is
-    finite (a damaged file otherwise)."""
-    if value is None:
-        return None
-    if not isinstance(value, dict) or not math.isfinite(float(value[key])):
-        raise ValueError(f"{name} record: expected a table with a finite {what}")
-    return value
-
-
-def _tiled_record(value, dim: int, n: int) -> dict | None:
-    """The tiling record of a pack file (None when it has none, as in files written
-    before tiling existed); its counts times its particles must give the pack's N."""
-    if value is None:
-        return None
-    if not isinstance(value, dict):
-        raise ValueError(f"'tiled' is {type(value).__name__}, expected a table")
-    counts = [int(c) for c in value["counts"]]
-    base = [float(b) for b in value["base"]]
-    particles = int(value["particles"])
-    record = {
-        "counts": counts,
-        "particles": particles,
-        "base": base,
-        "seed": int(value["seed"]),
-        "stream": int(value["stream"]),
-        "scene_sha256": str(value["scene_sha256"]),
-    }
-    if len(counts) != dim - 1 or len(base) != dim - 1 or min(counts) < 1:
-        raise ValueError(f"'tiled' has counts {counts} and base {base} for dim = {dim}")
-    if particles * math.prod(counts) != n:
-        raise ValueError(
-            f"'tiled' says {particles} particles times {counts}, but the pack holds {n}"
-        )
-    return record
-
-
-def _text(data: dict, key: str) -> str:
-    """A text member (UTF-8 bytes stored as a 1-D uint8 array)."""
-    a = data[key]
-    if a.dtype != np.uint8 or a.ndim != 1:
-        raise ValueError(f"{key!r} is not a byte string")
-    return a.tobytes().decode()
-
-
-def _check_arrays(data: dict, dim: int, contacts: Contacts) -> None:
-    """Shapes and values of a pack's arrays: a damaged file fails here, not later."""
-    x = data["positions"]
-    n = x.shape[0] if x.ndim == 2 else -1
-    spin = (n,) if dim == 2 else (n, 3)
-    for key, shape in (
-        ("positions", (n, dim)),
-        ("radii", (n,)),
-        ("velocities", (n, dim)),
-        ("spins", spin),
-        ("layer", (n,)),
-    ):
-        a = data[key]
-        if a.shape != shape or a.dtype.kind not in ("f" if key != "layer" else "iu"):
-            raise ValueError(f"{key!r} has shape {a.shape} and dtype {a.dtype}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{key!r} holds non-finite values")
-    if np.any(data["radii"] <= 0):
-        raise ValueError("'radii' holds values <= 0")
-    m = len(contacts.i)
-    for key, shape in (
-        ("i", (m,)),
-        ("j", (m,)),
-        ("normal", (m, dim)),
-        ("overlap", (m,)),
-        ("force_normal", (m,)),
-        ("force_tangential", (m, dim)),
-        ("branch", (m, dim)),
-    ):
-        a = getattr(contacts, key)
-        if a.shape != shape or a.dtype.kind not in ("iu" if key in "ij" else "f"):
-            raise ValueError(f"'contacts.{key}' has shape {a.shape} and dtype {a.dtype}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"'contacts.{key}' holds non-finite values")
-    i, j = contacts.i, contacts.j
-    if m and (i.min() < 0 or i.max() >= n or j.min() < -6 or j.max() >= n):
-        raise ValueError(f"'contacts.i' or 'contacts.j' names a particle outside [0, {n - 1}]")
-    if np.any(i == j):
-        k = int(np.argmax(i == j))
-        raise ValueError(f"contact {k} joins particle {int(i[k])} to itself")
+    """Reads a pack written by `Pack.save` (in this version's format or granpack
+    0.1.0's); a truncated or foreign file is a GranpackError, never a crash."""
+    return Pack(**packfile.read(path))
 
 
 #: Bytes per particle to budget: the engine's peak is about 1.2 kB per sphere
@@ -699,7 +404,7 @@ def deposit(
         height=height,
         layers=reports,
         wall_time=time.perf_counter() - t0,
-        trim=trim,
+        history=() if trim is None else (StageRecord.from_table("trim", trim),),
     )
     issue = settling_issue(pack)
     if issue is not None:

@@ -247,7 +247,7 @@ class PackScene:
         A flat top (default False): after the last layer, remove every particle whose
         top z + r lies above H_d (``height``), then relax the rest as the final relax
         does (0.1 s, at most settle_time, every particle thawed). The pack then ends
-        at or below H_d; ``Pack.trim`` records what was removed and phi up to H_d.
+        at or below H_d; ``Pack.record("trim")`` records what was removed and phi up to H_d.
     consolidate : dict or None
         A ``[consolidate]`` table: `granpack.consolidate`'s keyword arguments (``stress``
         needed), run on every generated pack. None (default): the pack is a deposit.

@@ -9,6 +9,7 @@ junctions are those that crossed the original cell's seam, with the same forces.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import math
 import time
@@ -19,6 +20,7 @@ import numpy as np
 from ._memory import memory_limit
 from ._validate import InvalidParameterError, short_repr
 from .contacts import Contacts
+from .history import StageRecord
 from .pack import Pack
 
 __all__ = ["tile", "MAX_TILED_PARTICLES"]
@@ -134,26 +136,28 @@ def tile(pack: Pack, counts) -> Pack:
         return np.tile(a, (copies,) + (1,) * (a.ndim - 1))
 
     contacts = _tiled_contacts(pack.contacts, x, periods, reps, cell, n)
-    original = pack.tiled
-    if original is None:
-        record = {
-            "counts": list(reps),
-            "particles": n,
-            "base": [float(b) for b in scene.base],
-            "seed": int(scene.seed),
-            "stream": int(scene.stream),
-            "scene_sha256": hashlib.sha256(scene.to_toml().encode()).hexdigest(),
-        }
-    else:
-        record = {
-            **original,
-            "counts": [int(c) * r for c, r in zip(original["counts"], reps, strict=True)],
-        }
     layers = [
         {k: (v * copies if k in _EXTENSIVE_LAYER_KEYS else v) for k, v in rep.items()}
         for rep in pack.layers
     ]
-    trim = None if pack.trim is None else {**pack.trim, "removed": pack.trim["removed"] * copies}
+    seconds = time.perf_counter() - t0
+    history = [_tiled_record(rec, copies, reps) for rec in pack.history]
+    original = pack.record("tile")
+    if original is None:
+        history.append(
+            StageRecord(
+                stage="tile",
+                settings={"counts": list(reps)},
+                report={
+                    "particles": n,
+                    "base": [float(b) for b in scene.base],
+                    "seed": int(scene.seed),
+                    "stream": int(scene.stream),
+                    "scene_sha256": hashlib.sha256(scene.to_toml().encode()).hexdigest(),
+                },
+                seconds=seconds,
+            )
+        )
     return Pack(
         scene=new_scene,
         positions=positions,
@@ -165,12 +169,26 @@ def tile(pack: Pack, counts) -> Pack:
         height=pack.height,
         layers=layers,
         wall_time=pack.wall_time + (time.perf_counter() - t0),
-        trim=trim,
-        tiled=record,
-        consolidation=_tiled_consolidation(pack.consolidation, copies, reps),
-        rest=None if pack.rest is None else copy.deepcopy(pack.rest),
-        density=None if pack.density is None else copy.deepcopy(pack.density),
+        history=tuple(history),
     )
+
+
+def _tiled_record(rec: StageRecord, copies: int, reps: tuple[int, ...]) -> StageRecord:
+    """A stage's record for the tiled pack: the flat top's count of removed particles
+    and the consolidation's counts of wall contacts times the copies; the tiling's
+    counts (a pack tiled again: those from the first original) times `reps`; the
+    others as they were."""
+    if rec.stage == "trim":
+        report = {**rec.report, "removed": rec.report["removed"] * copies}
+        return dataclasses.replace(rec, report=report)
+    if rec.stage == "consolidate":
+        table = _tiled_consolidation(rec.table(), copies, reps)
+        assert table is not None
+        return StageRecord.from_table("consolidate", table)
+    if rec.stage == "tile":
+        counts = [int(c) * r for c, r in zip(rec.settings["counts"], reps, strict=True)]
+        return dataclasses.replace(rec, settings={**rec.settings, "counts": counts})
+    return copy.deepcopy(rec)
 
 
 def _tiled_consolidation(record: dict | None, copies: int, reps: tuple[int, ...]) -> dict | None:

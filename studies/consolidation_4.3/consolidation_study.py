@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     for sweep, kw in runs:
         t0 = time.perf_counter()
         pack = gp.consolidate(deposit, 1e5, **kw)
-        rec = pack.consolidation
+        rec = pack.record("consolidate").table()
         m = gp.microstructure(pack)
         row = {
             "sweep": sweep,

@@ -650,7 +650,7 @@ def run_granpack(pack, args) -> list[dict] | None:
             **extra,
         )
         wall = time.perf_counter() - t0
-        rec = as_record(out.consolidation)
+        rec = as_record(out.record("consolidate").table())
         n = len(out.radii)
         steps = int(rec["steps"])
         seconds = float(rec.get("seconds", wall))

@@ -216,7 +216,7 @@ def targets(args) -> None:
                 print(json.dumps(rows[-1]), flush=True)
                 continue
             secs = time.perf_counter() - t
-            d = pack.density
+            d = pack.record("density").table()
             if "e_min" in d:
                 limits = (d["e_min"], d["e_max"])
             rows.append(
@@ -253,7 +253,7 @@ def _row(target, d, method, pack, m, phi, secs, t_plain, limits) -> dict:
         "relative_density": dr,
         "z": m.z,
         "a_r": m.a_r_mag,
-        "k0": pack.consolidation["k0"],
+        "k0": pack.record("consolidate").report["k0"],
         "generations": d["generations"] if d else 1,
         "friction": d["friction"] if d else pack.scene.material.friction,
         "servo_phases": sum(len(h.get("phases", [])) for h in d["history"]) if d else 0,
@@ -284,7 +284,7 @@ def cost(args) -> None:
             t = time.perf_counter()
             pack = gp.generate(scene.replace(**kw))
             secs = time.perf_counter() - t
-            d = pack.density
+            d = pack.record("density").table()
             rows.append(
                 {
                     "round": k,

@@ -434,8 +434,11 @@ class ContainerTag:
 
 
 def _consolidation_record(pack) -> dict | None:
-    """The consolidation record of a consolidated pack, None for a deposit."""
-    rec = getattr(pack, "consolidation", None)
+    """The consolidation record of a consolidated pack (its history's "consolidate"
+    table), None for a deposit and for what is not a granpack Pack."""
+    record = getattr(pack, "record", None)
+    found = record("consolidate") if callable(record) else None
+    rec = None if found is None else found.table()
     return rec if isinstance(rec, dict) and "walls" in rec else None
 
 

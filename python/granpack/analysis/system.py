@@ -18,6 +18,7 @@ import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError, as_real
 from ..contacts import LID_ID, Contacts
+from ..history import stage_table
 from .container import CONTAINERS, Container, make_container
 from .inputs import (
     _as_box,
@@ -419,7 +420,7 @@ def _lid_of(pack, floor: float, given, x: np.ndarray, r: np.ndarray) -> float | 
     a file said (``ParticleFile.lid``, the container tag's ``lid=``); None for an open
     top. A lid that is not a finite height above the floor, or that lies below a
     particle's centre, is refused."""
-    record = getattr(pack, "consolidation", None) if pack is not None else None
+    record = stage_table(pack, "consolidate")
     if given is not None:
         lid = as_real("lid", given, unit="m")
     elif record is not None:
@@ -482,7 +483,7 @@ def _body_forces(pack, r: np.ndarray, d: int) -> np.ndarray | None:
     scene = getattr(pack, "scene", None) if pack is not None else None
     if scene is None:
         return None
-    record = getattr(pack, "consolidation", None)
+    record = stage_table(pack, "consolidate")
     g = 0.0 if record is not None and not record.get("gravity", True) else float(scene.gravity)
     disc = d == 2 and getattr(scene, "inertia_2d", "disc") == "disc"
     vol = np.pi * r * r if disc else 4.0 / 3.0 * np.pi * r**3

@@ -10,6 +10,7 @@ from pathlib import Path
 from .._console import Console
 from .._outputs import say_removed
 from .._validate import check_outputs
+from ..history import stage_table
 
 HELP = "consolidate a pack to a target stress with servo walls, until it is at rest"
 DESCRIPTION = (
@@ -100,7 +101,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         density_tol=args.density_tol,
     )
     path = done.save(out)  # atomic: a temporary file, then a rename
-    r = done.consolidation
+    r = stage_table(done, "consolidate")
     assert r is not None
     stresses = ", ".join(f"{n} {v:.6g}" for n, v in r["wall_stress"].items())
     console.say(

@@ -1,27 +1,17 @@
 """``granpack generate``: an ensemble of packs of one scene, with its microstructure,
-tables, pictures and report."""
+tables, pictures and report. The command reads its options into a scene and calls
+`granpack.generate_ensemble`."""
 
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
-
-import numpy as np
 
 from .. import _core
 from .._console import Console
-from .._outputs import (
-    analyze_packs,
-    dev_changes,
-    dev_note,
-    locked,
-    refuse_scene_among_outputs,
-    same_file,
-    sweep_temporaries,
-    unsettled_as_notes,
-)
+from .._outputs import dev_changes, dev_note, refuse_scene_among_outputs, same_file
 from .._validate import GranpackError, InvalidParameterError
+from ..ensemble_run import generate_ensemble
 from . import _args
 
 HELP = "make an ensemble of packs of a scene, with microstructure, tables, pictures"
@@ -156,22 +146,12 @@ def run(args: argparse.Namespace, console: Console) -> int:
     if args.fast:
         scene = scene.fast()
     seed = scene.seed if args.seed is None else args.seed
-    if scene.stream != 0:
-        # An ensemble numbers its packs' streams itself: the scene's is replaced, said.
-        console.note(
-            f"the scene's stream = {scene.stream} is not used: pack k of the ensemble takes "
-            "stream k (0, 1, ...) of the master seed; to vary the packs, give --seed",
-            name,
-        )
-        console.flush_notes()
-    scene = scene.replace(seed=seed, stream=0)
     out = args.out if args.out is not None else Path(f"granpack-{name}")
-    scene_text = scene.to_toml().encode()
-    scene_file = out / "scene.toml"
     # The resolved scene goes to out/scene.toml: when that is the scene file given (a
     # rerun from the folder's own record), it is rewritten only if unchanged.
+    scene_text = scene.replace(seed=seed, stream=0).to_toml().encode()
     source = Path(args.scene)
-    if same_file(scene_file, source) and source.read_bytes() != scene_text:
+    if same_file(out / "scene.toml", source) and source.read_bytes() != scene_text:
         raise InvalidParameterError(
             f"invalid --out = {str(out)!r}: it would overwrite the scene file {source} with "
             "the resolved scene (out/scene.toml); choose another --out",
@@ -180,9 +160,20 @@ def run(args: argparse.Namespace, console: Console) -> int:
             expected="a folder whose scene.toml is not the scene file given",
         )
     refuse_scene_among_outputs(source, out)
-    with locked(out):
-        sweep_temporaries(out, console)
-        return _generate_into(args, console, scene, name, seed, out, scene_file, scene_text)
+    report = generate_ensemble(
+        scene,
+        out,
+        packs=args.packs,
+        seed=seed,
+        name=name,
+        figures=not args.no_figures,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        dev_note=dev_note(args.settle_time, args.scale),
+        quiet=console.quiet,
+    )
+    console.say(f"report: {report}")
+    return 0
 
 
 def _scene_from_arg(text: str):
@@ -196,94 +187,3 @@ def _scene_from_arg(text: str):
     raise GranpackError(
         f"unknown scene {text!r}: give a preset ({', '.join(sorted(PRESETS))}) or a TOML file"
     )
-
-
-def _generate_into(args, console, scene, name, seed, out, scene_file, scene_text) -> int:
-    from .. import plot, report, tables
-    from .._files import atomic_write
-    from ..ensemble import ensemble_tasks, run_tasks
-
-    t0 = time.perf_counter()
-    tasks = ensemble_tasks(scene, args.packs, out / "packs", seed)
-    console.say(f"granpack generate: {args.packs} pack(s) of {name} -> {out}")
-    with unsettled_as_notes(console):
-        paths = run_tasks(
-            tasks, scheduler=args.scheduler, workers=args.workers, progress=console.progress_mode()
-        )
-    # Written once the packs are there: a refused run (another scene's packs in the
-    # folder) leaves the folder's scene.toml as it was.
-    if not (scene_file.exists() and scene_file.read_bytes() == scene_text):
-        atomic_write(scene_file, scene_text)
-    results = analyze_packs(paths, out / "micro", console)
-    ms = [m for _, m, _ in results]
-    records = [rec for _, _, rec in results]
-
-    df = tables.ensemble_table(ms)
-    numeric = [c for c, t in zip(df.columns, df.dtypes, strict=True) if t.is_numeric()]
-    summary = tables.summary(df, [c for c in numeric if c != "pack"])
-    table_files = tables.write_tables({"ensemble": df, "summary": summary}, out / "tables")
-
-    figures: list[Path] = []
-    if not args.no_figures:
-        fig_dir = out / "figures"
-        for (pack, _, _), path in zip(results, paths, strict=True):
-            label = f"{name}, rotations {'ON' if scene.rotations else 'OFF'}, {path.stem}"
-            figures += _pack_figures(pack, path, fig_dir, label)
-        figures.append(
-            plot.save(
-                plot.analysis_figure([p for p, _, _ in results], ms, title=f"{name}: structure"),
-                fig_dir / "analysis.png",
-            )
-        )
-        phis = [rec["phi"] for rec in records]
-        figures.append(
-            plot.save(
-                plot.phi_histogram_figure(
-                    {f"rotations {'ON' if scene.rotations else 'OFF'}": phis},
-                    title=f"{name}: phi over {len(phis)} pack(s)",
-                ),
-                fig_dir / "phi_histogram.png",
-            )
-        )
-    rep = report.ensemble_report(
-        out,
-        scene_name=name,
-        scene=scene,
-        records=records,
-        table_files=table_files,
-        figures=figures,
-        wall_time=time.perf_counter() - t0,
-        dev_changes=dev_note(args.settle_time, args.scale),
-    )
-    phi = np.array([rec["phi"] for rec in records])
-    sd = f" ± {phi.std(ddof=1):.4f}" if phi.size > 1 else ""
-    console.say(f"phi = {phi.mean():.4f}{sd} over {phi.size} pack(s)")
-    console.say(f"report: {rep}")
-    return 0
-
-
-def _fresh(target: Path, source: Path) -> bool:
-    """True if `target` exists and is not older than `source` (work to skip on rerun)."""
-    return target.exists() and target.stat().st_mtime >= source.stat().st_mtime
-
-
-def _pack_figures(pack, path: Path, fig_dir: Path, label: str) -> list[Path]:
-    """pack_k.png, normals_k.png, forces_k.png for one pack (skipped when newer than
-    the pack file)."""
-    from .. import plot
-
-    stem = path.stem
-    made = []
-    jobs = [
-        (fig_dir / f"{stem}.png", lambda: plot.pack_figure(pack, title=label)),
-        (
-            fig_dir / f"{stem}_normals.png",
-            lambda: plot.normals_figure(pack.contacts.particle_pairs().normal, title=label),
-        ),
-        (fig_dir / f"{stem}_forces.png", lambda: plot.force_chain_figure(pack, title=label)),
-    ]
-    for target, build in jobs:
-        if not _fresh(target, path):
-            plot.save(build(), target)
-        made.append(target)
-    return made

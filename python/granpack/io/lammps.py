@@ -19,6 +19,7 @@ from .._validate import (
     is_number,
 )
 from ..analysis.container import Container
+from ..history import stage_table
 from .lammps_input import SNIPPET_NAME, lammps_input, liggghts_input
 
 if TYPE_CHECKING:
@@ -287,7 +288,7 @@ def write_lammps(pack: Pack, path: str | Path) -> Path:
     w = _pad3(pack.spins)
     container = Container.of_pack(pack)
     top = pack.height
-    rec = getattr(pack, "consolidation", None)
+    rec = stage_table(pack, "consolidate")
     if rec is not None:
         # a consolidated pack: the box is the walls' (the sides at 0 and base, where the
         # consolidation left them), closed at the lid

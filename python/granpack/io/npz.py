@@ -1,4 +1,5 @@
-"""granpack's own pack files (``Pack.save``), read as particles."""
+"""granpack's own pack files (``Pack.save``; the format is `granpack.packfile`'s), read
+as particles."""
 
 from __future__ import annotations
 
