@@ -325,19 +325,25 @@ def lammps_input(pack: Pack, data_name: str) -> str:
         out.append("fix             integrate all nve   # rotations off: spins are not integrated")
     if s.dim == 2:
         out.append("fix             plane all enforce2d")
-    out += [
-        f"timestep        {_g(_dt(pack))}",
-        "compute         contact all contact/atom",
-        "compute         contacts all reduce sum c_contact   # 2 N_c",
-        "thermo_style    custom step atoms ke c_contacts" + (" v_lid_force" if rec else ""),
-        "thermo          1000",
-        "variable        steps index 0",
-        "run             ${steps}",
-    ]
+    out += _run_lines(pack, rec is not None)
     if rec is not None:
         out += _lammps_servo(pack, wall_law)
     out.append("")
     return "\n".join(out)
+
+
+def _run_lines(pack: Pack, lid: bool) -> list[str]:
+    """The time step, the contact count, the thermo output (with the lid force of a
+    consolidated sample) and the run of ``steps`` steps that both codes' inputs end with."""
+    return [
+        f"timestep        {_g(_dt(pack))}",
+        "compute         contact all contact/atom",
+        "compute         contacts all reduce sum c_contact   # 2 N_c",
+        "thermo_style    custom step atoms ke c_contacts" + (" v_lid_force" if lid else ""),
+        "thermo          1000",
+        "variable        steps index 0",
+        "run             ${steps}",
+    ]
 
 
 def _lammps_servo(pack: Pack, wall_law: str) -> list[str]:
@@ -451,15 +457,7 @@ def liggghts_input(pack: Pack, data_name: str) -> str:
         out.append("fix             integrate all nve/sphere")
     else:
         out.append("fix             integrate all nve   # rotations off: spins are not integrated")
-    out += [
-        f"timestep        {_g(_dt(pack))}",
-        "compute         contact all contact/atom",
-        "compute         contacts all reduce sum c_contact   # 2 N_c",
-        "thermo_style    custom step atoms ke c_contacts" + (" v_lid_force" if rec else ""),
-        "thermo          1000",
-        "variable        steps index 0",
-        "run             ${steps}",
-    ]
+    out += _run_lines(pack, rec is not None)
     if rec is not None:
         out += _liggghts_servo(pack, wall)
     out.append("")
