@@ -154,11 +154,11 @@ class DensitySettings(TypedDict):
     density_tol: float | None
     density_method: DensityMethod
 
-DEFAULT_CONSOLIDATE: Mapping[str, object]
+DEFAULT_CONSOLIDATE: Mapping[str, Any]
 """The consolidation's defaults (read-only; `ConsolidateSettings`' keys)."""
-DEFAULT_REST: Mapping[str, object]
+DEFAULT_REST: Mapping[str, Any]
 """The settling's defaults (read-only; `RestSettings`' keys)."""
-DEFAULT_DENSITY: Mapping[str, object]
+DEFAULT_DENSITY: Mapping[str, Any]
 """The density target's defaults (read-only; `DensitySettings`' keys)."""
 CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
 

@@ -320,7 +320,7 @@ class PackScene:
     target_void_ratio: float | None = None
     target_relative_density: float | None = None
     density_tol: float | None = None
-    density_method: DensityMethod = _core.DEFAULT_DENSITY["density_method"]  # type: ignore[assignment]
+    density_method: DensityMethod = _core.DEFAULT_DENSITY["density_method"]
 
     def __post_init__(self) -> None:
         s = object.__setattr__

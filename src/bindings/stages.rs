@@ -143,10 +143,10 @@ pub(super) fn consolidate_spec<'py>(
             "the table needs its target stress (Pa)",
         )));
     }
-    for key in CONSOLIDATE_KEYS {
-        let Some(v) = table.get_item(key)? else {
-            continue;
-        };
+    // in the table's own order, so that the scene writes it back as it was given
+    for (key, v) in table.iter() {
+        let key: String = key.extract()?;
+        let key = key.as_str();
         let name = format!("consolidate.{key}");
         let name = name.as_str();
         let optional = matches!(key, "lateral" | "gravity" | "max_wall_speed" | "dt");
@@ -222,13 +222,20 @@ pub(super) fn consolidate_spec<'py>(
 
 /// A stage's error as Python's: an unstable step names the stage's key (`consolidate.dt`).
 pub(super) fn stage_error(py: Python<'_>, e: Error, dt_key: &str) -> PyErr {
-    let unstable = matches!(e, Error::UnstableTimeStep { .. });
-    let err = PyErr::from(e);
-    if unstable {
-        // best effort: the class and its fields are right whatever happens here
-        let _ = err.value(py).setattr("parameter", dt_key);
+    if !matches!(e, Error::UnstableTimeStep { .. }) {
+        return PyErr::from(e);
     }
-    err
+    let msg = e
+        .to_string()
+        .replacen("invalid dt", &format!("invalid {dt_key}"), 1);
+    match super::typed_error(py, &msg, e) {
+        Ok(err) => {
+            // best effort: the class, the message and the fields are right regardless
+            let _ = err.value(py).setattr("parameter", dt_key);
+            err
+        }
+        Err(import_failed) => import_failed,
+    }
 }
 
 fn lateral_to_py<'py>(py: Python<'py>, l: &Option<Lateral>) -> PyResult<Bound<'py, PyAny>> {
@@ -444,7 +451,7 @@ fn resolve_stage<'py>(
             density_to_py(py, &spec)
         }
         "tile" => {
-            let mut spec = TileSpec::default();
+            let mut spec = TileSpec::for_dim(dim);
             for (k, v) in read_settings(settings, &["counts"], stage)? {
                 let _ = k;
                 let mut counts = Vec::new();

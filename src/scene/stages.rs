@@ -611,8 +611,18 @@ pub struct TileSpec {
 }
 
 impl Default for TileSpec {
+    /// One copy along x and y: the pack itself (a 2D pack takes the first).
     fn default() -> Self {
         Self { counts: vec![1, 1] }
+    }
+}
+
+impl TileSpec {
+    /// The default for a `dim`-dimensional pack: one copy along each horizontal axis.
+    pub fn for_dim(dim: usize) -> Self {
+        Self {
+            counts: vec![1; dim.saturating_sub(1)],
+        }
     }
 }
 
@@ -620,12 +630,19 @@ impl TileSpec {
     /// Checks the container (periodic: a wall would lie inside the tiled pack), the
     /// number of counts (`dim - 1`) and each count (at least 1).
     pub fn validate(&self, dim: usize, container: &Container) -> Result<()> {
-        if !matches!(container, Container::Periodic) {
+        let name = match container {
+            Container::Periodic => None,
+            Container::Box => Some("box"),
+            Container::Cylinder(_) => Some("cylinder"),
+        };
+        if let Some(name) = name {
             return Err(Error::invalid(
                 "pack",
                 "",
-                "its walls would lie inside the tiled pack; only a pack made with \
-                 container = 'periodic' tiles",
+                &format!(
+                    "its container is '{name}', whose walls would lie inside the tiled \
+                     pack; only a pack made with container = 'periodic' tiles"
+                ),
             ));
         }
         let form = if dim == 2 { "(nx,)" } else { "(nx, ny)" };

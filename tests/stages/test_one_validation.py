@@ -223,3 +223,17 @@ def test_the_command_offers_every_mode_and_method():
     assert choices("generate", "--consolidate-mode") == _core.CONSOLIDATION_MODES
     assert choices("consolidate", "--mode") == _core.CONSOLIDATION_MODES
     assert choices("generate", "--density-method") == _core.DENSITY_METHODS
+
+
+def test_a_walled_pack_is_refused_by_the_tiling_alike_everywhere(deposit, tmp_path, capsys):
+    with pytest.raises(gp.InvalidParameterError) as err:
+        gp.tile(deposit, (2,))
+    assert err.value.parameter == "pack"
+    assert "container is 'box'" in str(err.value)
+    with pytest.raises(gp.InvalidParameterError) as err:
+        _core.resolve_stage("tile", deposit.scene, {"counts": [2]})
+    assert err.value.parameter == "pack"
+    path = deposit.save(tmp_path / "box.npz")
+    stderr = _cli_error(capsys, ["tile", str(path), "2", "--out", str(tmp_path / "t.npz")])
+    assert "container is 'box'" in stderr
+    assert not (tmp_path / "t.npz").exists()
