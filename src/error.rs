@@ -220,7 +220,24 @@ pub fn check_range(
 
 #[cfg(test)]
 mod format_tests {
-    use super::fmt_g;
+    use super::{fmt_g, fmt_g_digits};
+
+    #[test]
+    fn fmt_g_digits_writes_what_python_percent_3g_writes() {
+        // the right-hand sides are Python's f"{x:.3g}"
+        for (x, want) in [
+            (88934.2, "8.89e+04"),
+            (7.9512e-9, "7.95e-09"),
+            (0.5, "0.5"),
+            (123.456, "123"),
+            (999.6, "1e+03"),
+            (1e-4, "0.0001"),
+            (0.00012345, "0.000123"),
+            (1234.0, "1.23e+03"),
+        ] {
+            assert_eq!(fmt_g_digits(x, 3), want, "{x}");
+        }
+    }
 
     #[test]
     fn fmt_g_writes_what_python_percent_g_writes() {

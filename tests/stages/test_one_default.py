@@ -78,3 +78,26 @@ def test_the_command_line_defaults_are_the_engine_defaults():
     assert default("consolidate", "--max-steps") == c["max_steps"]
     assert default("consolidate", "--density-tol") == _core.DEFAULT_DENSITY_TOL
     assert default("generate", "--consolidate-mode") == c["mode"]
+
+
+def test_the_stub_literals_spell_the_engine_lists():
+    import ast
+    import typing
+    from pathlib import Path
+
+    stub = Path(gp.__file__).with_name("_core.pyi")
+    literals = {}
+    for node in ast.parse(stub.read_text()).body:
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            if node.target.id in (
+                "ConsolidationMode",
+                "DensityMethod",
+                "TargetKey",
+                "ConsolidateKey",
+            ):
+                value = eval(ast.unparse(node.value), {"Literal": typing.Literal})  # noqa: S307
+                literals[node.target.id] = typing.get_args(value)
+    assert literals["ConsolidationMode"] == _core.CONSOLIDATION_MODES
+    assert literals["DensityMethod"] == _core.DENSITY_METHODS
+    assert literals["TargetKey"] == _core.TARGET_KEYS
+    assert literals["ConsolidateKey"] == _core.CONSOLIDATE_KEYS
