@@ -125,6 +125,26 @@ impl Error {
             expected: expected.to_string(),
         }
     }
+
+    /// The same error naming `to` where it named `from`: a setting that a scene spells
+    /// otherwise than the stage's function (the scene's `rest_tol` is `settle`'s
+    /// `unbalanced_tol`).
+    pub fn renamed(self, from: &str, to: &str) -> Self {
+        match self {
+            Error::InvalidParameter {
+                name,
+                value,
+                number,
+                expected,
+            } if name == from => Error::InvalidParameter {
+                name: to.to_string(),
+                value,
+                number,
+                expected,
+            },
+            other => other,
+        }
+    }
 }
 
 /// "invalid name = value: expected", or without "= value" when there is no single value
@@ -145,6 +165,13 @@ pub type Result<T> = std::result::Result<T, Error>;
 /// 1e6 on. Messages that quote a derived value use it, so that they read as the
 /// Python package's.
 pub fn fmt_g(x: f64) -> String {
+    fmt_g_digits(x, 6)
+}
+
+/// `x` as C's and Python's `%.{digits}g` write it (`digits` at least 1): [`fmt_g`] with
+/// another number of significant digits.
+pub fn fmt_g_digits(x: f64, digits: usize) -> String {
+    let digits = digits.max(1);
     if x == 0.0 || !x.is_finite() {
         return format!("{x}");
     }
@@ -155,15 +182,15 @@ pub fn fmt_g(x: f64) -> String {
             s.to_string()
         }
     };
-    // the exponent after rounding to six digits (9.999995 rounds up to 1e1)
-    let sci = format!("{x:.5e}");
+    // the exponent after rounding to `digits` digits (9.999995 rounds up to 1e1)
+    let sci = format!("{x:.*e}", digits - 1);
     let (mantissa, exp) = sci.split_once('e').expect("an exponent");
     let exp: i32 = exp.parse().expect("an integer exponent");
-    if !(-4..6).contains(&exp) {
+    if !(-4..digits as i32).contains(&exp) {
         let sign = if exp < 0 { '-' } else { '+' };
         format!("{}e{sign}{:02}", trim(mantissa), exp.abs())
     } else {
-        trim(&format!("{:.*}", (5 - exp) as usize, x))
+        trim(&format!("{:.*}", (digits as i32 - 1 - exp) as usize, x))
     }
 }
 
@@ -193,7 +220,24 @@ pub fn check_range(
 
 #[cfg(test)]
 mod format_tests {
-    use super::fmt_g;
+    use super::{fmt_g, fmt_g_digits};
+
+    #[test]
+    fn fmt_g_digits_writes_what_python_percent_3g_writes() {
+        // the right-hand sides are Python's f"{x:.3g}"
+        for (x, want) in [
+            (88934.2, "8.89e+04"),
+            (7.9512e-9, "7.95e-09"),
+            (0.5, "0.5"),
+            (123.456, "123"),
+            (999.6, "1e+03"),
+            (1e-4, "0.0001"),
+            (0.00012345, "0.000123"),
+            (1234.0, "1.23e+03"),
+        ] {
+            assert_eq!(fmt_g_digits(x, 3), want, "{x}");
+        }
+    }
 
     #[test]
     fn fmt_g_writes_what_python_percent_g_writes() {

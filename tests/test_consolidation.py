@@ -237,26 +237,29 @@ def test_step_budget_reached_is_a_typed_error(deposits):
 @pytest.mark.parametrize(
     ("kwargs", "parameter"),
     [
-        ({"stress": 0.0}, "stress"),
-        ({"stress": -1e4}, "stress"),
-        ({"stress": math.nan}, "stress"),
-        ({"stress": math.inf}, "stress"),
-        ({"stress": 1e8}, "stress"),  # overlaps beyond max_overlap_ratio with E = 1e8 Pa
-        ({"mode": "triaxial"}, "mode"),
-        ({"stress_tol": 0.0}, "stress_tol"),
-        ({"stress_tol": 1e-12}, "stress_tol"),
-        ({"unbalanced_tol": 0.0}, "unbalanced_tol"),
-        ({"max_steps": 0}, "max_steps"),
-        ({"max_steps": 10**11}, "max_steps"),
-        ({"hold": 0}, "hold"),
-        ({"gain": 0.0}, "gain"),
-        ({"local_damping": 1.0}, "local_damping"),
-        ({"max_wall_speed": -1.0}, "max_wall_speed"),
-        ({"max_wall_speed": 1e6}, "max_wall_speed"),
-        ({"lateral": 1e4}, "lateral"),  # an oedometric stage has no lateral target
-        ({"mode": "anisotropic"}, "lateral"),
-        ({"mode": "anisotropic", "lateral": (1e4, 1e4, 1e4)}, "lateral"),
-        ({"gravity": "yes"}, "gravity"),
+        ({"stress": 0.0}, "consolidate.stress"),
+        ({"stress": -1e4}, "consolidate.stress"),
+        ({"stress": math.nan}, "consolidate.stress"),
+        ({"stress": math.inf}, "consolidate.stress"),
+        (
+            {"stress": 1e8},
+            "consolidate.stress",
+        ),  # overlaps beyond max_overlap_ratio with E = 1e8 Pa
+        ({"mode": "triaxial"}, "consolidate.mode"),
+        ({"stress_tol": 0.0}, "consolidate.stress_tol"),
+        ({"stress_tol": 1e-12}, "consolidate.stress_tol"),
+        ({"unbalanced_tol": 0.0}, "consolidate.unbalanced_tol"),
+        ({"max_steps": 0}, "consolidate.max_steps"),
+        ({"max_steps": 10**11}, "consolidate.max_steps"),
+        ({"hold": 0}, "consolidate.hold"),
+        ({"gain": 0.0}, "consolidate.gain"),
+        ({"local_damping": 1.0}, "consolidate.local_damping"),
+        ({"max_wall_speed": -1.0}, "consolidate.max_wall_speed"),
+        ({"max_wall_speed": 1e6}, "consolidate.max_wall_speed"),
+        ({"lateral": 1e4}, "consolidate.lateral"),  # an oedometric stage has no lateral target
+        ({"mode": "anisotropic"}, "consolidate.lateral"),
+        ({"mode": "anisotropic", "lateral": (1e4, 1e4, 1e4)}, "consolidate.lateral"),
+        ({"gravity": "yes"}, "consolidate.gravity"),
     ],
 )
 def test_bad_input_is_refused_by_name(deposits, kwargs, parameter):
@@ -271,7 +274,7 @@ def test_container_and_pack_refusals(deposits):
     for mode in ("isotropic", "anisotropic"):
         with pytest.raises(gp.InvalidParameterError) as err:
             gp.consolidate(deposits["periodic"], 1e4, mode, lateral=1e4)
-        assert err.value.parameter == "mode"
+        assert err.value.parameter == "consolidate.mode"
     dep = deposits["box"]
     empty = gp.Pack(
         scene=dep.scene,

@@ -11,13 +11,8 @@ import warnings
 import pytest
 
 import granpack as gp
-from granpack.consolidation import stage_time_step
-from granpack.stage_settings import (
-    MIN_OVERLAP_RATIO,
-    hertz_overlap,
-    overlap_ratio,
-    stress_range,
-)
+from granpack._core import MIN_OVERLAP_RATIO, overlap_ratio, stress_range
+from granpack.consolidation import hertz_overlap, stage_time_step
 
 # a 2D box one particle wide: 6 discs in a column
 COLUMN = gp.PackScene(
@@ -76,7 +71,7 @@ def test_every_stress_key_out_of_range_is_refused_by_name_with_its_range(wide, t
     kwargs = {k: v for k, v in table.items() if k != "stress"}
     with pytest.raises(gp.InvalidParameterError) as err:
         gp.consolidate(wide, table["stress"], **kwargs)
-    assert err.value.parameter == key
+    assert err.value.parameter == f"consolidate.{key}"
     assert "must lie in [" in str(err.value)
 
 
@@ -115,7 +110,7 @@ def test_stage_dt_beyond_the_rayleigh_step_is_refused_by_the_stage(wide):
     crit = WIDE.material.critical_time_step(float(wide.radii.min()))
     with pytest.raises(gp.UnstableTimeStepError) as err:
         gp.consolidate(wide, 1e3, dt=2.0 * crit)
-    assert err.value.parameter == "dt"
+    assert err.value.parameter == "consolidate.dt"
 
 
 def test_side_walls_squeezed_below_a_diameter_are_refused_naming_the_stage():

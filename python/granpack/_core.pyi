@@ -7,7 +7,8 @@ Users call the documented Python layer (`granpack.Simulation`, `granpack.generat
 check these stubs in CI.
 """
 
-from typing import Literal, Protocol, Self, TypeAlias, TypedDict, final
+from collections.abc import Mapping
+from typing import Any, Literal, Protocol, Self, TypeAlias, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +23,20 @@ __all__ = [
     "RSA_SATURATION",
     "CONTAINERS",
     "RADIUS_LAWS",
+    "CONSOLIDATION_MODES",
+    "CONSOLIDATE_KEYS",
+    "TARGET_KEYS",
+    "DENSITY_METHODS",
+    "MAX_STRESS",
+    "MAX_WALL_SPEED",
+    "MIN_OVERLAP_RATIO",
+    "DEFAULT_DENSITY_TOL",
+    "DEFAULT_CONSOLIDATE",
+    "DEFAULT_REST",
+    "DEFAULT_DENSITY",
+    "resolve_stage",
+    "stress_range",
+    "overlap_ratio",
     "cpu_level",
     "cpu_levels",
     "Simulation",
@@ -63,6 +78,82 @@ CONTAINERS: tuple[ContainerName, ...]
 """The containers a scene may name (`PackScene.container`), the engine's list."""
 RADIUS_LAWS: tuple[RadiusLawName, ...]
 """The radius laws a scene may name (`PackScene.radius_law`), the engine's list."""
+ConsolidationMode: TypeAlias = Literal["oedometric", "isotropic", "anisotropic"]
+DensityMethod: TypeAlias = Literal["auto", "deposition", "servo"]
+TargetKey: TypeAlias = Literal["target_phi", "target_void_ratio", "target_relative_density"]
+ConsolidateKey: TypeAlias = Literal[
+    "stress",
+    "mode",
+    "lateral",
+    "gravity",
+    "stress_tol",
+    "unbalanced_tol",
+    "hold",
+    "check_every",
+    "max_steps",
+    "max_wall_speed",
+    "gain",
+    "local_damping",
+    "dt",
+]
+CONSOLIDATION_MODES: tuple[ConsolidationMode, ...]
+"""The consolidation modes (`granpack.consolidate`'s `mode`), the engine's list."""
+CONSOLIDATE_KEYS: tuple[ConsolidateKey, ...]
+"""The keys of a scene's `[consolidate]` table: `granpack.consolidate`'s settings."""
+TARGET_KEYS: tuple[TargetKey, ...]
+"""The density target keys of a scene, at most one given."""
+DENSITY_METHODS: tuple[DensityMethod, ...]
+"""How a density target is reached (`PackScene.density_method`)."""
+MAX_STRESS: float
+"""The largest target stress a consolidation takes (Pa; 1e12)."""
+MAX_WALL_SPEED: float
+"""The largest wall speed a consolidation takes (m/s; 1e6)."""
+MIN_OVERLAP_RATIO: float
+"""The smallest mean-contact overlap over the radius a stress target may ask (1e-9)."""
+DEFAULT_DENSITY_TOL: float
+"""A density target's default tolerance in phi (0.002)."""
+
+class ConsolidateSettings(TypedDict):
+    """Every setting of a consolidation but its stress, as the engine's defaults give
+    them (None: the stage derives the value from the pack)."""
+
+    mode: ConsolidationMode
+    lateral: float | list[float] | None
+    gravity: bool | None
+    stress_tol: float
+    unbalanced_tol: float
+    hold: int
+    check_every: int
+    max_steps: int
+    max_wall_speed: float | None
+    gain: float
+    local_damping: float
+    dt: float | None
+
+class RestSettings(TypedDict):
+    """The settling to rest's settings (`granpack.settle`)."""
+
+    unbalanced_tol: float
+    hold: int
+    check_every: int
+    max_steps: int
+    local_damping: float
+
+class DensitySettings(TypedDict):
+    """A density target's settings."""
+
+    target_phi: float | None
+    target_void_ratio: float | None
+    target_relative_density: float | None
+    density_tol: float | None
+    density_method: DensityMethod
+
+DEFAULT_CONSOLIDATE: Mapping[str, Any]
+"""The consolidation's defaults (read-only; `ConsolidateSettings`' keys)."""
+DEFAULT_REST: Mapping[str, Any]
+"""The settling's defaults (read-only; `RestSettings`' keys)."""
+DEFAULT_DENSITY: Mapping[str, Any]
+"""The density target's defaults (read-only; `DensitySettings`' keys)."""
 CpuLevel: TypeAlias = Literal["x86-64", "x86-64-v2", "x86-64-v3", "x86-64-v4", "baseline"]
 
 class MaterialFields(Protocol):
@@ -360,6 +451,57 @@ class ResolvedScene(TypedDict):
     cylinder_radius: float | None
     critical_dt: float
     estimated_particles: float
+    consolidate: dict[str, Any] | None
+    stages: ResolvedStages
+
+class ConsolidateStage(ConsolidateSettings):
+    """A consolidation's settings, resolved."""
+
+    stress: float
+
+class ResolvedConsolidation(ConsolidateStage):
+    """A consolidation's settings checked against a pack: with the container's walls
+    (the engine's order, the lid last) and each controlled wall's target (Pa)."""
+
+    walls: list[str]
+    targets: list[tuple[str, float]]
+
+class TrimSettings(TypedDict):
+    height: float | None
+
+class ResolvedStages(TypedDict):
+    """The stages a scene lists, with their settings; None where it does not run one."""
+
+    trim: TrimSettings | None
+    rest: RestSettings | None
+    density: DensitySettings | None
+    consolidate: ConsolidateStage | None
+
+def resolve_stage(
+    stage: Literal["consolidate", "rest", "density", "tile"],
+    scene: SceneFields,
+    settings: dict[str, Any],
+    *,
+    r_mean: float | None = None,
+    r_min: float | None = None,
+) -> Any:
+    """The engine's one check of a stage's settings as its function gets them (the
+    scene's table meets the same), against the scene's container and material and, for
+    the consolidation, the pack's mean and smallest radius (m; the scene's without
+    them); returns every setting with the defaults filled in (`ResolvedConsolidation`,
+    `RestSettings`, `DensitySettings`, or {"counts": ...} for "tile"). Errors name the
+    key as the scene does (`consolidate.max_wall_speed`)."""
+
+def stress_range(
+    dim: int, r_mean: float, e_star: float, max_overlap_ratio: float
+) -> tuple[float, float]:
+    """The stresses (Pa; N/m in 2D) a consolidation takes for particles of mean radius
+    `r_mean` (m) and effective modulus `e_star` (Pa): those whose mean contact overlaps
+    between MIN_OVERLAP_RATIO and `max_overlap_ratio` of the radius, at most MAX_STRESS."""
+
+def overlap_ratio(stress: float, dim: int, r_mean: float, e_star: float) -> float:
+    """The overlap over the radius (-) that a mean contact of two mean particles needs to
+    carry `stress` (Pa; N/m in 2D): a Hertz contact of R* = r / 2."""
 
 def resolve_scene(scene: SceneFields) -> ResolvedScene:
     """The scene's one validator: every range and cross-field rule of a whole scene
@@ -367,7 +509,9 @@ def resolve_scene(scene: SceneFields) -> ResolvedScene:
     error naming the scene key; returns what the scene resolves to: the radius law's
     r_min, r_max and, by number, r_mean and r_std (m; the parameters before truncation
     for gaussian and lognormal), the base (m; a cylinder's is (2R, 2R)), the cylinder's
-    radius (m), the critical step of r_min (s) and the estimated particle count."""
+    radius (m), the critical step of r_min (s) and the estimated particle count; the
+    `[consolidate]` table as given, its values typed; and the stages the scene lists,
+    their settings resolved (`ResolvedStages`), in the same call."""
 
 def number_fractions(scene: RadiusLawFields) -> list[float] | None:
     """Number fractions of a discrete law's radii or a sieve law's classes, after any

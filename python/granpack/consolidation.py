@@ -28,25 +28,22 @@ import time
 import numpy as np
 
 from . import _core
-from ._validate import as_int, as_real, short_repr
+from ._validate import short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
 from .errors import ConsolidationError, DensityTargetError, InvalidParameterError
 from .history import StageRecord
 from .pack import Pack
 from .simulation import Simulation
-from .stage_settings import (
-    MODES,
-    TABLE_KEYS,
-    _settings,
-    _targets,
-    _wall_names,
-    check_stresses,
-    check_time_step,
-    hertz_overlap,
-)
 
 __all__ = ["consolidate", "settle", "ConsolidationError", "MODES", "stage_time_step"]
+
+#: The consolidation modes (the engine's list, `granpack._core.CONSOLIDATION_MODES`).
+MODES = _core.CONSOLIDATION_MODES
+
+# The stages' defaults are the engine's (src/scene/stages.rs), as the signatures take them.
+_C = _core.DEFAULT_CONSOLIDATE
+_R = _core.DEFAULT_REST
 
 #: Gravity is off by default when the target exceeds this many times the weight stress
 #: at the floor (the pack's weight over its base).
@@ -76,6 +73,12 @@ ACCEPT_SHARE = 0.75
 #: The stage's step is this fraction of sqrt(m / k) for the stiffest contact it expects
 #: (see `stage_time_step`).
 STEP_FRACTION = 0.2
+
+
+def hertz_overlap(force: float, r_eff: float, e_star: float) -> float:
+    """The overlap (m) at which a Hertz contact of effective radius `r_eff` carries
+    `force`: F = 4/3 E* sqrt(R*) d^(3/2)."""
+    return (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
 
 
 def _volumes(r: np.ndarray, dim: int) -> np.ndarray:
@@ -121,21 +124,21 @@ def stage_time_step(pack: Pack, stress: float) -> float:
 def consolidate(
     pack: Pack,
     stress: float,
-    mode: str = "oedometric",
+    mode: str = _C["mode"],
     *,
-    lateral=None,
-    gravity: bool | None = None,
-    stress_tol: float = 1e-3,
-    unbalanced_tol: float = 1e-4,
-    hold: int = 5,
-    check_every: int = 100,
-    max_steps: int = 2_000_000,
-    max_wall_speed: float | None = None,
-    gain: float = 0.5,
-    local_damping: float = 0.4,
-    dt: float | None = None,
+    lateral=_C["lateral"],
+    gravity: bool | None = _C["gravity"],
+    stress_tol: float = _C["stress_tol"],
+    unbalanced_tol: float = _C["unbalanced_tol"],
+    hold: int = _C["hold"],
+    check_every: int = _C["check_every"],
+    max_steps: int = _C["max_steps"],
+    max_wall_speed: float | None = _C["max_wall_speed"],
+    gain: float = _C["gain"],
+    local_damping: float = _C["local_damping"],
+    dt: float | None = _C["dt"],
     target_phi: float | None = None,
-    density_tol: float = 0.002,
+    density_tol: float = _core.DEFAULT_DENSITY_TOL,
 ) -> Pack:
     """Consolidates `pack` to a target stress with servo-controlled walls, until it is
     in static equilibrium; returns a new Pack (the input is not changed).
@@ -217,28 +220,24 @@ def consolidate(
             "consolidate the deposit it came from",
             parameter="pack",
         )
-    s = _settings("", {k: v for k, v in given.items() if k in TABLE_KEYS})
-    if target_phi is not None:
-        target_phi = as_real("target_phi", target_phi, 0, 1, lo_open=True, hi_open=True)
-    density_tol = as_real("density_tol", density_tol, 0, 0.1, lo_open=True)
-    stress, mode, lateral, gravity = s["stress"], s["mode"], s["lateral"], s["gravity"]
     sc = pack.scene
     dim = pack.dim
-    kind = sc.container
-    targets = _targets(mode, kind, dim, stress, lateral)
-
     mat = sc.material
     r = pack.radii
     r_mean, r_min = float(np.mean(r)), float(np.min(r))
-    # every target within what the Hertz law and the positions allow, by its own key
-    check_stresses(
-        targets,
-        dim=dim,
+    # the engine's one check of the stage's settings (the scene's table meets the same),
+    # with every target against what the Hertz law and the positions allow for this
+    # pack's own radii; it names the keys as the table does (`consolidate.stress`)
+    s = _core.resolve_stage(
+        "consolidate",
+        sc,
+        {k: v for k, v in given.items() if k in _core.CONSOLIDATE_KEYS},
         r_mean=r_mean,
-        material=mat,
-        max_overlap_ratio=sc.max_overlap_ratio,
+        r_min=r_min,
     )
-    check_time_step(s["dt"], mat, r_min)
+    _core.resolve_stage("density", sc, {"target_phi": target_phi, "density_tol": density_tol})
+    stress, mode, gravity = s["stress"], s["mode"], s["gravity"]
+    targets = dict(s["targets"])
     top = max(targets.values())
     step = stage_time_step(pack, top) if s["dt"] is None else s["dt"]
 
@@ -247,23 +246,27 @@ def consolidate(
         gravity = bool(stress <= GRAVITY_OFF_ABOVE * weight_stress)
 
     height = float(np.max(pack.positions[:, -1] + r))
-    if max_wall_speed is None:
+    cap = OVERRUN_FRACTION * r_min / step
+    if s["max_wall_speed"] is None:
         d_mean = 2.0 * r_mean
         quasi_static = INERTIAL_NUMBER * height * math.sqrt(stress / mat.density) / d_mean
-        max_wall_speed = min(quasi_static, OVERRUN_FRACTION * r_min / step)
-    else:
-        max_wall_speed = as_real(
-            "max_wall_speed",
-            max_wall_speed,
-            0,
-            OVERRUN_FRACTION * r_min / step,
-            lo_open=True,
-            unit="m/s",
+        max_wall_speed = min(quasi_static, cap)
+    elif s["max_wall_speed"] > cap:
+        # the pack's own cap, below the stage's range (0, MAX_WALL_SPEED]
+        max_wall_speed = s["max_wall_speed"]
+        raise InvalidParameterError(
+            f"invalid consolidate.max_wall_speed = {max_wall_speed}: must lie in (0, {cap}] "
+            f"(m/s): at most {OVERRUN_FRACTION} r_min per step of {step:.6g} s",
+            parameter="consolidate.max_wall_speed",
+            value=max_wall_speed,
+            expected=f"(0, {cap:.6g}] m/s",
         )
+    else:
+        max_wall_speed = s["max_wall_speed"]
 
     sim = _simulation(pack, step, gravity, drag=0.0)
     lid = sim._sim.add_lid(height)
-    names = _wall_names(kind, dim)
+    names = list(s["walls"])
     assert lid == len(names) - 1
     index = {n: k for k, n in enumerate(names)}
     order = list(targets)
@@ -305,7 +308,7 @@ def consolidate(
         seconds,
         # what it ran with: the checked settings, and the defaults it chose
         settings={
-            **{k: v for k, v in s.items() if k not in ("stress", "lateral")},
+            **{k: s[k] for k in _core.CONSOLIDATE_KEYS if k not in ("stress", "lateral")},
             "gravity": gravity,
             "max_wall_speed": max_wall_speed,
             "dt": step,
@@ -509,12 +512,12 @@ def _simulation(pack: Pack, dt: float, gravity: bool, drag: float) -> Simulation
 
 def settle(
     pack: Pack,
-    unbalanced_tol: float = 1e-4,
+    unbalanced_tol: float = _R["unbalanced_tol"],
     *,
-    hold: int = 5,
-    check_every: int = 100,
-    max_steps: int = 2_000_000,
-    local_damping: float = 0.4,
+    hold: int = _R["hold"],
+    check_every: int = _R["check_every"],
+    max_steps: int = _R["max_steps"],
+    local_damping: float = _R["local_damping"],
 ) -> Pack:
     """Runs a deposit on, under its own weight, until it is at rest: YADE's
     unbalanced-force ratio at most `unbalanced_tol` for `hold` checks `check_every` steps
@@ -537,23 +540,34 @@ def settle(
             "invalid pack: it is consolidated, and so at rest under its lid already",
             parameter="pack",
         )
-    unbalanced_tol = as_real("unbalanced_tol", unbalanced_tol, 1e-9, 1, hi_open=True)
-    hold = as_int("hold", hold, 1, 1000)
-    check_every = as_int("check_every", check_every, 1, 1_000_000)
-    max_steps = as_int("max_steps", max_steps, 1, int(_core.MAX_STEPS_PER_CALL))
-    local_damping = as_real("local_damping", local_damping, 0, 1, hi_open=True)
     sc = pack.scene
+    # the engine's check of the settling stage, the one the scene's rest_tol meets
+    rest = _core.resolve_stage(
+        "rest",
+        sc,
+        {
+            "unbalanced_tol": unbalanced_tol,
+            "hold": hold,
+            "check_every": check_every,
+            "max_steps": max_steps,
+            "local_damping": local_damping,
+        },
+    )
+    unbalanced_tol, hold = rest["unbalanced_tol"], rest["hold"]
+    check_every, max_steps = rest["check_every"], rest["max_steps"]
+    local_damping = rest["local_damping"]
     sim = _simulation(pack, float(sc.dt), True, float(sc.drag))
     start = time.perf_counter()
     rep = sim._sim.consolidate(
         [],
-        stress_tol=1e-3,
+        # no wall is controlled: the stress settings and the wall speed are unused
+        stress_tol=_C["stress_tol"],
         unbalanced_tol=unbalanced_tol,
         hold=hold,
         check_every=check_every,
         max_steps=max_steps,
         max_wall_speed=1.0,
-        gain=0.5,
+        gain=_C["gain"],
         local_damping=local_damping,
     )
     seconds = time.perf_counter() - start

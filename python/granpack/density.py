@@ -50,7 +50,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
-from . import stages
+from . import _core, stages
 from ._validate import as_int
 from .analysis import microstructure
 from .errors import DensityTargetError, InvalidParameterError
@@ -101,11 +101,12 @@ MIN_BRACKET = 1e-3
 #: A bracket whose phi changes by more than this per unit of ln(mu_dep + MU_SHIFT) (20
 #: times SLOPE_GUESS) looks like a jump: the search measures the grid before splitting it.
 STEEP = 20 * abs(SLOPE_GUESS)
-#: The default tolerance in phi (in e and Dr: its equivalent at the target).
-DEFAULT_TOL_PHI = 0.002
+#: The default tolerance in phi (in e and Dr: its equivalent at the target); the
+#: engine's, `granpack._core.DEFAULT_DENSITY_TOL`.
+DEFAULT_TOL_PHI = _core.DEFAULT_DENSITY_TOL
 #: The unbalanced ratio a pack jammed above the material's friction settles to once the
-#: friction is restored (when the scene sets no rest_tol).
-REST_TOL = 1e-4
+#: friction is restored (when the scene sets no rest_tol): the settling's default.
+REST_TOL = _core.DEFAULT_REST["unbalanced_tol"]
 #: The target the servo is given to measure its dense end: above any packing fraction,
 #: so that it lowers the friction to zero and reports the phi it reached there.
 _SERVO_PROBE = 0.9999

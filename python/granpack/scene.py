@@ -27,10 +27,9 @@ from ._validate import (
     unknown_keys,
 )
 from .simulation import Material
-from .stage_settings import check_scene_table, check_table
 
 if TYPE_CHECKING:
-    from ._core import ContainerName, RadiusLawName
+    from ._core import ContainerName, DensityMethod, RadiusLawName
 
 __all__ = ["PackScene", "PRESETS", "RSA_SATURATION", "CONTAINERS", "RADIUS_LAWS"]
 
@@ -321,7 +320,7 @@ class PackScene:
     target_void_ratio: float | None = None
     target_relative_density: float | None = None
     density_tol: float | None = None
-    density_method: Literal["auto", "deposition", "servo"] = "auto"
+    density_method: DensityMethod = _core.DEFAULT_DENSITY["density_method"]
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -370,10 +369,10 @@ class PackScene:
             s(self, "r_std", resolved["r_std"])
         s(self, "base", tuple(resolved["base"]))
         s(self, "cylinder_radius", resolved["cylinder_radius"])
-        if self.consolidate is not None:
-            # what the stage's settings must be for these radii and this material, now
-            # rather than after the deposit
-            check_scene_table(self.consolidate, self)
+        # the [consolidate] table as given, its values typed: the engine checked it with
+        # the scene (keys, ranges, the mode against the container, the stresses and the
+        # step against these radii and this material), now rather than after the deposit
+        s(self, "consolidate", resolved["consolidate"])
 
     def _check_types(self) -> None:
         """Types every key (`_KEY_TYPES`) without checking its range: a value of the
@@ -419,7 +418,7 @@ class PackScene:
                         expected=" | ".join(choices),
                     )
             elif kind == "consolidate?":
-                s(self, key, check_table(value, self.dim, self.container))
+                pass  # a table of the stage's settings: the engine types and checks it
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):
                     s(self, key, _material_table(dict(value)))
@@ -442,7 +441,7 @@ class PackScene:
         are taken."""
         for key in _DERIVED_KEYS[self.radius_law]:
             given, derived = getattr(self, key), float(resolved[key])
-            if given is None or given == _KEY_DEFAULTS[key]:
+            if given is None or given == _LAW_KEY_UNSET[key]:
                 continue
             if math.isclose(given, derived, rel_tol=1e-12, abs_tol=0.0):
                 continue
@@ -530,8 +529,9 @@ class PackScene:
             settle_dt=settle_dt if settle_dt > dt else None,
         )
 
-    #: The density target keys, at most one of which a scene gives.
-    TARGET_KEYS = ("target_phi", "target_void_ratio", "target_relative_density")
+    #: The density target keys, at most one of which a scene gives (the engine's list,
+    #: `granpack._core.TARGET_KEYS`).
+    TARGET_KEYS = _core.TARGET_KEYS
 
     @property
     def density_target(self) -> tuple[str, float] | None:
@@ -551,7 +551,7 @@ class PackScene:
         law = changes.get("radius_law", self.radius_law)
         if (changes.keys() - _STREAM_KEYS) and isinstance(law, str):
             for key in _DERIVED_KEYS.get(law, ()):
-                changes.setdefault(key, _KEY_DEFAULTS[key])
+                changes.setdefault(key, _LAW_KEY_UNSET[key])
         if changes and changes.keys() <= _STREAM_KEYS:
             new = object.__new__(PackScene)
             new.__dict__.update(self.__dict__)
@@ -726,7 +726,7 @@ _LAW_INPUTS: dict[str, tuple[str, ...]] = {
     "discrete": ("radii", "fractions"),
     "sieve": ("sieve_sizes", "sieve_passing"),
 }
-_KEY_DEFAULTS = {"r_mean": 0.01, "r_std": 0.0, "r_min": None, "r_max": None}
+_LAW_KEY_UNSET = {"r_mean": 0.01, "r_std": 0.0, "r_min": None, "r_max": None}
 
 #: The type of every scene key, checked before anything else (`PackScene._check_types`):
 #: "real", "int" (>= 0), "bool", "text" (one of `_TEXT_CHOICES`), "reals" (a list of
@@ -801,7 +801,7 @@ _TEXT_CHOICES = {
     "radius_law": RADIUS_LAWS,
     "fractions_by": ("number", "mass"),
     "inertia_2d": ("sphere", "disc"),
-    "density_method": ("auto", "deposition", "servo"),
+    "density_method": _core.DENSITY_METHODS,
 }
 
 _COMMON = {

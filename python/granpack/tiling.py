@@ -17,6 +17,7 @@ from numbers import Integral
 
 import numpy as np
 
+from . import _core
 from ._memory import memory_limit
 from ._validate import InvalidParameterError, short_repr
 from .contacts import Contacts
@@ -96,14 +97,8 @@ def tile(pack: Pack, counts) -> Pack:
             expected="a granpack.Pack with container = 'periodic'",
         )
     scene = pack.scene
-    if scene.container != "periodic":
-        raise InvalidParameterError(
-            f"invalid pack: its container is {scene.container!r}, whose walls would lie "
-            "inside the tiled pack; only a pack made with container = 'periodic' tiles",
-            parameter="pack",
-            value=scene.container,
-            expected="a pack with container = 'periodic'",
-        )
+    # the engine's check of the tiling stage: a periodic pack (walls would lie inside)
+    _core.resolve_stage("tile", scene, {})
     dim = scene.dim
     n = len(pack)
     reps = _counts(counts, dim, n)

@@ -18,6 +18,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 mod scene;
+mod stages;
 
 /// The one place where the engine's errors become Python exceptions: each variant has
 /// its class in `granpack.errors`, and its fields become keyword arguments (and so
@@ -750,15 +751,23 @@ struct SceneArgs<'py> {
     consolidate: Option<Bound<'py, PyAny>>,
 }
 
-/// A `granpack.PackScene` as the scene's validator takes it.
-fn scene_spec(scene: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
+/// A `granpack.PackScene` as the scene's validator takes it, and its `[consolidate]`
+/// table as given with its values typed.
+fn scene_spec<'py>(scene: &Bound<'py, PyAny>) -> PyResult<(SceneSpec, Option<Bound<'py, PyDict>>)> {
     let s: SceneArgs = scene.extract().map_err(|e| key_type_error(scene.py(), e))?;
+    let (consolidate, table) = match &s.consolidate {
+        Some(t) => {
+            let (spec, typed) = stages::consolidate_spec(t)?;
+            (Some(spec), Some(typed))
+        }
+        None => (None, None),
+    };
     let law = scene
         .extract::<LawArgs>()
         .map_err(|e| key_type_error(scene.py(), e))?
         .spec();
     let m = &s.material;
-    Ok(SceneSpec {
+    let spec = SceneSpec {
         dim: s.dim,
         base: s.base,
         container: s.container,
@@ -798,18 +807,32 @@ fn scene_spec(scene: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
         target_relative_density: s.target_relative_density,
         density_tol: s.density_tol,
         density_method: s.density_method,
-        consolidates: s.consolidate.is_some(),
-    })
+        consolidate,
+    };
+    Ok((spec, table))
 }
 
 /// Checks a whole scene (`granpack.PackScene`, read by attribute) with the scene's one
 /// validator, the same checks as `LayerPacker(scene)` and more, and returns what it
 /// resolves to: r_min, r_max, r_mean, r_std (m), base (m), cylinder_radius (m or
-/// None), critical_dt (s), estimated_particles. The error names the scene key.
+/// None), critical_dt (s), estimated_particles; `consolidate`, the scene's table as
+/// given with its values typed (None without one); and `stages`, every stage the scene
+/// lists with its settings, defaults filled in (`trim`, `rest`, `density`,
+/// `consolidate`; None where the scene does not run it). The error names the scene key
+/// (`consolidate.KEY` for the table's).
 #[pyfunction]
 fn resolve_scene<'py>(scene: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
-    let r = scene_spec(scene)?.resolve()?;
-    let d = PyDict::new(scene.py());
+    let py = scene.py();
+    let (spec, table) = scene_spec(scene)?;
+    let r = spec.resolve().map_err(|e| match e {
+        // the scene's own step is checked first: an unstable step of another value is
+        // the consolidation's
+        Error::UnstableTimeStep { dt, .. } if dt != spec.dt => {
+            stages::stage_error(py, e, "consolidate.dt")
+        }
+        e => PyErr::from(e),
+    })?;
+    let d = PyDict::new(py);
     d.set_item("r_min", r.r_min)?;
     d.set_item("r_max", r.r_max)?;
     d.set_item("r_mean", r.r_mean)?;
@@ -818,6 +841,8 @@ fn resolve_scene<'py>(scene: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>>
     d.set_item("cylinder_radius", r.cylinder_radius)?;
     d.set_item("critical_dt", r.critical_dt)?;
     d.set_item("estimated_particles", r.estimated_particles)?;
+    d.set_item("consolidate", table)?;
+    d.set_item("stages", stages::stages_to_py(py, &r.stages)?)?;
     Ok(d)
 }
 
@@ -920,7 +945,7 @@ impl LayerPacker {
     /// validated here).
     #[new]
     fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let spec = scene_spec(scene)?;
+        let (spec, _) = scene_spec(scene)?;
         let inner = match spec.dim {
             2 => PackInner::D2(Packer::new(spec.checked_config::<2>()?)?),
             3 => PackInner::D3(Packer::new(spec.checked_config::<3>()?)?),
@@ -1277,5 +1302,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;
     scene::register(m)?;
+    stages::register(m)?;
     Ok(())
 }

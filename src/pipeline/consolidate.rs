@@ -25,6 +25,7 @@
 use crate::error::{check_range, Error, Result};
 use crate::math::{Dim, Real, Spatial};
 use crate::pipeline::world::{ForceBalance, WallLoad, World};
+use crate::scene::stages::{MAX_STRESS, MAX_WALL_SPEED};
 
 /// Steps of wall travel at full speed that the walls' near-lists reach beyond them (a
 /// wider reach costs one distance test per extra particle near a wall, per step).
@@ -39,29 +40,29 @@ pub struct ServoTarget {
     pub stress: Real,
 }
 
-/// The stage's settings. SI units.
+/// The stage's settings as the engine runs them, SI units. The user's settings, their
+/// defaults and their checks are [`crate::scene::ConsolidateSpec`]'s; `validate` here
+/// guards the engine's own callers.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConsolidateConfig {
     /// The controlled walls and their target stresses (none: the walls stay, and the
     /// stage runs until the balance of forces is met).
     pub targets: Vec<ServoTarget>,
     /// Largest relative stress error |sigma - sigma*| / sigma* at equilibrium (-).
-    /// Default 1e-3.
     pub stress_tol: Real,
-    /// Largest unbalanced-force ratio at equilibrium (-). Default 1e-4.
+    /// Largest unbalanced-force ratio at equilibrium (-).
     pub unbalanced_tol: Real,
-    /// Consecutive checks that must meet both tolerances. Default 5.
+    /// Consecutive checks that must meet both tolerances.
     pub hold: u32,
-    /// Steps between two checks. Default 100.
+    /// Steps between two checks.
     pub check_every: u64,
-    /// Most steps the stage may take before it gives up. Default 2e6.
+    /// Most steps the stage may take before it gives up.
     pub max_steps: u64,
     /// Largest speed of a wall (m/s).
     pub max_wall_speed: Real,
     /// Servo gain, the fraction of the stress error corrected per step (-), in (0, 1].
-    /// Default 0.5 (PFC's).
     pub gain: Real,
-    /// Local non-viscous damping during the stage (-), in [0, 1). Default 0.4.
+    /// Local non-viscous damping during the stage (-), in [0, 1).
     pub local_damping: Real,
 }
 
@@ -105,7 +106,7 @@ impl ConsolidateConfig {
                     &format!("a wall index below {}", world.wall_count()),
                 ));
             }
-            check_range("stress", t.stress, 0.0, false, 1e12, true)?;
+            check_range("stress", t.stress, 0.0, false, MAX_STRESS, true)?;
         }
         check_range("stress_tol", self.stress_tol, 1e-9, true, 1.0, false)?;
         check_range(
@@ -140,7 +141,14 @@ impl ConsolidateConfig {
                 ),
             ));
         }
-        check_range("max_wall_speed", self.max_wall_speed, 0.0, false, 1e6, true)?;
+        check_range(
+            "max_wall_speed",
+            self.max_wall_speed,
+            0.0,
+            false,
+            MAX_WALL_SPEED,
+            true,
+        )?;
         check_range("gain", self.gain, 0.0, false, 1.0, true)?;
         check_range("local_damping", self.local_damping, 0.0, true, 1.0, false)?;
         Ok(())

@@ -9,12 +9,17 @@
 
 mod config;
 pub mod radius_law;
+pub mod stages;
 
 pub use config::{PackConfig, MAX_ATTEMPTS, MAX_LAYERS, MAX_PARTICLES, MAX_STEPS_PER_LAYER};
 pub use radius_law::{DiscreteLaw, FractionsBy, RadiusLaw, SieveLaw};
+pub use stages::{
+    ConsolidateSpec, DensitySpec, Particles, RestSpec, TileSpec, TrimSpec, DENSITY_METHODS,
+    TARGET_KEYS,
+};
 
 use crate::dynamics::Material;
-use crate::error::{check_range, fmt_g, Error, Result};
+use crate::error::{check_range, Error, Result};
 use crate::math::{Dim, Real, Spatial, Vector};
 use crate::pipeline::world::{Container, Inertia2D, SimConfig};
 use radius_law::lognormal_params;
@@ -250,8 +255,8 @@ pub struct SceneSpec {
     pub density_tol: Option<Real>,
     /// `"auto"`, `"deposition"` or `"servo"`.
     pub density_method: String,
-    /// Whether the scene has a `[consolidate]` table.
-    pub consolidates: bool,
+    /// The scene's `[consolidate]` table, None: no consolidation.
+    pub consolidate: Option<ConsolidateSpec>,
 }
 
 /// What a valid scene resolves to: the values derived from its keys, in one place.
@@ -274,13 +279,24 @@ pub struct Resolved {
     pub critical_dt: Real,
     /// Rough particle count: layers of phi_layer filling 1.5 H_d / h_layer slabs.
     pub estimated_particles: Real,
+    /// The stages the scene lists, checked: the flat top, the settling to rest, the
+    /// density target, the consolidation.
+    pub stages: Stages,
 }
 
-/// The density target keys, in the order a scene lists them.
-pub const TARGET_KEYS: [&str; 3] = ["target_phi", "target_void_ratio", "target_relative_density"];
-
-/// The density methods.
-pub const DENSITY_METHODS: [&str; 3] = ["auto", "deposition", "servo"];
+/// The stages a scene lists after its layer loop, each checked against the scene's
+/// container and radii; None where the scene does not run it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stages {
+    /// The flat top at the scene's height (`trim = true`).
+    pub trim: Option<TrimSpec>,
+    /// The settling to rest (`rest_tol`), the tolerance in `unbalanced_tol`.
+    pub rest: Option<RestSpec>,
+    /// The density target, when one of [`TARGET_KEYS`] is given.
+    pub density: Option<DensitySpec>,
+    /// The consolidation (`[consolidate]`).
+    pub consolidate: Option<ConsolidateSpec>,
+}
 
 impl SceneSpec {
     /// The power of the radius a particle's mass grows with: 3, or 2 for discs of unit
@@ -493,26 +509,14 @@ impl SceneSpec {
         let (r_min, r_max) = (law.r_min(), law.r_max());
         let (r_mean, r_std) = law.number_moments();
         let (cfg, base) = self.pack_config_with::<D>(law)?;
-        if let Some(tol) = self.rest_tol {
-            check_range("rest_tol", tol, 1e-9, true, 1.0, false)?;
-        }
-        self.check_density_target()?;
-        if self.trim && self.height < 2.0 * r_min {
-            // a particle resting on the floor reaches 2 r at least: the flat top would
-            // remove every one and leave an empty pack
-            return Err(Error::invalid_number(
-                "height",
-                self.height,
-                format!("{} m with trim = true", fmt_g(self.height)),
-                &format!(
-                    "the flat top removes every particle whose top lies above height, and \
-                     the smallest particle resting on the floor reaches 2 r_min = {} m; give \
-                     height >= {} m, or trim = false",
-                    2.0 * r_min,
-                    2.0 * r_min
-                ),
-            ));
-        }
+        let container = cfg.sim.container;
+        let particles = Particles {
+            r_min,
+            r_mean,
+            material: &self.material,
+            max_overlap_ratio: self.max_overlap_ratio,
+        };
+        let stages = self.stages(D, &container, &particles)?;
         let resolved = Resolved {
             r_min,
             r_max,
@@ -525,50 +529,41 @@ impl SceneSpec {
             },
             critical_dt: self.material.rayleigh_time_step(r_min),
             estimated_particles: cfg.estimated_particles(),
+            stages,
         };
         Ok((resolved, cfg))
     }
 
-    fn check_density_target(&self) -> Result<()> {
-        let given: Vec<(&str, Real)> = TARGET_KEYS
-            .iter()
-            .zip([
-                self.target_phi,
-                self.target_void_ratio,
-                self.target_relative_density,
-            ])
-            .filter_map(|(k, v)| v.map(|v| (*k, v)))
-            .collect();
-        if given.len() > 1 {
-            return Err(Error::invalid(
-                given[1].0,
-                given[1].1,
-                &format!(
-                    "a scene gives at most one density target, and {} is set too",
-                    given[0].0
-                ),
-            ));
+    /// The stages the scene lists, each checked by its own spec (the scene's
+    /// `rest_tol` named as such), and the rules between them.
+    fn stages(&self, dim: usize, container: &Container, p: &Particles<'_>) -> Result<Stages> {
+        let rest = match self.rest_tol {
+            Some(tol) => {
+                let spec = RestSpec {
+                    unbalanced_tol: tol,
+                    ..RestSpec::default()
+                };
+                spec.validate(dim, container)
+                    .map_err(|e| e.renamed("unbalanced_tol", "rest_tol"))?;
+                Some(spec)
+            }
+            None => None,
+        };
+        let density = DensitySpec {
+            target_phi: self.target_phi,
+            target_void_ratio: self.target_void_ratio,
+            target_relative_density: self.target_relative_density,
+            density_tol: self.density_tol,
+            density_method: self.density_method.clone(),
+        };
+        density.validate(dim, container)?;
+        if let Some(c) = &self.consolidate {
+            c.validate(dim, container)?;
         }
-        if let Some(phi) = self.target_phi {
-            check_range("target_phi", phi, 0.0, false, 1.0, false)?;
-        }
-        if let Some(e) = self.target_void_ratio {
-            check_range("target_void_ratio", e, 0.0, false, Real::INFINITY, false)?;
-        }
-        if let Some(dr) = self.target_relative_density {
-            check_range("target_relative_density", dr, 0.0, true, 1.0, true)?;
-        }
-        if let Some(tol) = self.density_tol {
-            check_range("density_tol", tol, 0.0, false, 0.1, true)?;
-        }
-        if !DENSITY_METHODS.contains(&self.density_method.as_str()) {
-            return Err(Error::invalid(
-                "density_method",
-                format!("'{}'", self.density_method),
-                "must be 'auto', 'deposition' or 'servo'",
-            ));
-        }
-        if self.density_method == "servo" && !given.is_empty() && !self.consolidates {
+        if density.density_method == "servo"
+            && density.target().is_some()
+            && self.consolidate.is_none()
+        {
             return Err(Error::invalid(
                 "density_method",
                 "'servo'",
@@ -576,7 +571,23 @@ impl SceneSpec {
                  [consolidate] table, or density_method = 'deposition'",
             ));
         }
-        Ok(())
+        let trim = if self.trim {
+            let spec = TrimSpec::default();
+            spec.validate(dim, container)?;
+            spec.check_particles(self.height, p)?;
+            Some(spec)
+        } else {
+            None
+        };
+        if let Some(c) = &self.consolidate {
+            c.check_particles(dim, container, p)?;
+        }
+        Ok(Stages {
+            trim,
+            rest,
+            density: density.target().is_some().then_some(density),
+            consolidate: self.consolidate.clone(),
+        })
     }
 }
 

@@ -24,14 +24,20 @@ DESCRIPTION = (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..consolidation import MODES
+    from .. import _core
 
+    c = _core.DEFAULT_CONSOLIDATE
     p = parser
     p.add_argument("pack", type=Path, metavar="PACK", help="a pack file (.npz)")
     p.add_argument(
         "--stress", type=float, required=True, help="target stress on the lid, sigma_zz (Pa)"
     )
-    p.add_argument("--mode", choices=MODES, default="oedometric", help="default: oedometric")
+    p.add_argument(
+        "--mode",
+        choices=_core.CONSOLIDATION_MODES,
+        default=c["mode"],
+        help=f"default: {c['mode']}",
+    )
     p.add_argument(
         "--lateral",
         type=float,
@@ -46,9 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="gravity during the stage (default: off above 100 times the weight stress)",
     )
-    p.add_argument("--stress-tol", type=float, default=1e-3, help="default: 1e-3")
-    p.add_argument("--unbalanced-tol", type=float, default=1e-4, help="default: 1e-4")
-    p.add_argument("--max-steps", type=int, default=2_000_000, help="default: 2e6")
+    for option, key, kind in (
+        ("--stress-tol", "stress_tol", float),
+        ("--unbalanced-tol", "unbalanced_tol", float),
+        ("--max-steps", "max_steps", int),
+    ):
+        p.add_argument(option, type=kind, default=c[key], help=f"default: {c[key]:g}")
     p.add_argument(
         "--max-wall-speed",
         type=float,
@@ -69,7 +78,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a density target, phi between the floor and the lid: the friction is lowered "
         "under the servo until it is reached, then restored (docs/density.md)",
     )
-    p.add_argument("--density-tol", type=float, default=0.002, help="default: 0.002")
+    p.add_argument(
+        "--density-tol",
+        type=float,
+        default=_core.DEFAULT_DENSITY_TOL,
+        help=f"default: {_core.DEFAULT_DENSITY_TOL:g}",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
 

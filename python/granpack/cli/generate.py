@@ -60,7 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--consolidate",
-        type=_args.positive_float,
+        # the stage's range is the engine's: the scene's check names consolidate.stress
+        type=float,
         default=None,
         metavar="STRESS",
         help="consolidate every pack to this stress on the lid (Pa) with servo walls, "
@@ -68,9 +69,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     g.add_argument(
         "--consolidate-mode",
-        choices=["oedometric", "isotropic"],
-        default="oedometric",
-        help="with --consolidate: the lid alone (K0), or every wall (default: oedometric)",
+        choices=_core.CONSOLIDATION_MODES,
+        default=_core.DEFAULT_CONSOLIDATE["mode"],
+        help="with --consolidate: the lid alone (K0), every wall, or the lid and the side "
+        "walls at the scene's [consolidate] lateral (default: "
+        f"{_core.DEFAULT_CONSOLIDATE['mode']})",
     )
     target = g.add_mutually_exclusive_group()
     target.add_argument(
@@ -96,12 +99,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=None,
         metavar="TOL",
-        help="largest distance from the target, in its own quantity (default: 0.002 in "
+        help="largest distance from the target, in its own quantity (default: "
+        f"{_core.DEFAULT_DENSITY_TOL:g} in "
         "phi, and its equivalent)",
     )
     g.add_argument(
         "--density-method",
-        choices=["auto", "deposition", "servo"],
+        choices=_core.DENSITY_METHODS,
         default=None,
         help="how the target is reached (default: the scene's, auto)",
     )
@@ -130,7 +134,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         table = dict(scene.consolidate or {})
         table.update(stress=args.consolidate, mode=args.consolidate_mode)
         changes["consolidate"] = table
-    for key in ("target_phi", "target_void_ratio", "target_relative_density"):
+    for key in _core.TARGET_KEYS:
         if getattr(args, key) is not None:
             # the option's target replaces the scene's, whichever key that used
             changes.update({k: None for k in scene.TARGET_KEYS}, **{key: getattr(args, key)})
