@@ -6,6 +6,19 @@ import pytest
 
 import granpack as gp
 
+#: The fixtures that run or import a peer program: a test that takes one is a peer test.
+PEER_FIXTURES = frozenset({"lmp", "liggghts", "yade", "gsd_hoomd", "ovito_io", "kratos"})
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Marks `peers` every test that runs LAMMPS, LIGGGHTS, YADE, Kratos or OVITO (or reads
+    with gsd): those under tests/peers/, those that take a peer's fixture, and those
+    marked so by hand; ``pytest -m "not peers"`` is the quick loop without them."""
+    for item in items:
+        under_peers = "peers" in item.path.parent.parts[-1:]
+        if under_peers or PEER_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.peers)
+
 
 def pytest_configure(config) -> None:
     # The tests' packs are short runs (0.3-0.5 s a layer, a few layers) in which a good

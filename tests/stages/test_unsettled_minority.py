@@ -23,7 +23,7 @@ from granpack.pack import (
     settling_issue,
 )
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))
 from scenes import small_scene  # noqa: E402
 
 #: A small 2D pack that comes to rest (kinetic energy near 1e-8 m g r at the end), with

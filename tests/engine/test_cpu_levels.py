@@ -13,7 +13,7 @@ import pytest
 
 import granpack as gp
 
-CHECK = Path(__file__).resolve().parents[1] / "tools" / "cpu_check.py"
+CHECK = Path(__file__).resolve().parents[2] / "tools" / "cpu_check.py"
 
 
 def run_check(level: str | None) -> subprocess.CompletedProcess[str]:

@@ -12,7 +12,7 @@ import granpack
 from granpack.errors import InvalidParameterError
 from granpack.paper import reproduce
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_reproduce_is_importable_and_documents_each_parameter():

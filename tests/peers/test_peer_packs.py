@@ -13,7 +13,7 @@ import pytest
 import granpack as gp
 from granpack.analysis import read_xyzr
 
-PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"
+PEERS = Path(__file__).resolve().parents[2].parent / "shared" / "peers"
 
 #: From the table in shared/peers/README.md (phi_bulk, phi_core, Z), with the number of
 #: decimals printed there. Box: side walls at 0 and L = 1 m, floor at 0, core margin 0.1 m.

@@ -16,7 +16,7 @@ SEED = 7
 # The scene below gives each layer 0.3 s, a little less than the 0.32 s its top needs to
 # fall through the slab, so that these bookkeeping tests stay fast: its packs do not
 # settle, and UnsettledPackWarning says so. What is checked here is where packs run and
-# how they are stored, not whether they rest (tests/test_reliability.py checks the warning).
+# how they are stored, not whether they rest (tests/stages/test_reliability.py checks the warning).
 pytestmark = pytest.mark.filterwarnings("ignore::granpack.UnsettledPackWarning")
 
 

@@ -13,9 +13,8 @@ import warnings
 
 import numpy as np
 import pytest
+from peer_runs import lid_force_in, run
 from scenes import small_scene
-from test_consolidated_export import lid_force_in
-from test_peer_programs import run
 
 import granpack as gp
 from granpack.analysis import MicrostructureWarning

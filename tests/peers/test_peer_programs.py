@@ -19,6 +19,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from peer_runs import run
 from scenes import small_scene
 
 import granpack as gp
@@ -36,21 +37,6 @@ def pack3d() -> gp.Pack:
 @pytest.fixture(scope="module", params=["sphere", "disc"])
 def pack2d(request) -> gp.Pack:
     return gp.generate(small_scene(2, inertia_2d=request.param))
-
-
-def run(program: str, run_dir, text: str) -> str:
-    """Runs `program` on the input `text` in `run_dir`; returns its log."""
-    (run_dir / "in.test").write_text(text)
-    done = subprocess.run(
-        [program, "-in", "in.test", "-log", "log.test"],
-        cwd=run_dir,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    log = (run_dir / "log.test").read_text() if (run_dir / "log.test").exists() else ""
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
-    return log
 
 
 def mass(pack: gp.Pack) -> np.ndarray:

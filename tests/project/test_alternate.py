@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[1] / "studies" / "_common" / "alternate.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "studies" / "_common" / "alternate.py"
 
 
 def printer(*values: float) -> str:

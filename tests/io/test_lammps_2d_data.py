@@ -14,7 +14,7 @@ import pytest
 import granpack as gp
 from granpack.analysis import read_xyzr
 
-PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"
+PEERS = Path(__file__).resolve().parents[2].parent / "shared" / "peers"
 
 
 def table() -> pl.DataFrame:

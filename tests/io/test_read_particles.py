@@ -398,6 +398,7 @@ write_dump all custom full.dump id type x y z radius modify format float %.17g
 """
 
 
+@pytest.mark.peers
 @pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (no lmp or lmp_serial on PATH)")
 def test_lammps_write_dump_of_an_exported_pack_reads_back(tmp_path, pack2d, pack3d):
     for pack in (pack2d, pack3d):
@@ -444,6 +445,7 @@ write_dump all custom pack.dump id type x y z radius mass
 """
 
 
+@pytest.mark.peers
 @pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS not installed (no liggghts on PATH)")
 def test_liggghts_write_dump_of_an_exported_pack_reads_back(tmp_path, pack3d):
     pack = pack3d

@@ -13,12 +13,11 @@ left them, and the peer programs find the same lid force.
 
 from __future__ import annotations
 
-import re
 import warnings
 
 import pytest
+from peer_runs import lid_force_in, lid_printed
 from scenes import small_scene
-from test_peer_programs import run  # the peers' runner: log, or the failure's output
 
 import granpack as gp
 from granpack.io import export
@@ -48,20 +47,6 @@ SMALL = {
 def _small(name: str) -> gp.Pack:
     scene, mode = SMALL[name]
     return gp.consolidate(gp.generate(scene), 1e4, mode)
-
-
-def lid_force_in(program: str, run_dir, steps: int) -> float:
-    """Runs ``in.granpack`` for `steps` steps in `program`; returns its v_lid_force."""
-    (run_dir / "in.test").write_text(
-        f'variable steps index {steps}\ninclude in.granpack\nprint "LID ${{lid_force}}"\n'
-    )
-    return _lid_printed(program, run_dir, "in.test")
-
-
-def _lid_printed(program: str, run_dir, script: str) -> float:
-    """Runs the input file `script` in `run_dir`; the last lid force it printed (N)."""
-    log = run(program, run_dir, (run_dir / script).read_text())
-    return float(re.findall(r"^LID (\S+)", log, re.MULTILINE)[-1])
 
 
 def test_the_export_carries_the_walls_and_the_lid(consolidated, tmp_path):
@@ -129,8 +114,8 @@ def test_the_servo_commands_run_and_hold_the_lid(lmp, liggghts, tmp_path):
     (tmp_path / "in.servo").write_text(
         _uncommented(text, ("servo_loop loop 100", "servo_loop loop 10"))
     )
-    assert _lid_printed(lmp, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
+    assert lid_printed(lmp, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
     text = export(pack, tmp_path / "pack.data", "liggghts")[1].read_text()
     (tmp_path / "in.servo").write_text(_uncommented(text, ("run             10000", "run 1000")))
-    assert _lid_printed(liggghts, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
+    assert lid_printed(liggghts, tmp_path, "in.servo") == pytest.approx(want, rel=0.05)
     assert (tmp_path / "lid.stl").read_text().startswith("solid lid")

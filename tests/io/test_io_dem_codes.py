@@ -140,6 +140,7 @@ def _run_kratos(script: str, *args: str, cwd: Path) -> dict:
     return json.loads(lines[lines.index("RESULT") + 1])
 
 
+@pytest.mark.peers
 @pytest.mark.parametrize("case", [(3, "periodic"), (2, "box")], ids=["3d-periodic", "2d-box"])
 def test_kratos_model_part_io_reads_the_spheres(case, tmp_path):
     _kratos_or_skip()
@@ -186,6 +187,7 @@ _KRATOS_RUN = textwrap.dedent(
 )
 
 
+@pytest.mark.peers
 def test_a_kratos_dem_run_starts_from_the_model_part(tmp_path):
     """Kratos' DEM analysis stage reads ``granpackDEM.mdpa``, assigns the material of
     MaterialsDEM.json to the sub model part DEMParts_Body, and runs 10 steps."""

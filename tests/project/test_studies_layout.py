@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
+STUDIES = Path(__file__).resolve().parents[2] / "studies"
 
 #: The headings every study's README.md carries, as level-2 Markdown headings.
 SECTIONS = ("Question", "Command", "Result", "Date", "Commit")

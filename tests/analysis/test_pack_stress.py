@@ -18,7 +18,7 @@ import granpack as gp
 from granpack.analysis import MicrostructureWarning, read_xyzr
 from granpack.analysis.stress import contact_forces, love_weber
 
-PEERS = Path(__file__).resolve().parents[1].parent / "shared" / "peers"
+PEERS = Path(__file__).resolve().parents[2].parent / "shared" / "peers"
 PROPS = settings(
     max_examples=40,
     deadline=None,

@@ -14,7 +14,7 @@ import pytest
 
 from granpack import Material, PackScene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCENE_PAGE = ROOT / "docs" / "scene.md"
 MAP = ROOT / "ARCHITECTURE.md"
 STUDIES = ROOT / "studies"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "studies" / "vs_peers" / "vs_peers.py"
 PEERS = Path(os.environ.get("GRANPACK_PEERS_DIR", ROOT.parent / "shared" / "peers"))
 

@@ -18,7 +18,7 @@ from granpack.history import TABLE_NAMES, StageRecord
 from granpack.pack import FORMAT_VERSION
 from granpack.stages import deposit, rest
 
-OLD = Path(__file__).parent / "data" / "packs_0_1_0"
+OLD = Path(__file__).parents[1] / "data" / "packs_0_1_0"
 OLD_FILES = sorted(OLD.glob("*.npz"))
 #: The tables of a 0.1.0 pack file, by the stage each became.
 OLD_TABLES = {table: stage for stage, table in TABLE_NAMES.items()}
