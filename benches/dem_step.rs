@@ -64,7 +64,7 @@ fn bench_grid_and_rsa(c: &mut Criterion) {
         b.iter(|| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
             let spec = LayerSpec::<3> {
-                container: _core::pipeline::Container::Box,
+                container: _core::scene::Container::Box,
                 lo: Vector::<3>::zeros(),
                 hi: Vector::<3>::new(1.0, 1.0, f64::INFINITY),
                 vertical: 2,
@@ -127,7 +127,7 @@ fn bench_sizes(c: &mut Criterion) {
 /// over the same cross-section (`common::container_world`), on one thread: the
 /// periodic cell's minimum image and the cylinder's curved wall should cost little.
 fn bench_containers(c: &mut Criterion) {
-    use _core::pipeline::Container;
+    use _core::scene::Container;
     let mut g = c.benchmark_group("container_step");
     g.sample_size(20).measurement_time(Duration::from_secs(4));
     let pool = rayon::ThreadPoolBuilder::new()

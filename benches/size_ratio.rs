@@ -16,7 +16,7 @@
 mod common;
 
 use _core::pipeline::rsa::{place_layer, LayerSpec};
-use _core::pipeline::Container;
+use _core::scene::Container;
 use _core::Vector;
 use rand::SeedableRng;
 

@@ -71,7 +71,7 @@ fn main() {
     // `containers`: packs of about 4 000 spheres made in the box, the periodic cell and
     // the cylinder, over the same cross-section
     if std::env::args().any(|a| a == "containers") {
-        use _core::pipeline::Container;
+        use _core::scene::Container;
         for (label, c) in [
             ("3d box", Container::Box),
             ("3d periodic", Container::Periodic),

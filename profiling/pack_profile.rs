@@ -40,7 +40,7 @@ where
         .filter(|&d| d > sim.dt);
     sim.skin_ratio = env("SKIN", sim.skin_ratio);
     if env("PERIODIC", 0.0) != 0.0 {
-        sim.container = _core::pipeline::Container::Periodic;
+        sim.container = _core::scene::Container::Periodic;
     }
     let cfg = PackConfig::<D> {
         sim,

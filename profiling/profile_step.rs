@@ -52,9 +52,9 @@ where
     };
     // PERIODIC=1: the tiles in a cell periodic over their horizontal extent, no side walls
     let container = if std::env::var("PERIODIC").is_ok_and(|v| v == "1") {
-        _core::pipeline::Container::Periodic
+        _core::scene::Container::Periodic
     } else {
-        _core::pipeline::Container::Box
+        _core::scene::Container::Box
     };
     let mut w = common::settled_world_with::<D>(tiles, 20, 1, order, container);
     let start = std::time::Instant::now();

@@ -28,4 +28,5 @@ mod bindings;
 pub use dynamics::Material;
 pub use error::{Error, Result};
 pub use math::{Dim, Real, Spatial, Vector};
-pub use pipeline::{Contacts, PackConfig, Packer, RadiusLaw, SimConfig, World};
+pub use pipeline::{Contacts, PackConfig, Packer, RadiusLaw, World};
+pub use scene::SimConfig;

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use _core::math::{Dim, Spatial};
-use _core::pipeline::Container;
+use _core::scene::Container;
 use _core::{PackConfig, Packer, RadiusLaw, SimConfig, Vector, World};
 use std::path::PathBuf;
 

@@ -7,8 +7,9 @@
 
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{geometric_contacts, Contacts, Container, Inertia2D};
-use crate::pipeline::{LayerReport, Packer, RadiusLaw, SimConfig, World};
+use crate::pipeline::world::{geometric_contacts, Contacts};
+use crate::pipeline::{LayerReport, Packer, RadiusLaw, World};
+use crate::scene::{fills_box, Container, Inertia2D, SimConfig};
 use crate::scene::{LawSpec, SceneSpec};
 use crate::Material;
 use numpy::ndarray::{Array1, Array2};
@@ -1200,7 +1201,7 @@ fn find_contacts<'py>(
                     }
                     for a in 0..2 {
                         let side = hi[a] - lo[a];
-                        if (side - 2.0 * radius).abs() > 1e-9 * side.abs() {
+                        if !fills_box(side, radius) {
                             return Err(bad(
                                 "walls",
                                 format!(
@@ -1289,10 +1290,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cpu_level, m)?)?;
     m.add_function(wrap_pyfunction!(cpu_levels, m)?)?;
 
-    m.add(
-        "MAX_STEPS_PER_CALL",
-        crate::pipeline::world::MAX_STEPS_PER_CALL,
-    )?;
+    m.add("MAX_STEPS_PER_CALL", crate::scene::MAX_STEPS_PER_CALL)?;
     m.add("MAX_STEPS_PER_LAYER", crate::scene::MAX_STEPS_PER_LAYER)?;
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;

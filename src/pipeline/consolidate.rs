@@ -131,13 +131,13 @@ impl ConsolidateConfig {
                 "must lie in [1, 1000000] steps",
             ));
         }
-        if self.max_steps == 0 || self.max_steps > crate::pipeline::world::MAX_STEPS_PER_CALL {
+        if self.max_steps == 0 || self.max_steps > crate::scene::MAX_STEPS_PER_CALL {
             return Err(Error::invalid(
                 "max_steps",
                 self.max_steps,
                 &format!(
                     "must lie in [1, {}] steps",
-                    crate::pipeline::world::MAX_STEPS_PER_CALL
+                    crate::scene::MAX_STEPS_PER_CALL
                 ),
             ));
         }
@@ -288,7 +288,7 @@ where
 mod tests {
     use super::*;
     use crate::math::Vector;
-    use crate::pipeline::world::{Container, SimConfig};
+    use crate::scene::{Container, SimConfig};
 
     /// The paper's material, gravity off, a box of side `side` (or a periodic cell).
     fn world(side: Real, container: Container, friction: Real) -> World<3> {

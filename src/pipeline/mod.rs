@@ -9,4 +9,4 @@ pub mod world;
 pub use crate::scene::{DiscreteLaw, FractionsBy, SieveLaw};
 pub use consolidate::{consolidate, ConsolidateConfig, ConsolidateReport, ServoCheck, ServoTarget};
 pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};
-pub use world::{Contacts, Container, FreezeConfig, Inertia2D, SimConfig, World};
+pub use world::{Contacts, FreezeConfig, World};

@@ -475,7 +475,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pipeline::world::SimConfig;
+    use crate::scene::SimConfig;
 
     fn small_2d() -> PackConfig<2> {
         let mut sim = SimConfig::<2>::paper();

@@ -8,7 +8,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::Period;
 use crate::math::{particle_volume, Real, Vector};
-use crate::pipeline::world::Container;
+use crate::scene::Container;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 

@@ -2,9 +2,9 @@
 //! checks of every field.
 
 use super::RadiusLaw;
+use super::{Container, SimConfig};
 use crate::error::{check_range, fmt_g, Error, Result};
 use crate::math::{Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{Container, SimConfig};
 
 /// Most DEM steps of one layer's jamming run (settle_time / dt): 1e4 in the paper;
 /// beyond this bound a scene is refused before any work starts.
@@ -22,7 +22,7 @@ pub const MAX_PARTICLES: Real = 5e8;
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackConfig<const D: usize> {
     /// Engine settings (material, dt, gravity, drag, rotations). `walls` is set from
-    /// `base` by [`crate::pipeline::Packer::new`].
+    /// `base` by the layer loop's `Packer::new`.
     pub sim: SimConfig<D>,
     /// Box lengths along the horizontal axes (m); the vertical entry is ignored.
     /// The box spans [0, base_k] on each horizontal axis, the floor is at 0.
@@ -62,7 +62,7 @@ pub struct PackConfig<const D: usize> {
     pub settle_dt: Option<Real>,
     /// Freeze settled particles whose top lies more than this depth (m) below the pack
     /// height before the current layer. After the last layer every particle thaws and
-    /// the pack relaxes for [`crate::pipeline::pack::FREEZE_RELAX`] (at most `settle_time`), so that the frozen
+    /// the pack relaxes for the layer loop's `FREEZE_RELAX` (at most `settle_time`), so that the frozen
     /// contacts take up the weight added above them. None (default): never freeze.
     pub freeze_depth: Option<Real>,
     /// Speed (m/s) under which a buried particle may freeze. Default 1e-3.

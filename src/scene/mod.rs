@@ -8,11 +8,15 @@
 //! on the command line meets the same checks and the same errors.
 
 mod config;
+mod container;
 pub mod radius_law;
+mod sim_config;
 pub mod stages;
 
 pub use config::{PackConfig, MAX_ATTEMPTS, MAX_LAYERS, MAX_PARTICLES, MAX_STEPS_PER_LAYER};
+pub use container::{fills_box, Container, FILLS_BOX_TOL};
 pub use radius_law::{DiscreteLaw, FractionsBy, RadiusLaw, SieveLaw};
+pub use sim_config::{Inertia2D, SimConfig, MAX_STEPS_PER_CALL};
 pub use stages::{
     ConsolidateSpec, DensitySpec, Particles, RestSpec, TileSpec, TrimSpec, DENSITY_METHODS,
     TARGET_KEYS,
@@ -21,7 +25,6 @@ pub use stages::{
 use crate::dynamics::Material;
 use crate::error::{check_range, Error, Result};
 use crate::math::{Dim, Real, Spatial, Vector};
-use crate::pipeline::world::{Container, Inertia2D, SimConfig};
 use radius_law::lognormal_params;
 
 /// The containers a scene may name, one per variant of [`Container`]: walls all round,
@@ -359,8 +362,7 @@ impl SceneSpec {
             }
             ("cylinder", Some(radius)) => {
                 check_range("cylinder_radius", radius, 0.0, false, Real::INFINITY, false)?;
-                let close = |b: Real| (b - 2.0 * radius).abs() <= 1e-12 * b.abs().max(2.0 * radius);
-                if !base.iter().all(|&b| close(b)) {
+                if !base.iter().all(|&b| fills_box(b, radius)) {
                     return Err(Error::invalid(
                         "base",
                         format!("{} with cylinder_radius = {radius} m", quoted_base()),

@@ -11,10 +11,10 @@
 //! the smallest particle) take them as [`Particles`]: the scene's radius law when a
 //! scene is built, the pack's own radii when the stage starts.
 
+use super::{Container, MAX_STEPS_PER_CALL};
 use crate::dynamics::Material;
 use crate::error::{check_range, fmt_g_digits, Error, Result};
 use crate::math::Real;
-use crate::pipeline::world::{Container, MAX_STEPS_PER_CALL};
 
 /// The consolidation modes: the lid alone (K0), every wall the same stress, the lid
 /// and the side walls each their own.

@@ -12,18 +12,6 @@
 use super::*;
 pub use crate::geometry::Period;
 
-/// What bounds the particles laterally (the floor is always a wall, the top open).
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub enum Container {
-    /// Plane side walls at the box corners (the paper's box).
-    #[default]
-    Box,
-    /// Periodic horizontal axes, periods = the box's lateral lengths.
-    Periodic,
-    /// A vertical cylinder (3D) of this radius (m), axis through `lo + (R, R)`.
-    Cylinder(Real),
-}
-
 /// A wall: a plane, or the inside of a vertical cylinder.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Wall {

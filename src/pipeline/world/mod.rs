@@ -12,7 +12,6 @@
 //! 5. second half kick, with the blow-up guards.
 //!
 //! One concern a file:
-//! - `config.rs`: the engine settings ([`SimConfig`]);
 //! - `particles.rs`: the particle arrays, and adding particles;
 //! - `pair_list.rs`: the Verlet list, its per-pair state and its rebuild (step 2);
 //! - `boundary.rs`: the container's walls;
@@ -35,15 +34,15 @@ use crate::dynamics::batched_law::{
     clear_lanes, geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors,
     PairRecord, BLOCK, BLOCK_SHIFT, LANES,
 };
-use crate::dynamics::{hertz_mindlin, Material, PairParams};
+use crate::dynamics::{hertz_mindlin, PairParams};
 use crate::error::{check_range, BlowupKind, Error, Result};
 use crate::geometry::grid::{bin_starts, counting_sort};
 use crate::geometry::{neighbor_pairs_active, neighbor_pairs_periodic};
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
+use crate::scene::{Container, Inertia2D, SimConfig, MAX_STEPS_PER_CALL};
 use rayon::prelude::*;
 
 mod boundary;
-mod config;
 mod contacts;
 #[cfg(test)]
 mod container_tests;
@@ -60,9 +59,8 @@ mod team;
 #[cfg(test)]
 mod tests;
 
+pub use boundary::Period;
 pub(crate) use boundary::{container_walls, Wall};
-pub use boundary::{Container, Period};
-pub use config::{Inertia2D, SimConfig};
 pub use contacts::{geometric_contacts, Contacts, FinishedState};
 pub use freeze::{FreezeConfig, FREEZE_INTERVAL};
 pub use moving_walls::{ForceBalance, WallLoad};
@@ -92,10 +90,6 @@ impl<T> SyncPtr<T> {
 // use states why).
 unsafe impl<T> Send for SyncPtr<T> {}
 unsafe impl<T> Sync for SyncPtr<T> {}
-
-/// Most steps one call may ask for (1e10: hours for a handful of particles, far more
-/// for a pack); beyond it a request is refused by name before any step is taken.
-pub const MAX_STEPS_PER_CALL: u64 = 10_000_000_000;
 
 /// Particles per parallel work item. Systems below this run on one thread with no
 /// scheduling cost; the value does not affect results.

@@ -1,6 +1,14 @@
-//! Engine settings: the material, time step, gravity, drag, walls, skin and guards.
+//! The engine's settings: the material, time step, gravity, drag, walls, skin and
+//! guards; the scene resolves into them, and the world runs them.
 
-use super::*;
+use super::container::{fills_box, Container};
+use crate::dynamics::Material;
+use crate::error::{check_range, Error, Result};
+use crate::math::{Dim, Real, Spatial, Vector};
+
+/// Most steps one call may ask for (1e10: hours for a handful of particles, far more
+/// for a pack); beyond it a request is refused by name before any step is taken.
+pub const MAX_STEPS_PER_CALL: u64 = 10_000_000_000;
 
 /// Mass and moment of inertia of a 2D particle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -34,7 +42,7 @@ pub struct SimConfig<const D: usize> {
     pub container: Container,
     /// Largest Verlet skin, as a fraction of the smallest radius (-). Default 0.2.
     /// Each particle has a skin of its own, chosen at each rebuild from its speed so
-    /// that it lasts about [`SKIN_STEPS`] steps, within [`SKIN_FLOOR`] of this and
+    /// that it lasts about the world's `SKIN_STEPS` steps, within its `SKIN_FLOOR` of this and
     /// this: falling particles keep the wide skin while the resting bed under them
     /// tests few pairs. Never changes a result, only the speed: it sets when the list
     /// is rebuilt, and no force or position depends on that.
@@ -104,7 +112,7 @@ where
             check_range("cylinder_radius", radius, 0.0, false, f64::MAX, true)?;
             for k in 0..2 {
                 let side = hi[k] - lo[k];
-                if (side - 2.0 * radius).abs() > 1e-12 * side.abs() {
+                if !fills_box(side, radius) {
                     return Err(Error::invalid(
                         "box",
                         format!("side {side} on axis {k}"),
