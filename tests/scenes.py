@@ -15,6 +15,21 @@ def small_scene(dim: int, **kw) -> gp.PackScene:
     return base.replace(seed=11, **kw)
 
 
+def tiny_periodic_2d() -> gp.PackScene:
+    """A periodic 2D cell 0.1 m wide of 1 cm discs, one loose layer of 0.04 m jammed for
+    0.2 s: a pack in a fraction of a second, for the commands' checks before the work."""
+    return gp.PackScene(
+        dim=2,
+        base=(0.1,),
+        height=0.04,
+        r_mean=0.01,
+        h_layer=0.04,
+        phi_layer=0.3,
+        settle_time=0.2,
+        container="periodic",
+    )
+
+
 def outputs_on_threads(script: str, *args: str) -> dict[str, list[str]]:
     """Runs `script` (Python source) in a fresh interpreter on one and on two rayon
     threads and returns the words it printed, by thread count."""

@@ -10,6 +10,7 @@ import tempfile
 import warnings
 
 import pytest
+from scenes import tiny_periodic_2d
 
 import granpack as gp
 from granpack._files import atomic_write
@@ -129,16 +130,7 @@ def test_a_folder_without_write_permission_is_refused(tmp_path):
 
 @pytest.fixture(scope="module")
 def periodic_pack(tmp_path_factory):
-    sc = gp.PackScene(
-        dim=2,
-        base=(0.1,),
-        height=0.04,
-        r_mean=0.01,
-        h_layer=0.04,
-        phi_layer=0.3,
-        settle_time=0.2,
-        container="periodic",
-    )
+    sc = tiny_periodic_2d()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", gp.UnsettledPackWarning)
         pack = gp.generate(sc)

@@ -11,6 +11,7 @@ import warnings
 from pathlib import Path
 
 import pytest
+from scenes import tiny_periodic_2d
 
 import granpack as gp
 from granpack._memory import memory_limit
@@ -98,16 +99,7 @@ def _limited(argv: list[str], limit: int, cwd: Path) -> subprocess.CompletedProc
 
 @pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_AS as Linux applies it")
 def test_tile_under_an_address_space_limit_is_refused_before_the_work(tmp_path):
-    sc = gp.PackScene(
-        dim=2,
-        base=(0.1,),
-        height=0.04,
-        r_mean=0.01,
-        h_layer=0.04,
-        phi_layer=0.3,
-        settle_time=0.2,
-        container="periodic",
-    )
+    sc = tiny_periodic_2d()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", gp.UnsettledPackWarning)
         gp.generate(sc).save(tmp_path / "pack.npz")

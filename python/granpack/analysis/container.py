@@ -50,6 +50,7 @@ import numpy as np
 
 from .. import _core
 from .._validate import FileFormatError, InvalidParameterError
+from ..history import stage_table
 
 __all__ = ["Container", "CONTAINERS", "ContainerTag", "wall_names"]
 
@@ -436,9 +437,7 @@ class ContainerTag:
 def _consolidation_record(pack) -> dict | None:
     """The consolidation record of a consolidated pack (its history's "consolidate"
     table), None for a deposit and for what is not a granpack Pack."""
-    record = getattr(pack, "record", None)
-    found = record("consolidate") if callable(record) else None
-    rec = None if found is None else found.table()
+    rec = stage_table(pack, "consolidate")
     return rec if isinstance(rec, dict) and "walls" in rec else None
 
 
