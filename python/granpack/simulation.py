@@ -16,6 +16,20 @@ __all__ = ["Material", "Simulation", "MAX_STEPS_PER_CALL"]
 
 #: Most steps one `Simulation.step` or `Simulation.run` call takes.
 MAX_STEPS_PER_CALL = _core.MAX_STEPS_PER_CALL
+#: The contact laws `Material.contact_law` takes.
+CONTACT_LAWS = ("hertz_mindlin", "linear")
+#: The rolling-resistance models `Material.rolling` takes.
+ROLLING_MODELS = ("none", "epsd")
+_MODEL_DEFAULTS = {"contact_law": "hertz_mindlin", "rolling": "none"}
+_MODEL_KEYS = (
+    "contact_law",
+    "normal_stiffness",
+    "tangential_stiffness",
+    "rolling",
+    "rolling_friction",
+    "rolling_stiffness",
+    "rolling_damping",
+)
 
 
 @dataclass(frozen=True)
@@ -35,6 +49,30 @@ class Material:
         (the paper's "damping rate"). Default 0.1.
     friction : float
         Coulomb friction coefficient mu >= 0 (particles and walls). Default 0.2.
+    contact_law : str
+        ``"hertz_mindlin"`` (default: Hertz normal, Mindlin tangential spring, from
+        `young` and `poisson`) or ``"linear"`` (constant springs `normal_stiffness` and
+        `tangential_stiffness`: PFC's ``linear``, LAMMPS ``hooke``, YADE's Cundall-Strack
+        law). The dashpots keep the damping ratio `damping` in both.
+    normal_stiffness : float or None
+        Linear law only: normal spring k_n (N/m), > 0. Required with ``"linear"``.
+    tangential_stiffness : float or None
+        Linear law only: tangential spring k_t (N/m), > 0. Default k_n 2 (1 - nu) /
+        (2 - nu), the ratio of the Hertz-Mindlin law's two stiffnesses.
+    rolling : str
+        Rolling resistance: ``"none"`` (default) or ``"epsd"``, the elastic-plastic
+        spring-dashpot model (type C of Ai, Chen, Rotter and Ooi 2011; LIGGGHTS
+        ``epsd2``, LAMMPS ``rolling sds``): a spring on the rolling displacement R*
+        times the relative rotation, capped at mu_r R* F_n, with a dashpot.
+    rolling_friction : float or None
+        Rolling friction coefficient mu_r >= 0 (-). Required with ``"epsd"``.
+    rolling_stiffness : float or None
+        Rolling spring k_r (N/m) on the rolling displacement (LAMMPS ``k_roll``), > 0.
+        Default 2.25 mu_r^2 k_n, with k_n the contact's current normal stiffness (Ai et
+        al. 2011, after Iwashita and Oda 1998).
+    rolling_damping : float or None
+        Rolling dashpot gamma_r (N s/m) on the rolling velocity (LAMMPS ``gamma_roll``),
+        >= 0. Default 0, as LIGGGHTS ``epsd2``.
     """
 
     density: float = 1000.0
@@ -42,6 +80,13 @@ class Material:
     poisson: float = 0.25
     damping: float = 0.1
     friction: float = 0.2
+    contact_law: str = "hertz_mindlin"
+    normal_stiffness: float | None = None
+    tangential_stiffness: float | None = None
+    rolling: str = "none"
+    rolling_friction: float | None = None
+    rolling_stiffness: float | None = None
+    rolling_damping: float | None = None
 
     def __post_init__(self) -> None:
         check = object.__setattr__
@@ -52,12 +97,80 @@ class Material:
         )
         check(self, "damping", as_real("damping", self.damping, 0, 1))
         check(self, "friction", as_real("friction", self.friction, 0))
+        if self.contact_law not in CONTACT_LAWS:
+            raise InvalidParameterError(
+                f"invalid contact_law = {short_repr(self.contact_law)}: must be one of "
+                + ", ".join(repr(c) for c in CONTACT_LAWS),
+                parameter="contact_law",
+            )
+        if self.rolling not in ROLLING_MODELS:
+            raise InvalidParameterError(
+                f"invalid rolling = {short_repr(self.rolling)}: must be one of "
+                + ", ".join(repr(c) for c in ROLLING_MODELS),
+                parameter="rolling",
+            )
+        linear = self.contact_law == "linear"
+        for key in ("normal_stiffness", "tangential_stiffness"):
+            value = getattr(self, key)
+            if value is None:
+                continue
+            if not linear:
+                raise InvalidParameterError(
+                    f"invalid {key} = {short_repr(value)}: only the linear law takes it "
+                    f"(contact_law = {self.contact_law!r})",
+                    parameter=key,
+                )
+            check(self, key, as_real(key, value, 0, lo_open=True, unit="N/m"))
+        if linear and self.normal_stiffness is None:
+            raise InvalidParameterError(
+                "missing normal_stiffness: the linear law needs k_n (N/m), > 0",
+                parameter="normal_stiffness",
+            )
+        rolling = self.rolling != "none"
+        for key, lo, lo_open, unit in (
+            ("rolling_friction", 0, False, ""),
+            ("rolling_stiffness", 0, True, "N/m"),
+            ("rolling_damping", 0, False, "N s/m"),
+        ):
+            value = getattr(self, key)
+            if value is None:
+                continue
+            if not rolling:
+                raise InvalidParameterError(
+                    f"invalid {key} = {short_repr(value)}: only a rolling model takes it "
+                    "(rolling = 'none')",
+                    parameter=key,
+                )
+            check(self, key, as_real(key, value, lo, lo_open=lo_open, unit=unit))
+        if rolling and self.rolling_friction is None:
+            raise InvalidParameterError(
+                f"missing rolling_friction: rolling = {self.rolling!r} needs mu_r >= 0",
+                parameter="rolling_friction",
+            )
+
+    @property
+    def tangential_stiffness_or_default(self) -> float | None:
+        """The linear law's k_t (N/m): as given, or k_n 2 (1 - nu) / (2 - nu); None for
+        Hertz-Mindlin."""
+        if self.contact_law != "linear" or self.normal_stiffness is None:
+            return None
+        if self.tangential_stiffness is not None:
+            return self.tangential_stiffness
+        nu = self.poisson
+        return self.normal_stiffness * 2.0 * (1.0 - nu) / (2.0 - nu)
 
     def as_tuple(self) -> tuple[float, float, float, float, float]:
         return (self.density, self.young, self.poisson, self.damping, self.friction)
 
-    def to_dict(self) -> dict[str, float]:
-        return asdict(self)
+    def to_dict(self) -> dict[str, float | str]:
+        """The constants as a table: the contact-model keys only where they differ from
+        the default (Hertz-Mindlin without rolling), so that a default material's table,
+        and every record made from it, is what it was before the keys existed."""
+        out = asdict(self)
+        for key in _MODEL_KEYS:
+            if out[key] is None or out[key] == _MODEL_DEFAULTS.get(key):
+                del out[key]
+        return out
 
     @property
     def e_star(self) -> float:
