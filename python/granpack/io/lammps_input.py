@@ -46,14 +46,22 @@ from typing import TYPE_CHECKING
 
 from .._validate import InvalidParameterError
 from ..analysis.container import Container, _consolidation_record
+from .contact_model import (
+    mean_contact,
+    normal_stiffness_at_mean,
+    rolling_stiffness_at_mean,
+    rolling_stiffness_words,
+)
 
 if TYPE_CHECKING:
     from ..pack import Pack
+    from ..simulation import Material
 
 __all__ = [
     "SNIPPET_NAME",
     "liggghts_restitution",
     "lammps_restitution",
+    "lammps_linear_restitution",
     "tsuji_alpha",
     "lammps_input",
     "liggghts_input",
@@ -127,11 +135,23 @@ def lammps_restitution(damping: float) -> float:
     """Restitution e that makes LAMMPS' Tsuji damping granpack's (damping ratio xi):
     alpha(e) = 2 sqrt(3/2) xi, solved by bisection (alpha falls from 1.27 at e = 0 to
     0 at e = 1)."""
-    want = 2.0 * math.sqrt(1.5) * damping
+    return _tsuji_inverse(2.0 * math.sqrt(1.5), damping)
+
+
+def lammps_linear_restitution(damping: float) -> float:
+    """Restitution e that makes LAMMPS' Tsuji damping of a ``hooke`` contact granpack's
+    linear law's (damping ratio xi): LAMMPS 29Sep2021 damps it with alpha(e) sqrt(m* k_n),
+    granpack with 2 xi sqrt(m* k_n), so alpha(e) = 2 xi."""
+    return _tsuji_inverse(2.0, damping)
+
+
+def _tsuji_inverse(factor: float, damping: float) -> float:
+    """The e with tsuji_alpha(e) = factor * damping, by bisection."""
+    want = factor * damping
     if want >= tsuji_alpha(0.0):
         raise InvalidParameterError(
             f"invalid damping = {damping}: LAMMPS' Tsuji damping reaches at most "
-            f"{tsuji_alpha(0.0) / (2.0 * math.sqrt(1.5)):.4f}",
+            f"{tsuji_alpha(0.0) / factor:.4f}",
             parameter="damping",
             value=damping,
         )
@@ -223,6 +243,9 @@ def _lid_stiffness(pack: Pack) -> float:
     top = pack.positions[:, -1] + pack.radii - float(rec["walls"]["lid"])
     d = top[top > 0.0]
     r = pack.radii[top > 0.0]
+    if m.contact_law == "linear":
+        assert m.normal_stiffness is not None
+        return float(m.normal_stiffness) * max(len(d), 1)
     k = float(sum(2.0 * e_star * math.sqrt(ri * di) for ri, di in zip(r, d, strict=True)))
     # a lid without contacts: one contact of the mean particle at 1e-3 of its radius
     if k <= 0.0:
@@ -239,21 +262,30 @@ def lammps_input(pack: Pack, data_name: str) -> str:
     container = Container.of_pack(pack)
     kind, radius = container.kind, container.radius
     rec = _consolidation_record(pack)
-    e = lammps_restitution(m.damping)
-    t_damp = math.sqrt(2.0 * (1.0 - m.poisson) / (2.0 - m.poisson))
-    law = (
-        f"hertz/material {_g(m.young)} {_g(e)} {_g(m.poisson)} tangential mindlin NULL "
-        f"{_g(t_damp)} {_g(m.friction)} damping tsuji limit_damping"
-    )
-    wall_law = law
-    if rec is not None:
-        # granpack's wall law, stiffnesses given (see the module notes)
-        e_star = m.e_star
-        g_star = m.young / (4.0 * (2.0 - m.poisson) * (1.0 + m.poisson))
-        wall_law = (
-            f"hertz {_g(4.0 / 3.0 * e_star)} {_g(e)} tangential mindlin {_g(8.0 * g_star)} "
+    model_notes: list[str] = []
+    if m.contact_law == "linear":
+        law, model_notes = _lammps_linear_law(m)
+        wall_law = law
+    else:
+        e = lammps_restitution(m.damping)
+        t_damp = math.sqrt(2.0 * (1.0 - m.poisson) / (2.0 - m.poisson))
+        law = (
+            f"hertz/material {_g(m.young)} {_g(e)} {_g(m.poisson)} tangential mindlin NULL "
             f"{_g(t_damp)} {_g(m.friction)} damping tsuji limit_damping"
         )
+        wall_law = law
+        if rec is not None:
+            # granpack's wall law, stiffnesses given (see the module notes)
+            e_star = m.e_star
+            g_star = m.young / (4.0 * (2.0 - m.poisson) * (1.0 + m.poisson))
+            wall_law = (
+                f"hertz {_g(4.0 / 3.0 * e_star)} {_g(e)} tangential mindlin "
+                f"{_g(8.0 * g_star)} {_g(t_damp)} {_g(m.friction)} damping tsuji limit_damping"
+            )
+    rolling, rolling_notes = _lammps_rolling(pack)
+    law += rolling
+    wall_law += rolling
+    model_notes += rolling_notes
     r_min = float(pack.radii.min()) if len(pack) else float(s.r_min or s.r_mean)
     vert = "0 0 -1" if s.dim == 3 else "0 -1 0"
     out = _header(pack, data_name, "LAMMPS")
@@ -272,14 +304,23 @@ def lammps_input(pack: Pack, data_name: str) -> str:
     out += [
         f"neighbor        {_g(s.skin_ratio * r_min)} bin",
         "neigh_modify    delay 0",
-        "# Hertz-Mindlin with granpack's damping (restitution and tangential factor: see",
-        f"# docs/interop.md); damping ratio {m.damping:g}",
+    ]
+    if m.contact_law == "linear":
+        out.append(f"# granpack's linear law; damping ratio {m.damping:g}")
+    else:
+        out += [
+            "# Hertz-Mindlin with granpack's damping (restitution and tangential factor: see",
+            f"# docs/interop.md); damping ratio {m.damping:g}",
+        ]
+    out += model_notes
+    out += [
         "pair_style      granular",
         f"pair_coeff      * * {law}",
     ]
     floor = "zplane" if s.dim == 3 else "yplane"
     if rec is not None:
         out += _consolidated_notes(pack, "LAMMPS")
+    if rec is not None and m.contact_law != "linear":
         out += [
             "# fix wall/gran's hertz/material gives a wall (1 + nu) times the pair law's normal",
             "# stiffness and another Mindlin one: the walls take granpack's, k_n = 4/3 E* and",
@@ -330,6 +371,50 @@ def lammps_input(pack: Pack, data_name: str) -> str:
         out += _lammps_servo(pack, wall_law)
     out.append("")
     return "\n".join(out)
+
+
+def _lammps_linear_law(m: Material) -> tuple[str, list[str]]:
+    """LAMMPS' form of granpack's linear law, and the comment lines that explain it:
+    ``hooke k_n e`` with ``damping tsuji`` (29Sep2021 damps a hooke contact with
+    alpha(e) sqrt(m* k_n): alpha(e) = 2 xi gives c_n = 2 xi sqrt(m* k_n) on every contact)
+    and ``tangential linear_history k_t x mu`` (its damping x times the normal's:
+    x = sqrt(k_t / k_n) gives c_t = 2 xi sqrt(m* k_t)). Walls take the same law."""
+    k_n = m.normal_stiffness
+    k_t = m.tangential_stiffness_or_default
+    assert k_n is not None and k_t is not None
+    e = lammps_linear_restitution(m.damping)
+    x_t = math.sqrt(k_t / k_n)
+    law = (
+        f"hooke {_g(k_n)} {_g(e)} tangential linear_history {_g(k_t)} {_g(x_t)} "
+        f"{_g(m.friction)} damping tsuji limit_damping"
+    )
+    notes = [
+        f"# k_n = {_g(k_n)} N/m, k_t = {_g(k_t)} N/m; c = 2 xi sqrt(m* k) on every contact:",
+        "# damping tsuji with the e of alpha(e) = 2 xi (LAMMPS 29Sep2021's Tsuji prefactor;",
+        "# LAMMPS from 2023 multiplies it by sqrt(2): there the damping is sqrt(2) times",
+        "# granpack's, docs/interop.md) and the tangential factor sqrt(k_t / k_n)",
+    ]
+    return law, notes
+
+
+def _lammps_rolling(pack: Pack) -> tuple[str, list[str]]:
+    """The ``rolling sds k_roll gamma_roll mu_roll`` words of the pair and wall laws, and
+    their comment lines (both empty without rolling resistance). LAMMPS' k_roll is a
+    constant: a material without `rolling_stiffness` gets 2.25 mu_r^2 k_n at the pack's
+    mean contact (contact_model.rolling_stiffness_at_mean)."""
+    m = pack.scene.material
+    if m.rolling == "none":
+        return "", []
+    assert m.rolling_friction is not None
+    k_r = rolling_stiffness_at_mean(pack)
+    gamma_r = 0.0 if m.rolling_damping is None else float(m.rolling_damping)
+    words = f" rolling sds {_g(k_r)} {_g(gamma_r)} {_g(m.rolling_friction)}"
+    notes = [
+        f"# rolling resistance epsd (rolling sds): k_roll = {_g(k_r)} N/m, "
+        f"gamma_roll = {_g(gamma_r)} N s/m, mu_roll = {_g(m.rolling_friction)};",
+        f"# k_roll: {rolling_stiffness_words(pack)}",
+    ]
+    return words, notes
 
 
 def _run_lines(pack: Pack, lid: bool) -> list[str]:
@@ -402,9 +487,10 @@ def liggghts_input(pack: Pack, data_name: str) -> str:
     container = Container.of_pack(pack)
     kind, radius = container.kind, container.radius
     rec = _consolidation_record(pack)
-    e = liggghts_restitution(m.damping)
     r_min = float(pack.radii.min()) if len(pack) else float(s.r_min or s.r_mean)
-    wall = "wall/gran model hertz tangential history primitive type 1"
+    normal, properties = _liggghts_model(pack)
+    rolling = " rolling_friction epsd3" if m.rolling != "none" else ""
+    wall = f"wall/gran model {normal} tangential history{rolling} primitive type 1"
     out = _header(pack, data_name, "LIGGGHTS")
     out += [
         "units           si",
@@ -416,13 +502,8 @@ def liggghts_input(pack: Pack, data_name: str) -> str:
         f"read_data       {data_name}",
         f"neighbor        {_g(s.skin_ratio * r_min)} bin",
         "neigh_modify    delay 0",
-        f"fix             m1 all property/global youngsModulus peratomtype {_g(m.young)}",
-        f"fix             m2 all property/global poissonsRatio peratomtype {_g(m.poisson)}",
-        f"# the restitution that gives granpack's damping ratio {m.damping:g} (docs/interop.md)",
-        f"fix             m3 all property/global coefficientRestitution peratomtypepair 1 {_g(e)}",
-        "fix             m4 all property/global coefficientFriction peratomtypepair 1 "
-        + _g(m.friction),
-        "pair_style      gran model hertz tangential history limitForce on",
+        *properties,
+        f"pair_style      gran model {normal} tangential history{rolling} limitForce on",
         "pair_coeff      * *",
     ]
     if rec is not None:
@@ -462,6 +543,117 @@ def liggghts_input(pack: Pack, data_name: str) -> str:
         out += _liggghts_servo(pack, wall)
     out.append("")
     return "\n".join(out)
+
+
+def _liggghts_model(pack: Pack) -> tuple[str, list[str]]:
+    """LIGGGHTS' normal model (``hertz`` or ``hooke/stiffness``) for the pack's material,
+    and the lines that set its properties (and the rolling resistance's).
+
+    - Hertz-Mindlin: Young's modulus, Poisson's ratio, the restitution that gives
+      granpack's damping, the friction.
+    - Linear: ``hooke/stiffness`` with ``kn``, ``kt`` and the damping per unit mass
+      ``gamman`` = 2 xi sqrt(k_n / m*), ``gammat`` = 2 xi sqrt(k_t / m*) at the pack's
+      mean m*: LIGGGHTS damps with gamma m*, granpack with 2 xi sqrt(m* k), so a contact
+      of reduced mass m* is damped sqrt(m* / mean m*) times granpack's.
+    - Rolling ``epsd``: ``rolling_friction epsd3`` (epsd2's stiffness is k_t R*^2, not
+      granpack's), whose torque spring is rollingStiffness k_n mu_r^2 R*^2 with LIGGGHTS'
+      k_n, the secant F_n / d: 4/3 E* sqrt(R* d) for Hertz, so rollingStiffness = 2.25 *
+      3/2 gives granpack's default 2.25 mu_r^2 (2 E* sqrt(R* d)) on every contact, and
+      2.25 is the linear law's. A given `rolling_stiffness` k_r becomes k_r / (mu_r^2
+      k_n) (Hertz: k_n at the mean contact); epsd3's dashpot
+      coefficientRollingViscousDamping eta_r (damping torque eta_r 2 sqrt(I_r k_r R*^2)
+      times the relative spin) is granpack's gamma_r R*^2 at the mean contact
+      (I_r = 1.4 m* r^2 of two spheres of its R*).
+    """
+    m = pack.scene.material
+    lines: list[str] = []
+    if m.contact_law == "linear":
+        k_n = m.normal_stiffness
+        k_t = m.tangential_stiffness_or_default
+        assert k_n is not None and k_t is not None
+        mc = mean_contact(pack)
+        g_n = 2.0 * m.damping * math.sqrt(k_n / mc.m_star)
+        g_t = 2.0 * m.damping * math.sqrt(k_t / mc.m_star)
+        lo, hi = (math.sqrt(v / mc.m_star) for v in mc.m_star_range)
+        normal = "hooke/stiffness"
+        lines += [
+            f"# granpack's linear law: k_n = {_g(k_n)} N/m, k_t = {_g(k_t)} N/m, damping ratio "
+            f"{m.damping:g};",
+            "# hooke/stiffness damps with gamma m*: gamma = 2 xi sqrt(k / m*) at the mean m* = "
+            f"{mc.m_star:.6g} kg,",
+            f"# so the pack's contacts are damped {lo:.3g} to {hi:.3g} times granpack's "
+            "(sqrt(m* / mean m*))",
+            f"fix             m1 all property/global kn peratomtypepair 1 {_g(k_n)}",
+            f"fix             m2 all property/global kt peratomtypepair 1 {_g(k_t)}",
+            f"fix             m3 all property/global gamman peratomtypepair 1 {_g(g_n)}",
+            f"fix             m4 all property/global coefficientFriction peratomtypepair 1 "
+            + _g(m.friction),
+            f"fix             m5 all property/global gammat peratomtypepair 1 {_g(g_t)}",
+        ]
+    else:
+        e = liggghts_restitution(m.damping)
+        normal = "hertz"
+        lines += [
+            f"fix             m1 all property/global youngsModulus peratomtype {_g(m.young)}",
+            f"fix             m2 all property/global poissonsRatio peratomtype {_g(m.poisson)}",
+            f"# the restitution that gives granpack's damping ratio {m.damping:g} "
+            "(docs/interop.md)",
+            f"fix             m3 all property/global coefficientRestitution peratomtypepair 1 "
+            + _g(e),
+            "fix             m4 all property/global coefficientFriction peratomtypepair 1 "
+            + _g(m.friction),
+        ]
+    if m.rolling != "none":
+        lines += _liggghts_rolling(pack)
+    return normal, lines
+
+
+def _liggghts_rolling(pack: Pack) -> list[str]:
+    """The property lines of ``rolling_friction epsd3`` (`_liggghts_model`)."""
+    m = pack.scene.material
+    mu_r = m.rolling_friction
+    assert mu_r is not None
+    mc = mean_contact(pack)
+    # LIGGGHTS' k_n per unit of granpack's: Hertz's secant is 2/3 of the tangent
+    secant = 1.0 if m.contact_law == "linear" else 2.0 / 3.0
+    if m.rolling_stiffness is None or mu_r == 0.0:
+        coeff = 2.25 / secant
+        how = (
+            "2.25 mu_r^2 k_n with granpack's k_n (the current one): exact on every contact"
+            if m.rolling_stiffness is None
+            else "mu_r = 0: no rolling torque, whatever the stiffness"
+        )
+    else:
+        coeff = m.rolling_stiffness / (mu_r**2 * secant * normal_stiffness_at_mean(pack))
+        how = (
+            "the material's k_r / (mu_r^2 k_n)"
+            + (" (exact)" if m.contact_law == "linear" else " with k_n at the pack's mean contact")
+        )
+    if coeff < 1.0:
+        raise InvalidParameterError(
+            f"invalid rolling_stiffness = {m.rolling_stiffness!r}: LIGGGHTS' epsd3 needs "
+            f"rollingStiffness = k_r / (mu_r^2 k_n) >= 1 in SI units, and this material gives "
+            f"{coeff:.6g}; export for LAMMPS ('lammps-data'), or give k_r >= "
+            f"{m.rolling_stiffness / coeff if m.rolling_stiffness else 0.0:.6g} N/m",
+            parameter="rolling_stiffness",
+            value=m.rolling_stiffness,
+        )
+    eta_r = 0.0
+    if m.rolling_damping:
+        # epsd3's dashpot eta_r 2 sqrt(I_r k_r R*^2) against granpack's gamma_r R*^2, at
+        # the mean contact: two spheres of radius 2 R*, I_r = 1.4 m* (2 R*)^2
+        k_r = rolling_stiffness_at_mean(pack)
+        inertia = 1.4 * mc.m_star * (2.0 * mc.r_star) ** 2
+        eta_r = m.rolling_damping * mc.r_star / (2.0 * math.sqrt(inertia * k_r))
+    return [
+        f"# rolling resistance epsd: rolling_friction epsd3, mu_r = {_g(mu_r)}; rollingStiffness",
+        f"# = {coeff!r}: {how}",
+        "fix             m6 all property/global coefficientRollingFriction peratomtypepair 1 "
+        + _g(mu_r),
+        "fix             m7 all property/global coefficientRollingViscousDamping "
+        f"peratomtypepair 1 {_g(eta_r)}",
+        f"fix             m8 all property/global rollingStiffness scalar {_g(coeff)}",
+    ]
 
 
 def _liggghts_servo(pack: Pack, wall: str) -> list[str]:
