@@ -28,7 +28,10 @@ writes: blocks ``Begin <kind> ... End <kind>``, comments after ``//``::
 Node and element ids are 1..N in the pack's order. The material goes in Kratos'
 ``MaterialsDEM.json`` (assigned to the sub model part ``DEMParts_Body``), not the file: the
 ``Properties 1`` block is empty, and a comment line gives granpack's density, Young's
-modulus, Poisson's ratio and friction. Numbers are written at full precision (``repr``).
+modulus, Poisson's ratio and friction. A material with the linear law or rolling
+resistance adds two comment lines: its model keys, and the material relation's
+``Variables`` for MaterialsDEM.json as JSON (`kratos_material_relation`). Numbers are
+written at full precision (``repr``).
 
 The container is a comment line, granpack's container tag (`granpack.analysis.container`): the
 box or periodic cell (``lo``, ``hi``; the cell's horizontal axes are periodic) or the
@@ -43,6 +46,7 @@ RADIUS`` block; other blocks are checked for their structure and skipped.
 from __future__ import annotations
 
 import io
+import json
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -53,12 +57,20 @@ from .._files import atomic_write
 from .._validate import FileFormatError, InvalidParameterError
 from ..analysis.container import Container
 from ._text import _format_lines, _read_text, _state3
+from .contact_model import is_default_model, linear_restitution, model_words
 
 if TYPE_CHECKING:
     from ..pack import Pack
     from .particle_file import ParticleFile
 
-__all__ = ["write_kratos", "read_kratos", "ELEMENT_3D", "ELEMENT_2D", "SUB_MODEL_PART"]
+__all__ = [
+    "write_kratos",
+    "read_kratos",
+    "kratos_material_relation",
+    "ELEMENT_3D",
+    "ELEMENT_2D",
+    "SUB_MODEL_PART",
+]
 
 #: The sphere element of a 3D pack, and the disc element of a 2D one.
 ELEMENT_3D = "SphericParticle3D"
@@ -72,6 +84,47 @@ def _rows(ids: np.ndarray, *columns) -> str:
     n = len(ids)
     cols = [c if isinstance(c, np.ndarray) else np.full(n, c) for c in columns]
     return _format_lines(" ".join(["{}"] * (1 + len(cols))), ids, *cols)
+
+
+def kratos_material_relation(pack: Pack) -> dict[str, float | str]:
+    """The ``Variables`` of MaterialsDEM.json's material relation that give Kratos
+    granpack's contact model; empty for the default Hertz-Mindlin without rolling
+    resistance (the file then says nothing of it, as before).
+
+    - linear law: ``DEM_D_Linear_Custom_Constants`` with ``K_NORMAL`` = k_n,
+      ``K_TANGENTIAL`` = k_t, and ``COEFFICIENT_OF_RESTITUTION`` = exp(-pi xi /
+      sqrt(1 - xi^2)), the restitution of a linear contact of damping ratio xi;
+    - Hertz-Mindlin: ``DEM_D_Hertz_viscous_Coulomb`` (its restitution for granpack's
+      damping is not worked out: set ``COEFFICIENT_OF_RESTITUTION``);
+    - both: ``STATIC_FRICTION`` = ``DYNAMIC_FRICTION`` = mu;
+    - rolling ``epsd``: Kratos has no elastic-plastic spring model; the nearest is
+      ``DEMRollingFrictionModelConstantTorque`` (a torque of fixed size against the
+      rolling, type A of Ai et al. 2011) with ``ROLLING_FRICTION`` =
+      ``ROLLING_FRICTION_WITH_WALLS`` = mu_r. It gives the same plastic torque in steady
+      rolling but no spring, so a pack at rest feels no rolling torque.
+    """
+    m = pack.scene.material
+    if is_default_model(m):
+        return {}
+    out: dict[str, float | str] = {}
+    if m.contact_law == "linear":
+        k_n = m.normal_stiffness
+        k_t = m.tangential_stiffness_or_default
+        assert k_n is not None and k_t is not None
+        out["DEM_DISCONTINUUM_CONSTITUTIVE_LAW_NAME"] = "DEM_D_Linear_Custom_Constants"
+        out["K_NORMAL"] = float(k_n)
+        out["K_TANGENTIAL"] = float(k_t)
+        out["COEFFICIENT_OF_RESTITUTION"] = linear_restitution(m.damping)
+    else:
+        out["DEM_DISCONTINUUM_CONSTITUTIVE_LAW_NAME"] = "DEM_D_Hertz_viscous_Coulomb"
+    out["STATIC_FRICTION"] = float(m.friction)
+    out["DYNAMIC_FRICTION"] = float(m.friction)
+    if m.rolling != "none":
+        assert m.rolling_friction is not None
+        out["DEM_ROLLING_FRICTION_MODEL_NAME"] = "DEMRollingFrictionModelConstantTorque"
+        out["ROLLING_FRICTION"] = float(m.rolling_friction)
+        out["ROLLING_FRICTION_WITH_WALLS"] = float(m.rolling_friction)
+    return out
 
 
 def write_kratos(pack: Pack, path: str | Path) -> Path:
@@ -113,6 +166,14 @@ def write_kratos(pack: Pack, path: str | Path) -> Path:
         f"// material (set it in MaterialsDEM.json): density={m.density!r} young={m.young!r} "
         f"poisson={m.poisson!r} friction={m.friction!r} damping_ratio={m.damping!r}{mass}\n"
     )
+    relation = kratos_material_relation(pack)
+    if relation:
+        out.write(f"// contact model: {model_words(m)}\n")
+        out.write(
+            "// MaterialsDEM.json, the material relation's Variables: "
+            + json.dumps(relation)
+            + "\n"
+        )
     out.write("Begin ModelPartData\nEnd ModelPartData\n\n")
     out.write("Begin Properties 1\nEnd Properties\n\n")
     out.write("Begin Nodes\n")

@@ -586,7 +586,7 @@ def _liggghts_model(pack: Pack) -> tuple[str, list[str]]:
             f"fix             m1 all property/global kn peratomtypepair 1 {_g(k_n)}",
             f"fix             m2 all property/global kt peratomtypepair 1 {_g(k_t)}",
             f"fix             m3 all property/global gamman peratomtypepair 1 {_g(g_n)}",
-            f"fix             m4 all property/global coefficientFriction peratomtypepair 1 "
+            "fix             m4 all property/global coefficientFriction peratomtypepair 1 "
             + _g(m.friction),
             f"fix             m5 all property/global gammat peratomtypepair 1 {_g(g_t)}",
         ]
@@ -598,7 +598,7 @@ def _liggghts_model(pack: Pack) -> tuple[str, list[str]]:
             f"fix             m2 all property/global poissonsRatio peratomtype {_g(m.poisson)}",
             f"# the restitution that gives granpack's damping ratio {m.damping:g} "
             "(docs/interop.md)",
-            f"fix             m3 all property/global coefficientRestitution peratomtypepair 1 "
+            "fix             m3 all property/global coefficientRestitution peratomtypepair 1 "
             + _g(e),
             "fix             m4 all property/global coefficientFriction peratomtypepair 1 "
             + _g(m.friction),
@@ -625,9 +625,8 @@ def _liggghts_rolling(pack: Pack) -> list[str]:
         )
     else:
         coeff = m.rolling_stiffness / (mu_r**2 * secant * normal_stiffness_at_mean(pack))
-        how = (
-            "the material's k_r / (mu_r^2 k_n)"
-            + (" (exact)" if m.contact_law == "linear" else " with k_n at the pack's mean contact")
+        how = "the material's k_r / (mu_r^2 k_n)" + (
+            " (exact)" if m.contact_law == "linear" else " with k_n at the pack's mean contact"
         )
     if coeff < 1.0:
         raise InvalidParameterError(

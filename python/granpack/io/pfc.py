@@ -27,10 +27,13 @@ The domain: a periodic axis is the cell [0, L] exactly (``condition periodic``; 
 are wrapped into [0, L)); every other axis is the pack's box widened by 10 % of its
 length on each side (``condition stop``), since PFC needs every ball and wall inside the
 domain. The box itself (the walls granpack had: floor and sides, or the cylinder) is on
-the container tag comment line; create the walls there (``wall generate ...``) and choose
-the contact model (``contact cmat default ...``) before cycling: the file sets neither,
-and names granpack's material on a comment line. Every number is written at full
-precision (``repr``).
+the container tag comment line; create the walls there (``wall generate ...``) before
+cycling. The material is named on a comment line. The file sets the contact model only
+where granpack's is not the default Hertz-Mindlin: the linear law as ``contact cmat
+default model linear property kn ks fric dp_nratio dp_sratio``, with rolling resistance
+``rrlinear`` and ``rr_fric`` (`pfc_contact_model`); for Hertz-Mindlin choose it
+(``contact cmat default ...``) before cycling. Every number is written at full precision
+(``repr``).
 """
 
 from __future__ import annotations
@@ -44,11 +47,12 @@ import numpy as np
 from .._files import atomic_write
 from ..analysis.container import Container
 from ._text import _format_lines
+from .contact_model import is_default_model, model_words, rolling_stiffness_at_mean
 
 if TYPE_CHECKING:
     from ..pack import Pack
 
-__all__ = ["write_pfc", "DOMAIN_MARGIN", "pfc_density"]
+__all__ = ["write_pfc", "DOMAIN_MARGIN", "pfc_density", "pfc_contact_model"]
 
 #: How far the domain reaches past the box on an axis that is not periodic, as a fraction
 #: of the box's length on that axis (each side).
@@ -65,6 +69,39 @@ def pfc_density(pack: Pack) -> np.ndarray:
     if s.dim == 2 and s.inertia_2d == "sphere":
         return 4.0 / 3.0 * r * rho
     return np.full(r.shape, rho)
+
+
+def pfc_contact_model(pack: Pack) -> list[str]:
+    """The lines that set the default contact model to granpack's (none for the default
+    Hertz-Mindlin without rolling resistance): the linear law as ``linear`` (``kn``,
+    ``ks``, ``fric``, critical damping ratios ``dp_nratio`` = ``dp_sratio`` = xi: PFC's
+    dashpots are 2 beta sqrt(m_c k), granpack's), with rolling resistance as ``rrlinear``
+    (``rr_fric`` = mu_r; PFC computes the rolling stiffness itself, read-only ``rr_kr``,
+    and has no rolling dashpot). PFC has no Hertz model with rolling resistance: a Hertz
+    pack with it gets a comment and no command."""
+    m = pack.scene.material
+    if is_default_model(m):
+        return []
+    lines = [f"; contact model: {model_words(m)}"]
+    if m.contact_law != "linear":
+        return lines + [
+            "; PFC's hertz model has no rolling resistance and rrlinear is a linear law: no",
+            "; contact model is set here (docs/export.md, PFC)",
+        ]
+    k_n = m.normal_stiffness
+    k_t = m.tangential_stiffness_or_default
+    assert k_n is not None and k_t is not None
+    props = (
+        f"kn {k_n!r} ks {k_t!r} fric {m.friction!r} dp_nratio {m.damping!r} dp_sratio {m.damping!r}"
+    )
+    if m.rolling == "none":
+        return lines + [f"contact cmat default model linear property {props}"]
+    return lines + [
+        "; rrlinear: PFC sets the rolling stiffness itself (rr_kr, read-only) and has no",
+        f"; rolling dashpot; granpack's k_r is {rolling_stiffness_at_mean(pack)!r} N/m, "
+        f"gamma_r {m.rolling_damping or 0.0!r} N s/m",
+        f"contact cmat default model rrlinear property {props} rr_fric {m.rolling_friction!r}",
+    ]
 
 
 def write_pfc(pack: Pack, path: str | Path) -> Path:
@@ -97,7 +134,11 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
         f"; material: density={m.density!r} young={m.young!r} poisson={m.poisson!r} "
         f"friction={m.friction!r} damping_ratio={m.damping!r}"
         + (f" mass={s.inertia_2d}" if d == 2 else "")
-        + "; walls and the contact model are not set here\n"
+        + (
+            "; walls and the contact model are not set here\n"
+            if is_default_model(m)
+            else "; walls are not set here, the contact model is (below)\n"
+        )
     )
     out.write("model new\n")
     extent = []
@@ -113,6 +154,7 @@ def write_pfc(pack: Pack, path: str | Path) -> Path:
         + " ".join(repr(float(e)) for e in extent)
         + f" condition {conditions}\n"
     )
+    out.write("".join(f"{ln}\n" for ln in pfc_contact_model(pack)))
     ids = np.arange(1, n + 1)
     vec = "(" + ",".join(["{}"] * d) + ")"
     out.write(_format_lines(f"ball create id {{}} radius {{}} position {vec}", ids, r, *x.T))
