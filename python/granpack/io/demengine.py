@@ -32,7 +32,9 @@ the binning's largest error, then ``name,radius,mass,moi,count,r_min,r_max``: ea
 template's radius, mass and moment of inertia (the material's density; 3D and 2D
 spheres: m = 4/3 pi r^3 rho, I = 2/5 m r^2; 2D discs, ``inertia_2d="disc"``: m = pi r^2
 rho per metre, I = m r^2 / 2), the number of particles and the range of their radii.
-Read it with ``pandas.read_csv(path, comment="#", dtype={"name": str})``.
+Read it with ``pandas.read_csv(path, comment="#", dtype={"name": str})``. A material with
+the linear law or rolling resistance adds a comment line with its model keys
+(``# contact model: contact_law=linear normal_stiffness=...``).
 
 2D packs lie in the plane z = 0 (DEM-Engine is 3D). A periodic pack's centres are
 wrapped into [0, L). Numbers are written at full precision (``repr``); DEM-Engine reads
@@ -53,6 +55,7 @@ from .._files import atomic_write
 from .._validate import InvalidParameterError
 from ..analysis.container import Container
 from ._text import _format_lines, _state3
+from .contact_model import is_default_model, model_words
 
 if TYPE_CHECKING:
     from ..pack import Pack
@@ -223,6 +226,10 @@ def write_demengine(
         f"max_relative_radius_error={err!r} (bound {bound!r})\n"
     )
     tab.write(f"# density={rho!r} ({convention})\n")
+    if not is_default_model(s.material):
+        # DEM-Engine's material (LoadMaterial) has no place for it: the record, for the
+        # force model the user writes (docs/export.md, DEM-Engine)
+        tab.write(f"# contact model: {model_words(s.material)}\n")
     tab.write(",".join(TEMPLATE_COLUMNS) + "\n")
     for k, name in enumerate(names):
         members = r[index == k]
