@@ -385,3 +385,336 @@ def test_lammps_and_liggghts_run_the_model_lines(name, lmp, liggghts, pack3d, pa
     log = run(lmp, tmp_path, "include in.granpack\n" + STEP0)
     assert _contacts(log) == 2 * int((pack2d.contacts.j >= 0).sum())
     run(lmp, tmp_path, "variable steps index 20\ninclude in.granpack\n")
+
+
+def _law_line(text: str, prefix: str) -> str:
+    return next(ln for ln in text.splitlines() if ln.startswith(prefix))
+
+
+def restitution_of_the_linear_law(xi: float) -> float:
+    """The restitution of granpack's linear law, m* x'' = -max(0, k x + c x') with
+    c = 2 xi sqrt(m* k), integrated in its own time unit (m* = k = 1) by velocity Verlet
+    at 1e-5 of the period: the clamped total force makes it differ from the undamped
+    oscillator's exp(-pi xi / sqrt(1 - xi^2))."""
+    x, v, dt = 0.0, 1.0, 2.0 * math.pi * 1e-5
+    c = 2.0 * xi
+    f = 0.0
+    while True:
+        v += 0.5 * dt * f
+        x += dt * v
+        if x <= 0.0:
+            return -v
+        f = -max(0.0, x + c * v)
+        v += 0.5 * dt * f
+
+
+HEAD_ON = """units           si
+atom_style      sphere
+atom_modify     map array
+dimension       3
+boundary        f f f
+region          box block -0.2 0.2 -0.1 0.1 -0.1 0.1 units box
+create_box      1 box
+create_atoms    1 single {x1} 0.0 0.0 units box
+create_atoms    1 single {x2} 0.0 0.0 units box
+set             atom 1 diameter {d1} density 1000.0
+set             atom 2 diameter {d2} density 1000.0
+velocity        all set 0.0 0.0 0.0
+set             atom 1 vx 0.5
+set             atom 2 vx -0.5
+comm_modify     vel yes
+neighbor        0.005 bin
+pair_style      granular
+{pair_coeff}
+fix             integrate all nve/sphere
+timestep        1e-6
+run             20000
+print           "V $(vx[1]) $(vx[2])"
+"""
+
+
+def test_lammps_linear_law_gives_granpacks_restitution_for_any_reduced_mass(lmp, pack3d, tmp_path):
+    """Two spheres meet head-on at 1 m/s under the exported pair law: they come apart
+    with the restitution of granpack's law for damping ratio 0.1 and 0.3, for equal and
+    for unequal spheres (m* differs 4-fold): the damping is 2 xi sqrt(m* k_n) on every
+    contact."""
+    for xi in (0.1, 0.3):
+        m = dataclasses.replace(LINEAR, damping=xi)
+        text = exported(with_material(pack3d, m), tmp_path, "lammps-data")["in.granpack"]
+        want = restitution_of_the_linear_law(xi)
+        for r1, r2 in ((0.02, 0.02), (0.01, 0.03)):
+            gap = 1e-4
+            script = HEAD_ON.format(
+                x1=-r1 - gap / 2,
+                x2=r2 + gap / 2,
+                d1=2 * r1,
+                d2=2 * r2,
+                pair_coeff=_law_line(text, "pair_coeff"),
+            )
+            log = run(lmp, tmp_path, script)
+            v1, v2 = (float(v) for v in re.findall(r"^V (\S+) (\S+)", log, re.MULTILINE)[-1])
+            assert (v2 - v1) / 1.0 == pytest.approx(want, abs=1e-3), (xi, r1, r2)
+
+
+ROLLING_LAMMPS = """units           si
+atom_style      sphere
+atom_modify     map array
+dimension       3
+boundary        f f f
+region          box block -1.0 1.0 -0.1 0.1 -0.1 0.2 units box
+create_box      1 box
+create_atoms    1 single 0.0 0.0 {z} units box
+set             atom 1 diameter {d} density 1000.0
+velocity        all set {v} 0.0 0.0
+set             atom 1 omega 0.0 {w} 0.0
+comm_modify     vel yes
+neighbor        0.005 bin
+{floor}
+fix             gravity all gravity 2.0 vector 0 0 -1
+fix             integrate all nve/sphere
+timestep        1e-6
+run             20000
+print           "V $(vx[1])"
+run             50000
+print           "V $(vx[1])"
+"""
+
+
+def test_a_sphere_rolls_on_the_lammps_floor_with_granpacks_plastic_deceleration(
+    lmp, pack3d, tmp_path
+):
+    """A sphere rolling on the exported floor (rolling sds on fix wall/gran) in the
+    plastic regime decelerates at 5/7 mu_r g (torque mu_r r m g, R* = r on a wall)."""
+    # friction enough to keep it rolling: the contact's friction force is 2/7 of m g... times mu_r
+    m = dataclasses.replace(LINEAR_ROLLING, friction=0.8)
+    text = exported(with_material(pack3d, m), tmp_path, "lammps-data")
+    floor = _law_line(text["in.granpack"], "fix             floor")
+    r, g, v = 0.02, 2.0, 0.2
+    mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3
+    script = ROLLING_LAMMPS.format(z=r - mass * g / 2e4, d=2 * r, v=v, w=v / r, floor=floor)
+    log = run(lmp, tmp_path, script)
+    v1, v2 = (float(x) for x in re.findall(r"^V (\S+)", log, re.MULTILINE)[-2:])
+    assert (v2 - v1) / 0.05 == pytest.approx(-5.0 / 7.0 * 0.3 * g, rel=0.01)
+
+
+ROLLING_LIGGGHTS = """units           si
+atom_style      granular
+atom_modify     map array
+boundary        f f f
+newton          off
+communicate     single vel yes
+read_data       sphere.data
+neighbor        0.005 bin
+{model}
+{floor}
+fix             gravity all gravity 2.0 vector 0.0 0.0 -1.0
+fix             integrate all nve/sphere
+timestep        1e-6
+variable        vx equal vx[1]
+run             20000
+print           "V ${{vx}}"
+run             50000
+print           "V ${{vx}}"
+"""
+
+
+@pytest.mark.parametrize("name", ["linear-rolling", "hertz-rolling"])
+def test_a_sphere_rolls_on_the_liggghts_floor_with_granpacks_plastic_deceleration(
+    name, liggghts, pack3d, tmp_path
+):
+    """The same on LIGGGHTS' floor (rolling_friction epsd3), with the linear law and with
+    Hertz: 5/7 mu_r g."""
+    m = dataclasses.replace(MATERIALS[name], friction=0.8)
+    text = exported(with_material(pack3d, m), tmp_path, "liggghts")["in.granpack"]
+    lines = text.splitlines()
+    model = "\n".join(
+        ln for ln in lines if ln.startswith(("fix             m", "pair_style", "pair_coeff"))
+    )
+    floor = _law_line(text, "fix             floor")
+    r, g, v = 0.02, 2.0, 0.2
+    mass = 1000.0 * 4.0 / 3.0 * math.pi * r**3
+    if m.contact_law == "linear":
+        d = mass * g / 2e4
+    else:  # m g = 4/3 E* sqrt(r) d^1.5
+        d = (mass * g / (4.0 / 3.0 * m.e_star * math.sqrt(r))) ** (2.0 / 3.0)
+    # LIGGGHTS' set takes no omega: the spin comes in the data file's Velocities
+    (tmp_path / "sphere.data").write_text(
+        "one sphere\n\n1 atoms\n1 atom types\n-1.0 1.0 xlo xhi\n-0.1 0.1 ylo yhi\n"
+        f"-0.1 0.2 zlo zhi\n\nAtoms\n\n1 1 {2 * r!r} 1000.0 0.0 0.0 {r - d!r}\n\n"
+        f"Velocities\n\n1 {v!r} 0.0 0.0 0.0 {v / r!r} 0.0\n"
+    )
+    script = ROLLING_LIGGGHTS.format(model=model, floor=floor)
+    log = run(liggghts, tmp_path, script)
+    v1, v2 = (float(x) for x in re.findall(r"^V (\S+)", log, re.MULTILINE)[-2:])
+    mu_r = m.rolling_friction
+    assert (v2 - v1) / 0.05 == pytest.approx(-5.0 / 7.0 * mu_r * g, rel=0.01)
+
+
+YADE_SCRIPT = """\
+import json
+import sys
+
+from yade import ymport
+
+path, out = sys.argv[1:3]
+code = [ln[len("# yade: "):] for ln in open(path) if ln.startswith("# yade: ")]
+exec("\\n".join(code))
+O.bodies.append(ymport.text(path))
+O.engines = [
+    ForceResetter(),
+    InsertionSortCollider([Bo1_Sphere_Aabb()], verletDist=0),
+    InteractionLoop([ig2], [ip2], [law2]),
+    NewtonIntegrator(gravity=(0, 0, -2)),
+]
+O.dt = 1e-6
+O.run(5, True)
+rows = []
+for I in O.interactions:
+    if I.isReal:
+        p = I.phys
+        row = {k: getattr(p, k) for k in ("kn", "ks", "kr", "maxRollPl", "maxBendPl", "betan")
+               if hasattr(p, k)}
+        row["radii"] = [O.bodies[I.id1].shape.radius, O.bodies[I.id2].shape.radius]
+        rows.append(row)
+json.dump({"material": type(O.materials[-1]).__name__, "rows": rows}, open(out, "w"))
+"""
+
+
+def run_yade(yade: str, pack: gp.Pack, folder: Path) -> dict:
+    path = export(pack, folder / "pack.txt", "yade")[0]
+    (folder / "run.py").write_text(YADE_SCRIPT)
+    env = {k: v for k, v in os.environ.items() if k != "VIRTUAL_ENV"}
+    env["OMP_NUM_THREADS"] = "1"
+    out = folder / "yade.json"
+    res = subprocess.run(
+        [yade, "-n", "-x", "run.py", str(path), str(out)],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0 and out.exists(), res.stdout[-3000:] + res.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+def test_yade_runs_the_model_lines_with_the_mapped_stiffnesses(yade, pack3d, tmp_path):
+    """YADE runs the export's ``# yade:`` lines and ymport.text's spheres for 5 steps; its
+    interactions carry the mapped values: the linear law's k_n and k_t exactly; with
+    rolling (CohFrictMat), k_n = 2 E R*, and the rolling stiffness and moment cap
+    granpack's k_r R*^2 and mu_r R* F_n for equal radii, off by (r1 + r2)^2 / (4 r1 r2)
+    and (r1 + r2) / (2 max(r1, r2)) for others; Hertz with rolling (MindlinPhys): the
+    torque stiffness k_r R*^2 of the mean contact, the cap mu_r R* for equal radii."""
+    got = run_yade(yade, with_material(pack3d, LINEAR), tmp_path)
+    assert got["material"] == "FrictMat" and got["rows"]
+    k_t = LINEAR.tangential_stiffness_or_default
+    for row in got["rows"]:
+        assert (row["kn"], row["ks"]) == (2e4, k_t)
+
+    got = run_yade(yade, with_material(pack3d, LINEAR_ROLLING), tmp_path)
+    assert got["material"] == "CohFrictMat" and got["rows"]
+    r_mean, _, _ = mean_pair(pack3d)
+    for row in got["rows"]:
+        r1, r2 = row["radii"]
+        rs = r1 * r2 / (r1 + r2)
+        assert row["kn"] == pytest.approx(2e4 * rs / r_mean, rel=1e-12)
+        assert row["ks"] == pytest.approx(0.75 * row["kn"], rel=1e-12)
+        assert row["kr"] / (5e3 * rs**2) == pytest.approx(
+            (row["ks"] / 1.5e4) * (r1 + r2) ** 2 / (4 * r1 * r2), rel=1e-12
+        )
+        assert row["maxRollPl"] / (0.3 * rs) == pytest.approx(
+            (r1 + r2) / (2 * max(r1, r2)), rel=1e-12
+        )
+
+    got = run_yade(yade, with_material(pack3d, HERTZ_ROLLING), tmp_path)
+    r_mean, d, _ = mean_pair(pack3d)
+    krot = 2.25 * 0.04 * 2.0 * HERTZ_ROLLING.e_star * math.sqrt(r_mean * d) * r_mean**2
+    for row in got["rows"]:
+        r1, r2 = row["radii"]
+        rs = r1 * r2 / (r1 + r2)
+        assert row["kr"] == pytest.approx(krot, rel=1e-12)
+        assert row["betan"] == 0.1
+        assert row["maxBendPl"] / (0.2 * rs) == pytest.approx(
+            (r1 + r2) ** 2 / (4 * r1 * r2), rel=1e-12
+        )
+
+
+def _kratos_after(pack: gp.Pack, folder: Path, relation: dict) -> np.ndarray:
+    """Kratos' positions after 10 steps of 1e-5 s from the exported model part, with
+    `relation` as MaterialsDEM.json's material relation."""
+    from test_io_dem_codes import _KRATOS_RUN, _run_kratos
+
+    folder.mkdir()
+    export(pack, folder / "granpackDEM.mdpa", "kratos")
+    m = pack.scene.material
+    params = {
+        "Dimension": 3,
+        "BoundingBoxOption": False,
+        "dem_inlet_option": False,
+        "GravityX": 0.0,
+        "GravityY": 0.0,
+        "GravityZ": -2.0,
+        "RotationOption": True,
+        "CleanIndentationsOption": False,
+        "solver_settings": {
+            "strategy": "sphere_strategy",
+            "RemoveBallsInitiallyTouchingWalls": False,
+            "material_import_settings": {"materials_filename": "MaterialsDEM.json"},
+        },
+        "TranslationalIntegrationScheme": "Symplectic_Euler",
+        "RotationalIntegrationScheme": "Direct_Integration",
+        "AutomaticTimestep": False,
+        "MaxTimeStep": 1e-5,
+        "FinalTime": 1e-4,
+        "NeighbourSearchFrequency": 1,
+        "OutputTimeStep": 1.0,
+        "post_gid_option": False,
+        "post_vtk_option": False,
+        "problem_name": "granpack",
+    }
+    materials = {
+        "materials": [
+            {
+                "material_name": "granpack",
+                "material_id": 1,
+                "Variables": {
+                    "PARTICLE_DENSITY": m.density,
+                    "YOUNG_MODULUS": m.young,
+                    "POISSON_RATIO": m.poisson,
+                },
+            }
+        ],
+        "material_relations": [
+            {
+                "material_names_list": ["granpack", "granpack"],
+                "material_ids_list": [1, 1],
+                "Variables": relation,
+            }
+        ],
+        "material_assignation_table": [["SpheresPart.DEMParts_Body", "granpack"]],
+    }
+    (folder / "ProjectParametersDEM.json").write_text(json.dumps(params))
+    (folder / "MaterialsDEM.json").write_text(json.dumps(materials))
+    got = _run_kratos(_KRATOS_RUN, cwd=folder)
+    assert got["time"] == pytest.approx(1e-4, rel=1e-12)
+    assert got["elements"] == len(pack)
+    return np.array([a[1:4] for a in sorted(got["after"])])
+
+
+@pytest.mark.peers
+def test_kratos_runs_the_material_relation_and_takes_its_normal_stiffness(pack3d, tmp_path):
+    """Kratos' DEM stage runs 10 steps from the model part with the material relation of
+    its comment line (linear law with constant stiffnesses, constant-torque rolling
+    friction); the same run with K_NORMAL 100 times larger moves the spheres otherwise:
+    Kratos takes the file's k_n, not one from Young's modulus."""
+    from test_io_dem_codes import _kratos_or_skip
+
+    _kratos_or_skip()
+    pack = with_material(pack3d, LINEAR_ROLLING)
+    (text,) = exported(pack, tmp_path, "kratos").values()
+    relation = kratos_relation(text)
+    a = _kratos_after(pack, tmp_path / "a", relation)
+    b = _kratos_after(pack, tmp_path / "b", relation)
+    np.testing.assert_array_equal(a, b)  # the run is repeatable
+    stiff = _kratos_after(pack, tmp_path / "c", {**relation, "K_NORMAL": 2e6})
+    assert np.max(np.abs(stiff - a)) > 1e-9
