@@ -9,7 +9,15 @@ rotations on or off and, in 2D, the scene's mass convention. It ends with
 particle-particle contacts (``compute contact/atom``, summed: 2 N_c) as ``c_contacts``
 in the thermo output.
 
-The damping maps exactly onto each code's form (docs/interop.md derives it):
+A material with the linear law or rolling resistance ``"epsd"`` goes out with it (docs/
+export.md, "The contact model in each code"): LAMMPS ``hooke k_n e`` with ``damping
+tsuji`` and ``tangential linear_history``, ``rolling sds k_roll gamma_roll mu_roll`` on the
+pairs and every wall; LIGGGHTS ``model hooke/stiffness`` (``kn``, ``kt``, ``gamman``,
+``gammat``) and ``rolling_friction epsd3``. A constant k_roll for a material without
+`rolling_stiffness` is 2.25 mu_r^2 k_n at the pack's mean contact
+(`granpack.io.contact_model`); a default material's input is what it always was.
+
+The Hertz-Mindlin damping maps exactly onto each code's form (docs/interop.md derives it):
 
 - granpack: c_n = 2 xi sqrt(m* k_n) with k_n = 2 E* sqrt(R* d), and c_t likewise with
   k_t = 8 G* sqrt(R* d);
