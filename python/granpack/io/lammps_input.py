@@ -399,8 +399,8 @@ def _lammps_linear_law(m: Material) -> tuple[str, list[str]]:
     notes = [
         f"# k_n = {_g(k_n)} N/m, k_t = {_g(k_t)} N/m; c = 2 xi sqrt(m* k) on every contact:",
         "# damping tsuji with the e of alpha(e) = 2 xi (LAMMPS 29Sep2021's Tsuji prefactor;",
-        "# LAMMPS from 2023 multiplies it by sqrt(2): there the damping is sqrt(2) times",
-        "# granpack's, docs/interop.md) and the tangential factor sqrt(k_t / k_n)",
+        "# the LAMMPS source of 2025-2026 multiplies it by sqrt(2): there the damping is",
+        "# sqrt(2) times granpack's, docs/interop.md) and the tangential factor sqrt(k_t / k_n)",
     ]
     return law, notes
 
