@@ -718,3 +718,53 @@ def test_kratos_runs_the_material_relation_and_takes_its_normal_stiffness(pack3d
     np.testing.assert_array_equal(a, b)  # the run is repeatable
     stiff = _kratos_after(pack, tmp_path / "c", {**relation, "K_NORMAL": 2e6})
     assert np.max(np.abs(stiff - a)) > 1e-9
+
+
+HEAD_ON_LIGGGHTS = """units           si
+atom_style      granular
+atom_modify     map array
+boundary        f f f
+newton          off
+communicate     single vel yes
+read_data       pair.data
+neighbor        0.005 bin
+{model}
+fix             integrate all nve/sphere
+timestep        1e-6
+variable        v1 equal vx[1]
+variable        v2 equal vx[2]
+run             20000
+print           "V ${{v1}} ${{v2}}"
+"""
+
+
+def test_liggghts_linear_damping_scales_with_the_reduced_mass_as_documented(
+    liggghts, pack3d, tmp_path
+):
+    """Two spheres meet head-on at 1 m/s under the exported hooke/stiffness law: they part
+    with the restitution of granpack's law at the damping ratio xi sqrt(m* / mean m*)
+    (LIGGGHTS damps with gamma m*), the mean m* that of the input's gamman."""
+    m = dataclasses.replace(LINEAR, damping=0.2)
+    text = exported(with_material(pack3d, m), tmp_path, "liggghts")["in.granpack"]
+    model = "\n".join(
+        ln
+        for ln in text.splitlines()
+        if ln.startswith(("fix             m", "pair_style", "pair_coeff"))
+    )
+    gamman = liggghts_property(text, "gamman")
+    mean_m_star = (2.0 * 0.2) ** 2 * 2e4 / gamman**2
+    for r1, r2 in ((0.02, 0.02), (0.01, 0.03)):
+        gap = 1e-4
+        (tmp_path / "pair.data").write_text(
+            "two spheres\n\n2 atoms\n1 atom types\n-0.2 0.2 xlo xhi\n-0.1 0.1 ylo yhi\n"
+            "-0.1 0.1 zlo zhi\n\nAtoms\n\n"
+            f"1 1 {2 * r1!r} 1000.0 {-r1 - gap / 2!r} 0.0 0.0\n"
+            f"2 1 {2 * r2!r} 1000.0 {r2 + gap / 2!r} 0.0 0.0\n\n"
+            "Velocities\n\n1 0.5 0.0 0.0 0.0 0.0 0.0\n2 -0.5 0.0 0.0 0.0 0.0 0.0\n"
+        )
+        log = run(liggghts, tmp_path, HEAD_ON_LIGGGHTS.format(model=model))
+        v1, v2 = (float(v) for v in re.findall(r"^V (\S+) (\S+)", log, re.MULTILINE)[-1])
+        m1, m2 = (1000.0 * 4.0 / 3.0 * math.pi * r**3 for r in (r1, r2))
+        m_star = m1 * m2 / (m1 + m2)
+        xi = 0.2 * math.sqrt(m_star / mean_m_star)
+        assert v2 - v1 == pytest.approx(restitution_of_the_linear_law(xi), abs=1e-3), (r1, r2)
