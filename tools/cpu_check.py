@@ -88,8 +88,7 @@ def main() -> None:
         for dim in (3, 2):
             models.update(run(dim, 300, material))
     print(
-        f"level {_core.cpu_level()} checksum {h.hexdigest()[:16]} "
-        f"models {models.hexdigest()[:16]}"
+        f"level {_core.cpu_level()} checksum {h.hexdigest()[:16]} models {models.hexdigest()[:16]}"
     )
 
 
