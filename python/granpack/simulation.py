@@ -61,8 +61,8 @@ class Material:
         (2 - nu), the ratio of the Hertz-Mindlin law's two stiffnesses.
     rolling : str
         Rolling resistance: ``"none"`` (default) or ``"epsd"``, the elastic-plastic
-        spring-dashpot model (type C of Ai, Chen, Rotter and Ooi 2011; LIGGGHTS
-        ``epsd2``, LAMMPS ``rolling sds``): a spring on the rolling displacement R*
+        spring-dashpot model (type C of Ai, Chen, Rotter and Ooi 2011; LAMMPS
+        ``rolling sds``, LIGGGHTS ``epsd3``): a spring on the rolling displacement R*
         times the relative rotation, capped at mu_r R* F_n, with a dashpot.
     rolling_friction : float or None
         Rolling friction coefficient mu_r >= 0 (-). Required with ``"epsd"``.
@@ -72,7 +72,8 @@ class Material:
         al. 2011, after Iwashita and Oda 1998).
     rolling_damping : float or None
         Rolling dashpot gamma_r (N s/m) on the rolling velocity (LAMMPS ``gamma_roll``),
-        >= 0. Default 0, as LIGGGHTS ``epsd2``.
+        >= 0. Default 0 (the spring and its cap alone, as Ai et al.'s type C without
+        its optional dashpot).
     """
 
     density: float = 1000.0

@@ -23,7 +23,7 @@ pub enum Rolling {
     /// None (the default): contacts transmit no moment.
     None,
     /// The elastic-plastic spring-dashpot model, type C of Ai, Chen, Rotter and Ooi
-    /// (2011): LIGGGHTS `epsd2`, LAMMPS `rolling sds`. A spring on the rolling
+    /// (2011): LAMMPS `rolling sds`, LIGGGHTS `epsd3`. A spring on the rolling
     /// displacement (R* times the relative rotation), capped at mu_r R* F_n, with a
     /// dashpot.
     Epsd {
