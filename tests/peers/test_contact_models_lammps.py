@@ -90,8 +90,7 @@ def lammps_scene(bodies, *, dt, steps, every, pair=None, floor=None, gravity=0.0
     out += [
         "fix             integrate all nve/sphere",
         f"timestep        {_g(dt)}",
-        f"dump            traj all custom {every} traj.dump id x y z vx vy vz "
-        "omegax omegay omegaz",
+        f"dump            traj all custom {every} traj.dump id x y z vx vy vz omegax omegay omegaz",
         "dump_modify     traj format float %.17g sort id",
         "thermo          1000000",
         f"run             {steps}",
