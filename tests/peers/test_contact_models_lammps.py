@@ -214,7 +214,12 @@ def test_a_sphere_rolling_on_the_floor_follows_lammps(lmp, tmp_path):
 # -- two spheres meeting ----------------------------------------------------------------
 
 R1, R2 = 0.01, 0.007  # m
-MU_R_B, K_R_B = 0.1, 1e5  # -, N/m: about the default 2.25 mu_r^2 k_n, plastic
+MU_R_B = 0.1
+#: the rolling spring (N/m) and dashpot (N s/m) of each law's scene: with Hertz a spring of
+#: the default's order (2.25 mu_r^2 k_n) that reaches the cap at once, no dashpot; with
+#: the linear law a soft one that stays mostly elastic, with a dashpot whose force is of
+#: the spring's order
+ROLLING_B = {"hertz": (1e5, 0.0), "linear": (1e3, 0.2)}
 
 
 def _pair_bodies():
@@ -227,22 +232,28 @@ def _pair_bodies():
     ]
 
 
-def _rolling(mu_r: float) -> str:
-    return f"rolling sds {_g(K_R_B)} 0.0 {_g(mu_r)}" if mu_r > 0.0 else ""
+def _rolling(law: str, mu_r: float) -> str:
+    k_r, gamma_r = ROLLING_B[law]
+    return f"rolling sds {_g(k_r)} {_g(gamma_r)} {_g(mu_r)}" if mu_r > 0.0 else ""
 
 
 def _pair_case(law: str, mu_r: float) -> tuple[gp.Material, str]:
     """The material and LAMMPS' pair_coeff words of the two-sphere scene."""
     rolling = {}
     if mu_r > 0.0:
-        rolling = dict(rolling="epsd", rolling_friction=mu_r, rolling_stiffness=K_R_B)
+        rolling = dict(
+            rolling="epsd",
+            rolling_friction=mu_r,
+            rolling_stiffness=ROLLING_B[law][0],
+            rolling_damping=ROLLING_B[law][1],
+        )
     common = dict(density=RHO, poisson=NU, damping=0.1, friction=0.3)
     if law == "hertz":
         mat = gp.Material(young=1e11, **common, **rolling)
         words = (
             f"hertz/material {_g(mat.young)} {_g(lammps_restitution(mat.damping))} {_g(NU)} "
             f"tangential mindlin NULL {_g(T_DAMP)} {_g(mat.friction)} damping tsuji "
-            f"{_rolling(mu_r)} limit_damping"
+            f"{_rolling(law, mu_r)} limit_damping"
         )
         return mat, words
     mat = gp.Material(contact_law="linear", normal_stiffness=6.7e6, **common, **rolling)
@@ -252,7 +263,7 @@ def _pair_case(law: str, mu_r: float) -> tuple[gp.Material, str]:
     gamma_n = 2.0 * mat.damping * math.sqrt(m1 * m2 / (m1 + m2) * k_n)
     words = (
         f"hooke {_g(k_n)} {_g(gamma_n)} damping velocity tangential linear_history {_g(k_t)} "
-        f"{_g(math.sqrt(k_t / k_n))} {_g(mat.friction)} {_rolling(mu_r)} limit_damping"
+        f"{_g(math.sqrt(k_t / k_n))} {_g(mat.friction)} {_rolling(law, mu_r)} limit_damping"
     )
     return mat, words
 
