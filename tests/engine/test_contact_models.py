@@ -2,7 +2,8 @@
 
 - rolling resistance ``epsd`` in its plastic regime: a sphere rolling on the floor
   decelerates at a = -M / (r (m + I / r^2)) with M = mu_r r m g, -(5/7) mu_r g for a
-  sphere and -(2/3) mu_r g for a disc (the 2D disc convention);
+  sphere and -(2/3) mu_r g for a disc (the 2D disc convention); on a frictionless
+  floor a spin in place brakes at M / I;
 - ``epsd`` in its elastic regime: a sphere set rolling with less energy than the spring
   holds below its cap rocks about its start (amplitude v0 sqrt(7 m / (5 k_r)), period
   2 pi sqrt(7 m / (5 k_r))); with more it rolls on plastically to 2.5 x_c and then rocks
@@ -86,6 +87,32 @@ def test_rolling_resistance_decelerates_a_rolling_sphere_at_its_closed_form(
     # it stopped where the closed form says and does not roll on
     assert abs(vs[-1]) < 0.02 * v0
     assert sim.positions[0, 0] == pytest.approx(v0 * v0 / (2 * -a_expected), rel=0.01)
+
+
+@pytest.mark.parametrize(("dim", "inertia_2d", "shape"), [(3, "sphere", 0.4), (2, "disc", 0.5)])
+def test_rolling_resistance_brakes_a_spin_on_a_frictionless_floor(dim, inertia_2d, shape):
+    """Without friction no tangential force acts, but the rolling resistance still does:
+    a particle spinning in place on the floor loses spin at M / I = mu_r r m g / (k m r^2)
+    = mu_r g / (k r) (k = 2/5 for a sphere, 1/2 for a disc), and does not move."""
+    mu_r, r, w0 = 0.1, 0.005, 20.0
+    mat = gp.Material(damping=0.5, friction=0.0, rolling="epsd", rolling_friction=mu_r)
+    sim = floor_sim(dim, mat, 1e-5, inertia_2d)
+    x = np.zeros((1, dim))
+    x[0, -1] = r
+    spins = np.array([w0]) if dim == 2 else np.array([[0.0, w0, 0.0]])
+    sim.add_particles(x, [r], spins=spins)
+    rate = mu_r * G / (shape * r)
+    t_stop = w0 / rate
+    ts, ws = [], []
+    for _ in range(50):
+        sim.step(int(round(0.016 * t_stop / 1e-5)))
+        ts.append(sim.time)
+        ws.append(sim.spins[0] if dim == 2 else sim.spins[0, 1])
+    ts, ws = np.array(ts), np.array(ws)
+    window = (ts > 0.1 * t_stop) & (ts < 0.7 * t_stop)
+    assert np.polyfit(ts[window], ws[window], 1)[0] == pytest.approx(-rate, rel=1e-3)
+    assert abs(ws[-1]) < 0.02 * w0
+    assert np.abs(sim.positions[0, :-1]).max() == 0.0
 
 
 # -- rolling resistance, elastic --------------------------------------------------------
