@@ -67,26 +67,31 @@ def test_rolling_resistance_decelerates_a_rolling_sphere_at_its_closed_form(
     """M = mu_r R* F_n with R* = r on a wall and F_n = m g: a = -M / (r (m + I / r^2)),
     -(5/7) mu_r g for a sphere (I = 2/5 m r^2), -(2/3) mu_r g for a disc (I = m r^2 / 2).
     The default rolling stiffness 2.25 mu_r^2 k_n puts the cap within a fraction of the
-    overlap, so the whole run but its first steps is plastic."""
+    overlap, so the whole run but its first steps is plastic. The modulus is high so that
+    the overlap is small: the slip velocity's lever arm r - d/2 shifts a by about d / 6r
+    for a disc."""
     mu_r, r, v0 = 0.1, 0.005, 0.1
-    mat = gp.Material(damping=0.5, friction=0.5, rolling="epsd", rolling_friction=mu_r)
+    mat = gp.Material(young=1e9, damping=0.5, friction=0.5, rolling="epsd", rolling_friction=mu_r)
     sim = floor_sim(dim, mat, 1e-5, inertia_2d)
     start_rolling(sim, dim, r, r, v0)
     a_expected = -factor * mu_r * G
     t_stop = v0 / -a_expected
-    ts, vs = [], []
+    ts, vs, xs = [], [], []
     for _ in range(100):
-        sim.step(int(round(0.008 * t_stop / 1e-5)))
+        sim.step(int(round(0.016 * t_stop / 1e-5)))
         ts.append(sim.time)
         vs.append(sim.velocities[0, 0])
-    ts, vs = np.array(ts), np.array(vs)
+        xs.append(sim.positions[0, 0])
+    ts, vs, xs = np.array(ts), np.array(vs), np.array(xs)
     # the plastic stretch: after the start's vertical settling, before the stop
-    window = (ts > 0.1 * t_stop) & (ts < 0.7 * t_stop)
+    window = (ts > 0.2 * t_stop) & (ts < 0.8 * t_stop)
     a = np.polyfit(ts[window], vs[window], 1)[0]
     assert a == pytest.approx(a_expected, rel=1e-3)
-    # it stopped where the closed form says and does not roll on
-    assert abs(vs[-1]) < 0.02 * v0
-    assert sim.positions[0, 0] == pytest.approx(v0 * v0 / (2 * -a_expected), rel=0.01)
+    # it stopped where the closed form says and does not roll on: the last third of the
+    # run (0.5 t_stop) only rocks in the elastic regime
+    stop = v0 * v0 / (2 * -a_expected)
+    assert xs[-1] == pytest.approx(stop, rel=5e-3)
+    assert np.ptp(xs[-30:]) < 5e-3 * stop
 
 
 @pytest.mark.parametrize(("dim", "inertia_2d", "shape"), [(3, "sphere", 0.4), (2, "disc", 0.5)])
@@ -95,7 +100,7 @@ def test_rolling_resistance_brakes_a_spin_on_a_frictionless_floor(dim, inertia_2
     a particle spinning in place on the floor loses spin at M / I = mu_r r m g / (k m r^2)
     = mu_r g / (k r) (k = 2/5 for a sphere, 1/2 for a disc), and does not move."""
     mu_r, r, w0 = 0.1, 0.005, 20.0
-    mat = gp.Material(damping=0.5, friction=0.0, rolling="epsd", rolling_friction=mu_r)
+    mat = gp.Material(young=1e9, damping=0.5, friction=0.0, rolling="epsd", rolling_friction=mu_r)
     sim = floor_sim(dim, mat, 1e-5, inertia_2d)
     x = np.zeros((1, dim))
     x[0, -1] = r
@@ -104,14 +109,18 @@ def test_rolling_resistance_brakes_a_spin_on_a_frictionless_floor(dim, inertia_2
     rate = mu_r * G / (shape * r)
     t_stop = w0 / rate
     ts, ws = [], []
-    for _ in range(50):
+    for _ in range(100):
         sim.step(int(round(0.016 * t_stop / 1e-5)))
         ts.append(sim.time)
         ws.append(sim.spins[0] if dim == 2 else sim.spins[0, 1])
     ts, ws = np.array(ts), np.array(ws)
-    window = (ts > 0.1 * t_stop) & (ts < 0.7 * t_stop)
+    # after the start's vertical settling, before the stop
+    window = (ts > 0.2 * t_stop) & (ts < 0.8 * t_stop)
     assert np.polyfit(ts[window], ws[window], 1)[0] == pytest.approx(-rate, rel=1e-3)
-    assert abs(ws[-1]) < 0.02 * w0
+    # stopped: over the last third of the run (0.5 t_stop) the spin only swings about
+    # zero on the rolling spring, undamped (gamma_r = 0)
+    assert np.abs(ws[-30:]).max() < 0.1 * w0
+    assert ws[-30:].min() < 0.0 < ws[-30:].max()
     assert np.abs(sim.positions[0, :-1]).max() == 0.0
 
 
