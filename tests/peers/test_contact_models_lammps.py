@@ -54,21 +54,24 @@ def _mass(r: float) -> float:
     return 4.0 / 3.0 * math.pi * r**3 * RHO
 
 
-def lammps_scene(bodies, *, dt, steps, every, pair=None, floor=None, gravity=0.0) -> str:
-    """A LAMMPS input: `bodies` (position, radius, velocity, spin) in a closed box,
-    the pair law `pair` (``pair_coeff`` words) and/or the floor z = 0 with the wall
-    law `floor`, gravity along -z, velocity Verlet (``nve/sphere``), and a dump of
-    x, v, omega every `every` steps in full precision."""
-    lo_z = 0.0 if floor else -0.1
+def lammps_scene(bodies, *, dt, steps, every, pair=None, floor=None, gravity=0.0, dim=3) -> str:
+    """A LAMMPS input: `bodies` (position, radius, velocity, spin; 3 components each)
+    in a closed box, the pair law `pair` (``pair_coeff`` words) and/or the floor (z = 0,
+    or y = 0 in 2D) with the wall law `floor`, gravity down, velocity Verlet
+    (``nve/sphere``: a 2D particle is a sphere held in the plane, granpack's
+    ``inertia_2d="sphere"``), and a dump of x, v, omega every `every` steps in full
+    precision."""
+    lo = 0.0 if floor else -0.1
+    box = f"-0.1 0.1 {lo} 0.1 -0.01 0.01" if dim == 2 else f"-0.1 0.1 -0.1 0.1 {lo} 0.1"
     out = [
         "units           si",
         "atom_style      sphere",
-        "dimension       3",
-        "boundary        f f f",
+        f"dimension       {dim}",
+        "boundary        f f p" if dim == 2 else "boundary        f f f",
         "atom_modify     map array",
         "comm_modify     vel yes",
         "newton          off",
-        f"region          box block -0.1 0.1 -0.1 0.1 {lo_z} 0.1 units box",
+        f"region          box block {box} units box",
         "create_box      1 box",
     ]
     for k, (x, r, v, w) in enumerate(bodies, 1):
@@ -84,11 +87,15 @@ def lammps_scene(bodies, *, dt, steps, every, pair=None, floor=None, gravity=0.0
     else:
         out.append("pair_style      none")
     if floor:
-        out.append(f"fix             floor all wall/gran granular {floor} zplane 0.0 NULL")
+        plane = "yplane" if dim == 2 else "zplane"
+        out.append(f"fix             floor all wall/gran granular {floor} {plane} 0.0 NULL")
     if gravity:
-        out.append(f"fix             gravity all gravity {_g(gravity)} vector 0 0 -1")
+        down = "0 -1 0" if dim == 2 else "0 0 -1"
+        out.append(f"fix             gravity all gravity {_g(gravity)} vector {down}")
+    out.append("fix             integrate all nve/sphere")
+    if dim == 2:
+        out.append("fix             plane all enforce2d")
     out += [
-        "fix             integrate all nve/sphere",
         f"timestep        {_g(dt)}",
         f"dump            traj all custom {every} traj.dump id x y z vx vy vz omegax omegay omegaz",
         "dump_modify     traj format float %.17g sort id",
@@ -114,22 +121,38 @@ def lammps_trajectory(lmp: str, run_dir, text: str, n: int) -> np.ndarray:
 
 
 def granpack_trajectory(
-    bodies, material, *, dt, steps, every, floor=False, gravity=0.0
+    bodies, material, *, dt, steps, every, floor=False, gravity=0.0, dim=3
 ) -> np.ndarray:
-    """The same scene in `gp.Simulation`: (frames, n, 9) every `every` steps from 0."""
-    box = ((-0.1, -0.1, 0.0), (0.1, 0.1, math.inf)) if floor else None
+    """The same scene in `gp.Simulation`: (frames, n, 9) every `every` steps from 0, in
+    LAMMPS' layout (a 2D run's out-of-plane components zero)."""
+    n = len(bodies)
+    if dim == 2:
+        box = ((-0.1, 0.0), (0.1, math.inf)) if floor else None
+        spins = [b[3][2] for b in bodies]
+    else:
+        box = ((-0.1, -0.1, 0.0), (0.1, 0.1, math.inf)) if floor else None
+        spins = [b[3] for b in bodies]
+    down = [0.0] * dim
+    down[-1] = -gravity
     sim = gp.Simulation(
-        dim=3, material=material, dt=dt, gravity=(0.0, 0.0, -gravity), box=box, rotations=True
+        dim=dim, material=material, dt=dt, gravity=down, box=box, inertia_2d="sphere"
     )
     sim.add_particles(
-        [b[0] for b in bodies],
+        [b[0][:dim] for b in bodies],
         [b[1] for b in bodies],
-        velocities=[b[2] for b in bodies],
-        spins=[b[3] for b in bodies],
+        velocities=[b[2][:dim] for b in bodies],
+        spins=spins,
     )
 
     def frame():
-        return np.concatenate([sim.positions, sim.velocities, sim.spins], axis=1)
+        out = np.zeros((n, 9))
+        out[:, :dim] = sim.positions
+        out[:, 3 : 3 + dim] = sim.velocities
+        if dim == 2:
+            out[:, 8] = sim.spins
+        else:
+            out[:, 6:9] = sim.spins
+        return out
 
     frames = [frame()]
     for _ in range(steps // every):
@@ -157,7 +180,7 @@ E_A = 1e11  # Pa: stiff, so that the overlap is 2e-6 of the radius
 MU_R_A = 0.05
 
 
-def _floor_scene():
+def _floor_scene(dim: int = 3):
     e_star = E_A / (2.0 * (1.0 - NU**2))
     g_star = E_A / (4.0 * (1.0 + NU) * (2.0 - NU))
     m = _mass(R_A)
@@ -175,8 +198,12 @@ def _floor_scene():
         rolling_stiffness=k_r,
     )
     v0 = 0.02
-    # a hair above the floor: the contact opens during the first steps in both codes
-    bodies = [((0.0, 0.0, R_A + 1e-9), R_A, (v0, 0.0, 0.0), (0.0, v0 / R_A, 0.0))]
+    # a hair above the floor: the contact opens during the first steps in both codes;
+    # rolling along +x without slip (in 2D about z, the floor at y = 0)
+    if dim == 2:
+        bodies = [((0.0, R_A + 1e-9, 0.0), R_A, (v0, 0.0, 0.0), (0.0, 0.0, -v0 / R_A))]
+    else:
+        bodies = [((0.0, 0.0, R_A + 1e-9), R_A, (v0, 0.0, 0.0), (0.0, v0 / R_A, 0.0))]
     # the wall law as granpack's: k_n = 4/3 E*, k_t = 8 G* (times sqrt(r d)); fix
     # wall/gran's hertz/material would take another wall modulus
     wall = (
@@ -187,13 +214,12 @@ def _floor_scene():
     return mat, bodies, wall
 
 
-def test_a_sphere_rolling_on_the_floor_follows_lammps(lmp, tmp_path):
-    mat, bodies, wall = _floor_scene()
-    kw = dict(dt=1e-6, steps=70_000, every=1000)
-    ref = lammps_trajectory(
-        lmp, tmp_path, lammps_scene(bodies, floor=wall, gravity=G, **kw), len(bodies)
-    )
-    got = granpack_trajectory(bodies, mat, floor=True, gravity=G, **kw)
+@pytest.mark.parametrize("dim", [3, 2])
+def test_a_sphere_rolling_on_the_floor_follows_lammps(lmp, tmp_path, dim):
+    mat, bodies, wall = _floor_scene(dim)
+    kw = dict(dt=1e-6, steps=70_000, every=1000, gravity=G, dim=dim)
+    ref = lammps_trajectory(lmp, tmp_path, lammps_scene(bodies, floor=wall, **kw), len(bodies))
+    got = granpack_trajectory(bodies, mat, floor=True, **kw)
     assert got.shape == ref.shape
     # the scene does what it is for: rolls, stops (v_x changes sign) and rocks
     vx = ref[:, 0, 3]
@@ -202,11 +228,9 @@ def test_a_sphere_rolling_on_the_floor_follows_lammps(lmp, tmp_path):
     # O(d/r) = 2e-6: the lever arms of the slip velocity and the wall torque (module notes)
     assert max(diff.values()) < 2e-6, diff
     # without rolling resistance it would roll on: the comparison sees the model
+    bare_wall = wall.split(" rolling ")[0] + " limit_damping"
     bare = lammps_trajectory(
-        lmp,
-        tmp_path,
-        lammps_scene(bodies, floor=wall.split(" rolling ")[0] + " limit_damping", gravity=G, **kw),
-        len(bodies),
+        lmp, tmp_path, lammps_scene(bodies, floor=bare_wall, **kw), len(bodies)
     )
     assert differences(bare, ref)["v"] > 0.5
 
@@ -222,13 +246,15 @@ MU_R_B = 0.1
 ROLLING_B = {"hertz": (1e5, 0.0), "linear": (1e3, 0.2)}
 
 
-def _pair_bodies():
+def _pair_bodies(dim: int = 3):
     gap = 1e-7
     y = 0.002  # the offset of the centres across the push: an oblique contact
     x2 = (math.sqrt((R1 + R2 + gap) ** 2 - y * y), y, 0.0)
+    # a spin off every axis in 3D; in 2D about z only
+    spin = (0.0, 0.0, 40.0) if dim == 2 else (3.0, -5.0, 40.0)
     return [
         ((0.0, 0.0, 0.0), R1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
-        (x2, R2, (-0.01, 0.0, 0.0), (3.0, -5.0, 40.0)),
+        (x2, R2, (-0.01, 0.0, 0.0), spin),
     ]
 
 
@@ -268,6 +294,7 @@ def _pair_case(law: str, mu_r: float) -> tuple[gp.Material, str]:
     return mat, words
 
 
+@pytest.mark.parametrize("dim", [3, 2])
 @pytest.mark.parametrize(
     ("law", "tolerance"),
     [
@@ -277,9 +304,9 @@ def _pair_case(law: str, mu_r: float) -> tuple[gp.Material, str]:
         ("linear", 2e-8),
     ],
 )
-def test_two_spheres_with_rolling_resistance_follow_lammps(lmp, tmp_path, law, tolerance):
-    bodies = _pair_bodies()
-    kw = dict(dt=1e-7, steps=3000, every=20)
+def test_two_spheres_with_rolling_resistance_follow_lammps(lmp, tmp_path, law, tolerance, dim):
+    bodies = _pair_bodies(dim)
+    kw = dict(dt=1e-7, steps=3000, every=20, dim=dim)
     mat, words = _pair_case(law, MU_R_B)
     ref = lammps_trajectory(lmp, tmp_path, lammps_scene(bodies, pair=words, **kw), 2)
     got = granpack_trajectory(bodies, mat, **kw)
