@@ -248,7 +248,8 @@ def test_linear_contact_restitutes_the_damped_spring_that_never_pulls(xi):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_linear_column_rests_with_overlaps_of_the_weight_over_k_n(dim):
     """A column of n equal particles on the floor: the contact below particle k carries
-    the weight of the n - k particles from k up, so its overlap is (n - k) m g / k_n."""
+    the weight of the n - k particles from k up, so its overlap is (n - k) m g / k_n and
+    its spring holds 1/2 k_n d^2."""
     n, r, k_n = 5, 0.005, 1e4
     mat = gp.Material(damping=0.7, friction=0.3, contact_law="linear", normal_stiffness=k_n)
     m = sphere_mass(r)
@@ -270,6 +271,8 @@ def test_linear_column_rests_with_overlaps_of_the_weight_over_k_n(dim):
     overlaps = np.concatenate([[r - z[0]], 2.0 * r - np.diff(z)])
     expected = (n - np.arange(n)) * m * G / k_n
     np.testing.assert_allclose(overlaps, expected, rtol=1e-9)
+    # the springs hold 1/2 k_n d^2 each
+    assert sim.elastic_energy() == pytest.approx(0.5 * k_n * (expected**2).sum(), rel=1e-8)
     # the column stayed a column: no force across it
     np.testing.assert_array_equal(sim.positions[:, :-1], 0.0)
 
