@@ -1,7 +1,8 @@
 """granpack's contact models against LAMMPS' ``granular`` pair style and ``fix wall/gran``.
 
-Three scenes run in both codes from the same start, and their trajectories (positions,
-velocities and spins, every few steps) are compared:
+Three scenes run in both codes from the same start, in 3D and in 2D (LAMMPS
+``dimension 2``: spheres held in the plane, granpack's ``inertia_2d="sphere"``), and
+their trajectories (positions, velocities and spins, every few steps) are compared:
 
 - a sphere rolling on the floor under gravity with rolling resistance ``epsd``
   (LAMMPS ``rolling sds``): it rolls, stops in the plastic regime and rocks in the
