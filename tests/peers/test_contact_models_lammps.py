@@ -14,7 +14,7 @@ their trajectories (positions, velocities and spins, every few steps) are compar
   2 xi sqrt(m* k_n) and ``tangential linear_history`` with the tangential damping
   factor sqrt(k_t / k_n) (granpack's c_t = 2 xi sqrt(m* k_t)).
 
-The contract's rolling law (granpack's convention: v_r = R* (w_j - w_i) x n, the
+granpack's rolling law (in granpack's convention, v_r = R* (w_j - w_i) x n, the
 history projected with its magnitude kept, the cap mu_r F_n with F_n the clamped total
 normal force, torques -/+ R* n x f_r) is LAMMPS' to the last bits: a direct
 transcription with LAMMPS' other conventions reproduces both LAMMPS 29Sep2021 (the
