@@ -15,12 +15,17 @@ then builds the pack through `generate_at_density`, by one of two mechanisms
   search in that variable, inside a bracket of measured packs (one pack denser and one
   looser than the target, adjacent in mu_dep) once it has one, and otherwise over the
   measured grid MU_DEP_GRID: deterministic, so the same scene and seed give the same
-  pack, bit for bit.
+  pack, bit for bit. The layers keep the material's rolling model, except at mu_dep =
+  0, the frictionless jam, which has no rolling resistance either; for a material with
+  a rolling model the grid also jams at the material's friction with each rolling
+  friction of MU_R_GRID, and the search splits a bracket among those in ln(mu_r +
+  MU_SHIFT) where the deposition frictions give none (docs/contact_models.md).
 - **Lowering friction under the servo** (``density_method = "servo"``; needs a
   ``[consolidate]`` table). The recipe's deposit is consolidated; while the servo holds
   the stress, the friction is lowered in phases, each run to equilibrium, until phi
   reaches the target; then the material's friction is restored and equilibrium reached
-  again (`granpack.consolidate`'s ``target_phi``). It only densifies.
+  again (`granpack.consolidate`'s ``target_phi``). It only densifies. Every phase keeps
+  the material's rolling model but the one at zero friction, which has none.
 
 ``"auto"`` (the default) lowers the friction under the servo when the scene consolidates
 and the recipe's sample is looser than the target (one generation), and searches the
@@ -35,9 +40,10 @@ what granpack makes of the scene: the packs jammed at every deposition friction 
 MU_DEP_GRID and at the material's own (the recipe), each brought back to the material's
 friction, settled and (when the scene consolidates) consolidated exactly as a target's
 pack is, and, when the scene consolidates (and its density_method is not
-"deposition"), the recipe's sample with its friction lowered to zero under the servo.
-e_min is the densest of them, e_max the loosest, whichever friction or mechanism gave
-each.
+"deposition"), the recipe's sample with its friction lowered to zero under the servo;
+for a material with a rolling model, also the packs jammed at the material's friction
+with each rolling friction of MU_R_GRID. e_min is the densest of them, e_max the
+loosest, whichever friction, rolling friction or mechanism gave each.
 """
 
 from __future__ import annotations
