@@ -13,6 +13,8 @@
 //! across the cell's edges). The tiles are stored in one row-major order over the whole
 //! pack, as the layer loop stores a large pack; `ORDER=morton` stores them in one Morton
 //! order instead, `LAYERS=h` in bands of h (m), each in its own Morton order.
+//! `ROLLING=mu_r` adds rolling resistance (the elastic-plastic spring-dashpot model with
+//! its derived spring), `LINEAR=k_n` runs the linear law with k_n (N/m).
 #[path = "../benches/common/mod.rs"]
 mod common;
 

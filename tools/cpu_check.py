@@ -12,7 +12,9 @@ The run is small (a few hundred steps: emulators are slow) but takes every hot k
 through contacts: a 3D bed of 180 spheres and a 2D one of 60 discs, with friction,
 spins and walls, fall onto their floors; then one RSA layer of the presets with Gaussian
 radii (4.2, 4.4) is placed and stepped briefly. The checksum hashes the bits of the final
-positions, velocities and spins; equal checksums mean bit-identical runs.
+positions, velocities and spins; equal checksums mean bit-identical runs. The second
+checksum ("models") hashes the same beds under rolling resistance and under the linear
+law.
 """
 
 from __future__ import annotations
@@ -37,13 +39,13 @@ def bed(dim: int, n_side: int, layers: int) -> tuple[np.ndarray, np.ndarray]:
     return x, r
 
 
-def run(dim: int, steps: int) -> bytes:
+def run(dim: int, steps: int, material: gp.Material | None = None) -> bytes:
     n_side, layers = (6, 5) if dim == 3 else (12, 5)
     x, r = bed(dim, n_side, layers)
     top = [0.0185 * n_side + 0.01] * (dim - 1) + [float("inf")]
     sim = gp.Simulation(
         dim=dim,
-        material=gp.Material(friction=0.5),
+        material=material or gp.Material(friction=0.5),
         dt=2e-5,
         gravity=[0.0] * (dim - 1) + [-9.81],
         box=([0.0] * dim, top),
@@ -77,7 +79,17 @@ def main() -> None:
         h.update(run(dim, 300))
     for preset in ("4.2", "4.4"):
         h.update(rsa_layer(preset))
-    print(f"level {_core.cpu_level()} checksum {h.hexdigest()[:16]}")
+    # the user's contact models, hashed apart so that the first checksum keeps its value
+    models = hashlib.sha256()
+    for material in (
+        gp.Material(friction=0.5, rolling="epsd", rolling_friction=0.3, rolling_damping=1e-3),
+        gp.Material(friction=0.5, contact_law="linear", normal_stiffness=2e4),
+    ):
+        for dim in (3, 2):
+            models.update(run(dim, 300, material))
+    print(
+        f"level {_core.cpu_level()} checksum {h.hexdigest()[:16]} models {models.hexdigest()[:16]}"
+    )
 
 
 if __name__ == "__main__":

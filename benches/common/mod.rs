@@ -186,6 +186,25 @@ where
     let r: Vec<f64> = order.iter().map(|&k| r[k]).collect();
     let mut cfg = SimConfig::<D>::paper();
     cfg.drag = 0.005;
+    // ROLLING=mu_r: rolling resistance (epsd, derived spring, no dashpot); LINEAR=k_n:
+    // the linear law with k_t from Mindlin's ratio (N/m)
+    if let Some(mu_r) = std::env::var("ROLLING").ok().and_then(|s| s.parse().ok()) {
+        cfg.material.rolling = _core::dynamics::material::Rolling::Epsd {
+            mu_r,
+            k_r: None,
+            gamma_r: 0.0,
+        };
+    }
+    if let Some(kn) = std::env::var("LINEAR")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+    {
+        let nu = cfg.material.poisson;
+        cfg.material.law = _core::dynamics::material::ContactLaw::Linear {
+            kn,
+            kt: kn * 2.0 * (1.0 - nu) / (2.0 - nu),
+        };
+    }
     let mut hi = Vector::<D>::repeat(tiles as f64);
     hi[D - 1] = f64::INFINITY;
     cfg.walls = Some((Vector::<D>::zeros(), hi));

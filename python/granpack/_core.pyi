@@ -64,7 +64,6 @@ RSA_SATURATION: tuple[float, float]
 """Solid fraction near which random sequential addition saturates, in 2D and 3D
 (0.547, 0.384): a layer's `phi_layer` stays below it."""
 
-Material: TypeAlias = tuple[float, float, float, float, float]
 """density (kg/m^3), young (Pa), poisson (-), damping (-), friction (-)."""
 Box: TypeAlias = tuple[list[float], list[float]]
 """(lo, hi) corners (m); hi[vertical] may be inf (open top)."""
@@ -169,6 +168,20 @@ class MaterialFields(Protocol):
     def damping(self) -> float: ...
     @property
     def friction(self) -> float: ...
+    @property
+    def contact_law(self) -> str: ...
+    @property
+    def normal_stiffness(self) -> float | None: ...
+    @property
+    def tangential_stiffness(self) -> float | None: ...
+    @property
+    def rolling(self) -> str: ...
+    @property
+    def rolling_friction(self) -> float | None: ...
+    @property
+    def rolling_stiffness(self) -> float | None: ...
+    @property
+    def rolling_damping(self) -> float | None: ...
 
 class RadiusLawFields(Protocol):
     """What the engine reads of a scene's radius law, by attribute (`PackScene`'s keys)."""
@@ -316,7 +329,7 @@ class Simulation:
     def __new__(
         cls,
         dim: int,
-        material: Material,
+        material: MaterialFields,
         dt: float,
         gravity: list[float],
         drag: float,
@@ -395,6 +408,8 @@ class Simulation:
     def set_friction(self, friction: float) -> None:
         """Sets the Coulomb friction coefficient (-) of particles and walls from the next
         step on (finite, >= 0)."""
+    def set_rolling_friction(self, rolling_friction: float) -> None:
+        """Sets mu_r (-) from the next step on; refused without a rolling model."""
     def clone(self) -> Simulation:
         """A copy of the engine's whole state: stepping it gives the original's bits."""
 

@@ -302,7 +302,7 @@ class Simulation:
         self._inertia_2d = inertia_2d
         self._sim = _core.Simulation(
             dim,
-            material.as_tuple(),
+            material,
             dt,
             list(gravity),
             drag,

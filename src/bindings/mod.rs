@@ -303,7 +303,7 @@ fn container_from(name: &str, radius: Option<f64>) -> PyResult<Container> {
 /// Engine settings as they cross the boundary (the Python layer builds them).
 #[allow(clippy::too_many_arguments)]
 fn sim_config<const D: usize>(
-    material: (f64, f64, f64, f64, f64),
+    material: Material,
     dt: f64,
     gravity: &[f64],
     drag: f64,
@@ -317,7 +317,6 @@ fn sim_config<const D: usize>(
 where
     Dim<D>: Spatial<D>,
 {
-    let (density, young, poisson, damping, friction) = material;
     let walls = match walls {
         None => None,
         Some((lo, hi)) => Some((vector_from::<D>("box", &lo)?, vector_from::<D>("box", &hi)?)),
@@ -333,13 +332,7 @@ where
         }
     };
     Ok(SimConfig {
-        material: Material {
-            density,
-            young,
-            poisson,
-            damping,
-            friction,
-        },
+        material,
         dt,
         gravity: vector_from::<D>("gravity", gravity)?,
         drag,
@@ -398,7 +391,7 @@ impl Simulation {
     #[allow(clippy::too_many_arguments)]
     fn new(
         dim: i64,
-        material: (f64, f64, f64, f64, f64),
+        material: MaterialArgs,
         dt: f64,
         gravity: Vec<f64>,
         drag: f64,
@@ -411,6 +404,7 @@ impl Simulation {
         cylinder_radius: Option<f64>,
     ) -> PyResult<Self> {
         let container = container_from(container, cylinder_radius)?;
+        let material = material.material()?;
         macro_rules! make {
             ($D:literal, $variant:ident) => {
                 SimInner::$variant(World::new(sim_config::<$D>(
@@ -635,6 +629,17 @@ impl Simulation {
         consolidate::set_friction(&mut self.inner, friction)
     }
 
+    /// Sets the rolling friction coefficient mu_r (-) from the next step on (finite,
+    /// >= 0); refused without a rolling model.
+    fn set_rolling_friction(&mut self, rolling_friction: f64) -> PyResult<()> {
+        Ok(with_world!(
+            &mut self.inner,
+            w,
+            _D,
+            w.set_rolling_friction(rolling_friction)
+        )?)
+    }
+
     /// A copy of the engine's whole state (particles, pair list and tangential
     /// history, walls, clocks): stepping the copy gives the same bits as stepping the
     /// original.
@@ -659,12 +664,98 @@ macro_rules! with_packer {
 
 /// A `granpack.Material`, read by attribute.
 #[derive(FromPyObject)]
-struct MaterialArgs {
+pub(super) struct MaterialArgs {
     density: f64,
     young: f64,
     poisson: f64,
     damping: f64,
     friction: f64,
+    contact_law: String,
+    normal_stiffness: Option<f64>,
+    tangential_stiffness: Option<f64>,
+    rolling: String,
+    rolling_friction: Option<f64>,
+    rolling_stiffness: Option<f64>,
+    rolling_damping: Option<f64>,
+}
+
+impl MaterialArgs {
+    /// The engine's material; the keys' ranges are checked by the engine's validator,
+    /// their combinations here (the Python `Material` checks both first).
+    pub(super) fn material(&self) -> PyResult<Material> {
+        use crate::dynamics::material::{ContactLaw, Rolling};
+        let law = match (self.contact_law.as_str(), self.normal_stiffness) {
+            ("hertz_mindlin", None) if self.tangential_stiffness.is_none() => {
+                ContactLaw::HertzMindlin
+            }
+            ("hertz_mindlin", _) => {
+                return Err(bad(
+                    "normal_stiffness",
+                    "given with contact_law = \"hertz_mindlin\": only the linear law takes \
+                     the stiffness keys"
+                        .to_string(),
+                ))
+            }
+            ("linear", Some(kn)) => ContactLaw::Linear {
+                kn,
+                // Mindlin's ratio of the two stiffnesses, 2 (1 - nu) / (2 - nu)
+                kt: self
+                    .tangential_stiffness
+                    .unwrap_or(kn * 2.0 * (1.0 - self.poisson) / (2.0 - self.poisson)),
+            },
+            ("linear", None) => {
+                return Err(bad(
+                    "normal_stiffness",
+                    "None: the linear law needs k_n (N/m), > 0".to_string(),
+                ))
+            }
+            (other, _) => {
+                return Err(bad(
+                    "contact_law",
+                    format!("{other:?}, expected \"hertz_mindlin\" or \"linear\""),
+                ))
+            }
+        };
+        let given = self.rolling_friction.is_some()
+            || self.rolling_stiffness.is_some()
+            || self.rolling_damping.is_some();
+        let rolling =
+            match (self.rolling.as_str(), self.rolling_friction) {
+                ("none", _) if !given => Rolling::None,
+                ("none", _) => return Err(bad(
+                    "rolling_friction",
+                    "given with rolling = \"none\": only a rolling model takes the rolling keys"
+                        .to_string(),
+                )),
+                ("epsd", Some(mu_r)) => Rolling::Epsd {
+                    mu_r,
+                    k_r: self.rolling_stiffness,
+                    gamma_r: self.rolling_damping.unwrap_or(0.0),
+                },
+                ("epsd", None) => {
+                    return Err(bad(
+                        "rolling_friction",
+                        "None: rolling = \"epsd\" needs mu_r >= 0".to_string(),
+                    ))
+                }
+                (other, _) => {
+                    return Err(bad(
+                        "rolling",
+                        format!("{other:?}, expected \"none\" or \"epsd\""),
+                    ))
+                }
+            };
+        let m = Material {
+            density: self.density,
+            young: self.young,
+            poisson: self.poisson,
+            damping: self.damping,
+            friction: self.friction,
+            law,
+            rolling,
+        };
+        Ok(m)
+    }
 }
 
 /// The radius-law keys of a `granpack.PackScene`, read by attribute (the scene's own
@@ -767,7 +858,7 @@ fn scene_spec<'py>(scene: &Bound<'py, PyAny>) -> PyResult<(SceneSpec, Option<Bou
         .extract::<LawArgs>()
         .map_err(|e| key_type_error(scene.py(), e))?
         .spec();
-    let m = &s.material;
+    let material = s.material.material()?;
     let spec = SceneSpec {
         dim: s.dim,
         base: s.base,
@@ -777,13 +868,7 @@ fn scene_spec<'py>(scene: &Bound<'py, PyAny>) -> PyResult<(SceneSpec, Option<Bou
         law,
         h_layer: s.h_layer,
         phi_layer: s.phi_layer,
-        material: Material {
-            density: m.density,
-            young: m.young,
-            poisson: m.poisson,
-            damping: m.damping,
-            friction: m.friction,
-        },
+        material,
         dt: s.dt,
         settle_time: s.settle_time,
         gravity: s.gravity,

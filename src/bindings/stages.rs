@@ -5,7 +5,6 @@
 //! compares them with the Python signatures).
 
 use super::{bad, container_from, MaterialArgs};
-use crate::dynamics::Material;
 use crate::error::Error;
 use crate::scene::stages::{
     ConsolidateSpec, DensitySpec, Lateral, Particles, RestSpec, TileSpec, CONSOLIDATE_KEYS,
@@ -370,13 +369,7 @@ fn resolve_stage<'py>(
             let (spec, _) = consolidate_spec(settings.as_any())?;
             spec.validate(dim, &container)?;
             let m: MaterialArgs = scene.getattr("material")?.extract()?;
-            let material = Material {
-                density: m.density,
-                young: m.young,
-                poisson: m.poisson,
-                damping: m.damping,
-                friction: m.friction,
-            };
+            let material = m.material()?;
             let r_mean = match r_mean {
                 Some(r) => r,
                 None => scene.getattr("r_mean")?.extract()?,

@@ -32,6 +32,10 @@ pub struct LawConsts {
     pub ct: Real,
     /// Friction coefficient mu (-).
     pub mu: Real,
+    /// The linear law: then `kn` and `kt` are the springs k_n, k_t (N/m), `cn` and `ct`
+    /// 2 xi sqrt(k_n) and 2 xi sqrt(k_t), and a pair's factors are 1 and sqrt(m*)
+    /// ([`PairFactors::linear`]).
+    pub linear: bool,
 }
 
 impl LawConsts {
@@ -43,6 +47,19 @@ impl LawConsts {
             kt: 8.0 * g_star,
             ct: 2.0 * damping * (8.0 * g_star).sqrt(),
             mu: friction,
+            linear: false,
+        }
+    }
+
+    /// The linear law's: springs k_n, k_t (N/m), damping ratio xi, friction mu.
+    pub fn linear(kn: Real, kt: Real, damping: Real, friction: Real) -> Self {
+        LawConsts {
+            kn,
+            cn: 2.0 * damping * kn.sqrt(),
+            kt,
+            ct: 2.0 * damping * kt.sqrt(),
+            mu: friction,
+            linear: true,
         }
     }
 }
@@ -64,6 +81,16 @@ impl PairFactors {
         PairFactors {
             sr,
             sm: (p.m_eff * sr).sqrt(),
+        }
+    }
+
+    /// The linear law's factors: 1 and sqrt(m*), so that the shared tangential pass
+    /// gives k_t and 2 xi sqrt(m* k_t) unchanged.
+    #[inline]
+    pub fn linear(p: &PairParams) -> Self {
+        PairFactors {
+            sr: 1.0,
+            sm: p.m_eff.sqrt(),
         }
     }
 }
@@ -206,6 +233,9 @@ pub struct Geometry<const D: usize> {
     /// velocity and the normal force, from the law's normal pass to its tangential one
     /// (cheaper to keep than to recompute).
     pub tmp: [[Real; LANES]; 6],
+    /// With rolling resistance: w_j - w_i (rad/s; three components in 3D, the first
+    /// in 2D), for [`roll_block`].
+    pub wr: [[Real; LANES]; 3],
 }
 
 impl<const D: usize> Default for Geometry<D> {
@@ -216,6 +246,7 @@ impl<const D: usize> Default for Geometry<D> {
             d: [0.0; LANES],
             r: [[0.0; LANES]; 2],
             tmp: [[0.0; LANES]; 6],
+            wr: [[0.0; LANES]; 3],
         }
     }
 }
@@ -351,23 +382,42 @@ pub unsafe fn law_block [const D: usize] (
     let (lo, hi) = (lanes.start, lanes.end.min(LANES));
     let off = off & (BLOCK - LANES);
     let mu = c.mu;
-    for m in lo..hi {
-        let o = off + m;
-        // Apart: d <= 0; the law then runs on d = 0 (no NaN) and the result is masked.
-        let d = g.d[m].max(0.0);
-        let s = d.sqrt();
-        let q = s.sqrt();
-        let mut vn = 0.0;
-        for a in 0..D {
-            vn += g.v[a][m] * g.n[a][m];
+    if c.linear {
+        for m in lo..hi {
+            let o = off + m;
+            let d = g.d[m].max(0.0);
+            let mut vn = 0.0;
+            for a in 0..D {
+                vn += g.v[a][m] * g.n[a][m];
+            }
+            // SAFETY: lane o < BLOCK is ours (caller).
+            let sm = unsafe { lane!(b.sm[o]) };
+            // k_n d - 2 xi sqrt(k_n) sqrt(m*) v_n; s = q = 1 (and the factor sr = 1)
+            // give the tangential pass k_t and its dashpot unchanged
+            g.tmp[3][m] = (c.kn * d - (c.cn * sm) * vn).max(0.0);
+            g.tmp[0][m] = 1.0;
+            g.tmp[1][m] = 1.0;
+            g.tmp[2][m] = vn;
         }
-        // SAFETY: lane o < BLOCK is ours (caller).
-        let (sr, sm) = unsafe { (lane!(b.sr[o]), lane!(b.sm[o])) };
-        let f_elastic = (2.0 / 3.0) * (c.kn * sr) * s * d;
-        g.tmp[3][m] = (f_elastic - (c.cn * sm) * q * vn).max(0.0);
-        g.tmp[0][m] = s;
-        g.tmp[1][m] = q;
-        g.tmp[2][m] = vn;
+    } else {
+        for m in lo..hi {
+            let o = off + m;
+            // Apart: d <= 0; the law then runs on d = 0 (no NaN) and the result is masked.
+            let d = g.d[m].max(0.0);
+            let s = d.sqrt();
+            let q = s.sqrt();
+            let mut vn = 0.0;
+            for a in 0..D {
+                vn += g.v[a][m] * g.n[a][m];
+            }
+            // SAFETY: lane o < BLOCK is ours (caller).
+            let (sr, sm) = unsafe { (lane!(b.sr[o]), lane!(b.sm[o])) };
+            let f_elastic = (2.0 / 3.0) * (c.kn * sr) * s * d;
+            g.tmp[3][m] = (f_elastic - (c.cn * sm) * q * vn).max(0.0);
+            g.tmp[0][m] = s;
+            g.tmp[1][m] = q;
+            g.tmp[2][m] = vn;
+        }
     }
     if mu <= 0.0 {
         // No friction: no tangential force (a zero f_t, added as with friction: the
@@ -536,6 +586,194 @@ unsafe fn write_lane<const D: usize>(
     }
 }
 
+/// The rolling state of [`BLOCK`] consecutive pairs, beside their [`PairBlock`], kept
+/// only when the material has rolling resistance: a scene without it stores nothing
+/// more per pair.
+#[derive(Clone, Debug)]
+pub struct RollBlock<const D: usize> {
+    /// Rolling displacement (m), by component.
+    pub h: [[Real; BLOCK]; D],
+    /// R* n x f_r (N m): the moment on j, whose opposite acts on i; three components
+    /// in 3D, the out-of-plane one first in 2D. Zero for a pair apart.
+    pub m: [[Real; BLOCK]; D],
+}
+
+impl<const D: usize> Default for RollBlock<D> {
+    fn default() -> Self {
+        RollBlock {
+            h: [[0.0; BLOCK]; D],
+            m: [[0.0; BLOCK]; D],
+        }
+    }
+}
+
+/// One pair's rolling state, as [`RollBlock`] stores it lane by lane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollRecord<const D: usize> {
+    /// Rolling displacement (m).
+    pub h: [Real; D],
+    /// R* n x f_r (N m).
+    pub m: [Real; D],
+}
+
+impl<const D: usize> Default for RollRecord<D> {
+    fn default() -> Self {
+        RollRecord {
+            h: [0.0; D],
+            m: [0.0; D],
+        }
+    }
+}
+
+impl<const D: usize> RollBlock<D> {
+    /// The state of lane `l` (`l < BLOCK`).
+    #[inline]
+    pub fn get(&self, l: usize) -> RollRecord<D> {
+        RollRecord {
+            h: std::array::from_fn(|a| self.h[a][l]),
+            m: std::array::from_fn(|a| self.m[a][l]),
+        }
+    }
+
+    /// Sets the state of lane `l` (`l < BLOCK`).
+    #[inline]
+    pub fn set(&mut self, l: usize, r: &RollRecord<D>) {
+        for a in 0..D {
+            self.h[a][l] = r.h[a];
+            self.m[a][l] = r.m[a];
+        }
+    }
+}
+
+/// Zeroes the rolling state of lanes `lanes` of the block behind `rb` (pairs apart).
+///
+/// # Safety
+/// As for [`clear_lanes`].
+pub unsafe fn clear_roll_lanes<const D: usize>(
+    rb: *mut RollBlock<D>,
+    lanes: std::ops::Range<usize>,
+) {
+    let lanes = lanes.start..lanes.end.min(BLOCK);
+    // SAFETY: these lanes are ours (caller), and below BLOCK.
+    unsafe {
+        for o in lanes {
+            for a in 0..D {
+                lane!(rb.h[a][o]) = 0.0;
+                lane!(rb.m[a][o]) = 0.0;
+            }
+        }
+    }
+}
+
+/// The rolling law ([`rolling_epsd`](super::contact_law::rolling_epsd)) on the
+/// scratch's lanes `lanes` after [`law_block`] (whose normal force and normal
+/// stiffness factors it reads from `g.tmp` and the block's factors), with the relative
+/// spins in `g.wr`: advances each pair's rolling displacement and writes R* n x f_r;
+/// pairs apart get zeros. R* comes from the radii in the scratch.
+///
+/// # Safety
+/// `rb` and `b` point to the blocks of these pairs, whose lanes `off + lanes` nothing
+/// else reads or writes meanwhile.
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+pub unsafe fn roll_block<const D: usize>(
+    rb: *mut RollBlock<D>,
+    b: *mut PairBlock<D>,
+    g: &Geometry<D>,
+    lanes: std::ops::Range<usize>,
+    off: usize,
+    c: &LawConsts,
+    rc: &super::contact_law::RollCoefs,
+    dt: Real,
+) {
+    let (lo, hi) = (lanes.start, lanes.end.min(LANES));
+    let off = off & (BLOCK - LANES);
+    for m in lo..hi {
+        let o = off + m;
+        let contact = g.d[m] > 0.0;
+        let (ri, rj) = (g.r[0][m], g.r[1][m]);
+        let r_eff = ri * rj / (ri + rj);
+        let n: [Real; D] = std::array::from_fn(|a| g.n[a][m]);
+        // v_r = R* (w_j - w_i) x n
+        let mut vr = [0.0; D];
+        if D == 3 {
+            let w = [g.wr[0][m], g.wr[1][m], g.wr[2][m]];
+            let wxn = [
+                w[1] * n[2] - w[2] * n[1],
+                w[2] * n[0] - w[0] * n[2],
+                w[0] * n[1] - w[1] * n[0],
+            ];
+            for a in 0..D {
+                vr[a] = r_eff * wxn[a];
+            }
+        } else {
+            let w = g.wr[0][m];
+            vr[0] = r_eff * (-w * n[1]);
+            vr[1] = r_eff * (w * n[0]);
+        }
+        // SAFETY: lane o < BLOCK is ours (caller).
+        let (sr, h_old) = unsafe {
+            (
+                lane!(b.sr[o]),
+                std::array::from_fn::<Real, D, _>(|a| lane!(rb.h[a][o])),
+            )
+        };
+        // the normal stiffness: 2 E* sqrt(R*) sqrt(d), or k_n (sr = s = 1)
+        let k_n = (c.kn * sr) * g.tmp[0][m];
+        let k_r = rc.k_abs + rc.k_rel * k_n;
+        let (mut hn, mut h_old2) = (0.0, 0.0);
+        for a in 0..D {
+            hn += h_old[a] * n[a];
+            h_old2 += h_old[a] * h_old[a];
+        }
+        let mut h = [0.0; D];
+        let mut h_new2 = 0.0;
+        for a in 0..D {
+            h[a] = h_old[a] - n[a] * hn;
+            h_new2 += h[a] * h[a];
+        }
+        let rescale = if h_new2 > 0.0 && h_new2 != h_old2 {
+            (h_old2 / h_new2).sqrt()
+        } else {
+            1.0
+        };
+        let mut fr = [0.0; D];
+        let mut fr2 = 0.0;
+        for a in 0..D {
+            h[a] = h[a] * rescale + vr[a] * dt;
+            fr[a] = -(h[a] * k_r) - vr[a] * rc.gamma;
+            fr2 += fr[a] * fr[a];
+        }
+        let f_max = rc.mu_r * g.tmp[3][m];
+        if fr2 > f_max * f_max {
+            let scale = if fr2 > 0.0 { f_max / fr2.sqrt() } else { 0.0 };
+            for a in 0..D {
+                fr[a] *= scale;
+                h[a] = if k_r > 0.0 {
+                    -(fr[a] + vr[a] * rc.gamma) * (1.0 / k_r)
+                } else {
+                    0.0
+                };
+            }
+        }
+        // R* n x f_r
+        let mut mom = [0.0; D];
+        if D == 3 {
+            mom[0] = r_eff * (n[1] * fr[2] - n[2] * fr[1]);
+            mom[1] = r_eff * (n[2] * fr[0] - n[0] * fr[2]);
+            mom[2] = r_eff * (n[0] * fr[1] - n[1] * fr[0]);
+        } else {
+            mom[0] = r_eff * (n[0] * fr[1] - n[1] * fr[0]);
+        }
+        // SAFETY: as above.
+        unsafe {
+            for a in 0..D {
+                lane!(rb.h[a][o]) = if contact { h[a] } else { 0.0 };
+                lane!(rb.m[a][o]) = if contact { mom[a] } else { 0.0 };
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -636,6 +874,112 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The block law under the linear law, and the rolling law after it, agree with
+    /// the scalar laws pair by pair (sticking and sliding, rolling elastic and at its
+    /// cap, a given and a derived rolling spring); pairs apart come out zero.
+    #[test]
+    fn linear_and_rolling_block_laws_match_the_scalar_laws() {
+        use crate::dynamics::contact_law::{linear_coefs, rolling_epsd, RollCoefs};
+        use crate::dynamics::material::Rolling;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (kn, kt, xi, mu) = (2e4, 1.5e4, 0.1, 0.4);
+        for (linear, k_r) in [(true, Some(300.0)), (true, None), (false, None)] {
+            let consts = if linear {
+                LawConsts::linear(kn, kt, xi, mu)
+            } else {
+                LawConsts::new(5.3e7, 1.1e7, xi, mu)
+            };
+            let rc = RollCoefs::new(&Rolling::Epsd {
+                mu_r: 0.3,
+                k_r,
+                gamma_r: 1e-3,
+            });
+            let (mut b, mut rb) = (PairBlock::<3>::default(), RollBlock::<3>::default());
+            let mut g = Geometry::<3>::default();
+            let mut expect = Vec::new();
+            for m in 0..LANES {
+                let (ri, rj) = (0.01 + 0.01 * rng.random::<f64>(), 0.015);
+                let r_eff = ri * rj / (ri + rj);
+                let p = PairParams {
+                    r_eff,
+                    m_eff: 1e-3 + 1e-2 * rng.random::<f64>(),
+                    e_star: 5.3e7,
+                    g_star: 1.1e7,
+                    damping: xi,
+                    friction: mu,
+                };
+                let n = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5).normalize();
+                let v = Vector::<3>::from_fn(|_, _| rng.random::<f64>() - 0.5);
+                let w = Vector::<3>::from_fn(|_, _| 50.0 * (rng.random::<f64>() - 0.5));
+                let h0 = Vector::<3>::from_fn(|_, _| 1e-5 * (rng.random::<f64>() - 0.5));
+                let hr0 = Vector::<3>::from_fn(|_, _| 1e-4 * (rng.random::<f64>() - 0.5));
+                let apart = m % 5 == 0;
+                let d = if apart {
+                    -1e-5
+                } else {
+                    1e-4 * rng.random::<f64>() + 1e-9
+                };
+                let (mut h, mut hr) = (h0, hr0);
+                let (f, k_n) = if linear {
+                    let c = LawCoefs::linear(&p, kn, kt);
+                    (linear_coefs(&c, d, &n, &v, &mut h, 1e-4), kn)
+                } else {
+                    let c = LawCoefs::new(&p);
+                    let f = hertz_mindlin_coefs(&c, d, &n, &v, &mut h, 1e-4);
+                    (f, 2.0 * 5.3e7 * (r_eff * d.max(0.0)).sqrt())
+                };
+                let v_r = w.cross(&n) * r_eff;
+                let f_r = rolling_epsd(&rc, f.normal, k_n, &n, &v_r, &mut hr, 1e-4);
+                expect.push((apart, f, h, hr, n.cross(&f_r) * r_eff, n));
+                g.d[m] = d;
+                (g.r[0][m], g.r[1][m]) = (ri, rj);
+                let pf = if linear {
+                    PairFactors::linear(&p)
+                } else {
+                    PairFactors::new(&p)
+                };
+                (b.sr[m], b.sm[m]) = (pf.sr, pf.sm);
+                for a in 0..3 {
+                    (g.n[a][m], g.v[a][m], g.wr[a][m]) = (n[a], v[a], w[a]);
+                    (b.h[a][m], rb.h[a][m]) = (h0[a], hr0[a]);
+                }
+            }
+            // SAFETY: the blocks are this test's alone.
+            unsafe {
+                law_block(&raw mut b, &mut g, 0..LANES, 0, &consts, 1e-4, true);
+                roll_block(&raw mut rb, &raw mut b, &g, 0..LANES, 0, &consts, &rc, 1e-4);
+            }
+            let mut capped = 0;
+            for (m, (apart, f, h, hr, mom, n)) in expect.iter().enumerate() {
+                if *apart {
+                    for a in 0..3 {
+                        assert_eq!((b.f[a][m], rb.h[a][m], rb.m[a][m]), (0.0, 0.0, 0.0));
+                    }
+                    continue;
+                }
+                let total = n * f.normal + f.tangential;
+                let tol = 1e-10 * (1e-6 + total.norm());
+                let mtol = 1e-10 * (1e-12 + mom.norm());
+                capped +=
+                    usize::from(mom.norm() >= 0.3 * r_eff_of(&g, m) * f.normal * (1.0 - 1e-9));
+                for a in 0..3 {
+                    assert!((b.f[a][m] - total[a]).abs() <= tol, "{linear} {m}");
+                    assert!((b.h[a][m] - h[a]).abs() <= 1e-10 * (1e-9 + h.norm()));
+                    assert!((rb.h[a][m] - hr[a]).abs() <= 1e-10 * (1e-9 + hr.norm()));
+                    assert!((rb.m[a][m] - mom[a]).abs() <= mtol, "{linear} {m} {a}");
+                }
+            }
+            assert!(
+                capped > 0 && capped < LANES * 4 / 5,
+                "{capped} lanes at the cap"
+            );
+        }
+    }
+
+    fn r_eff_of(g: &Geometry<3>, m: usize) -> Real {
+        g.r[0][m] * g.r[1][m] / (g.r[0][m] + g.r[1][m])
     }
 
     /// In 2D the block law's n x f_t is the out-of-plane component, in the first

@@ -64,6 +64,19 @@ impl LawCoefs {
             mu: p.friction,
         }
     }
+
+    /// The linear law's coefficients of a pair: k_n, c_n = 2 xi sqrt(m* k_n), k_t,
+    /// c_t = 2 xi sqrt(m* k_t), mu (for [`linear_coefs`]).
+    #[inline]
+    pub fn linear(p: &PairParams, kn: Real, kt: Real) -> Self {
+        LawCoefs {
+            kn,
+            cn: 2.0 * p.damping * (kn * p.m_eff).sqrt(),
+            kt,
+            ct: 2.0 * p.damping * (kt * p.m_eff).sqrt(),
+            mu: p.friction,
+        }
+    }
 }
 
 /// Evaluates the Hertz-Mindlin law for one step and advances the tangential history.
@@ -117,6 +130,48 @@ pub fn hertz_mindlin_coefs<const D: usize>(
         };
     }
 
+    tangential(c.mu, f_n, c.kt * s, c.ct * q, n, v_rel, vn, history, dt)
+}
+
+/// The linear law with constant springs, for one step (see [`hertz_mindlin`] for the
+/// arguments): f_n = k_n d - c_n v_n clamped at 0, c_n = 2 xi sqrt(m* k_n); the same
+/// Cundall-Strack tangential spring with k_t and c_t = 2 xi sqrt(m* k_t). `c` holds
+/// k_n, c_n, k_t, c_t themselves ([`LawCoefs::linear`]).
+#[inline(always)]
+pub fn linear_coefs<const D: usize>(
+    c: &LawCoefs,
+    overlap: Real,
+    n: &Vector<D>,
+    v_rel: &Vector<D>,
+    history: &mut Vector<D>,
+    dt: Real,
+) -> ContactForce<D> {
+    let vn = v_rel.dot(n);
+    let f_n = (c.kn * overlap - c.cn * vn).max(0.0);
+    if c.mu <= 0.0 {
+        return ContactForce {
+            normal: f_n,
+            tangential: Vector::<D>::zeros(),
+        };
+    }
+    tangential(c.mu, f_n, c.kt, c.ct, n, v_rel, vn, history, dt)
+}
+
+/// The Cundall-Strack tangential spring of both laws: stiffness `k_t`, dashpot `c_t`,
+/// capped at mu f_n (see [`hertz_mindlin`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn tangential<const D: usize>(
+    mu: Real,
+    f_n: Real,
+    k_t: Real,
+    c_t: Real,
+    n: &Vector<D>,
+    v_rel: &Vector<D>,
+    vn: Real,
+    history: &mut Vector<D>,
+    dt: Real,
+) -> ContactForce<D> {
     let v_t = v_rel - n * vn;
     // Keep the history in the current tangent plane; rescale so that rotating the
     // contact frame does not change the stored elastic energy.
@@ -128,10 +183,8 @@ pub fn hertz_mindlin_coefs<const D: usize>(
     }
     h += v_t * dt;
 
-    let k_t = c.kt * s;
-    let c_t = c.ct * q;
     let mut f_t = -(h * k_t) - v_t * c_t;
-    let f_max = c.mu * f_n;
+    let f_max = mu * f_n;
     let ft2 = f_t.norm_squared();
     if ft2 > f_max * f_max {
         // Sliding: cap |f_t| at mu f_n and store the spring stretch consistent with it.
@@ -148,6 +201,84 @@ pub fn hertz_mindlin_coefs<const D: usize>(
         normal: f_n,
         tangential: f_t,
     }
+}
+
+/// The rolling-resistance constants of the elastic-plastic spring-dashpot model
+/// ([`Rolling::Epsd`](super::material::Rolling)), as the law takes them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RollCoefs {
+    /// Rolling friction coefficient mu_r (-).
+    pub mu_r: Real,
+    /// A given rolling spring k_r (N/m), 0 when derived.
+    pub k_abs: Real,
+    /// The derived spring's factor on the normal stiffness, 2.25 mu_r^2, 0 when given.
+    pub k_rel: Real,
+    /// Rolling dashpot gamma_r (N s/m).
+    pub gamma: Real,
+}
+
+impl RollCoefs {
+    /// From the material's rolling model; all zero without one.
+    pub fn new(rolling: &super::material::Rolling) -> Self {
+        match *rolling {
+            super::material::Rolling::None => RollCoefs::default(),
+            super::material::Rolling::Epsd { mu_r, k_r, gamma_r } => RollCoefs {
+                mu_r,
+                k_abs: k_r.unwrap_or(0.0),
+                k_rel: if k_r.is_some() {
+                    0.0
+                } else {
+                    2.25 * mu_r * mu_r
+                },
+                gamma: gamma_r,
+            },
+        }
+    }
+}
+
+/// The elastic-plastic spring-dashpot rolling law for one step (LAMMPS `rolling sds`,
+/// Ai et al. 2011 type C), returning the rolling force f_r; the moment on i is
+/// -R* n x f_r, on j +R* n x f_r.
+///
+/// * `v_r` the rolling velocity R* (w_j - w_i) x n (m/s);
+/// * `f_n` the contact's normal force (N), `k_n` its normal stiffness (N/m), which
+///   sets a derived rolling spring;
+/// * `history` the rolling displacement (m), kept in the tangent plane with its
+///   magnitude, advanced by v_r dt, and reset to the capped force's displacement when
+///   the moment reaches mu_r R* f_n.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn rolling_epsd<const D: usize>(
+    rc: &RollCoefs,
+    f_n: Real,
+    k_n: Real,
+    n: &Vector<D>,
+    v_r: &Vector<D>,
+    history: &mut Vector<D>,
+    dt: Real,
+) -> Vector<D> {
+    let k_r = rc.k_abs + rc.k_rel * k_n;
+    let h_old2 = history.norm_squared();
+    let mut h = *history - n * history.dot(n);
+    let h_new2 = h.norm_squared();
+    if h_new2 > 0.0 && h_new2 != h_old2 {
+        h *= (h_old2 / h_new2).sqrt();
+    }
+    h += v_r * dt;
+    let mut f_r = -(h * k_r) - v_r * rc.gamma;
+    let f_max = rc.mu_r * f_n;
+    let fr2 = f_r.norm_squared();
+    if fr2 > f_max * f_max {
+        let scale = if fr2 > 0.0 { f_max / fr2.sqrt() } else { 0.0 };
+        f_r *= scale;
+        h = if k_r > 0.0 {
+            -(f_r + v_r * rc.gamma) * (1.0 / k_r)
+        } else {
+            Vector::<D>::zeros()
+        };
+    }
+    *history = h;
+    f_r
 }
 
 #[cfg(test)]

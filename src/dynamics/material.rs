@@ -3,6 +3,40 @@
 use crate::error::{check_range, Result};
 use crate::math::Real;
 
+/// The normal and tangential contact law of pairs and walls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ContactLaw {
+    /// Hertz normal spring, Mindlin tangential spring, both from E and nu (the default).
+    HertzMindlin,
+    /// Constant springs: PFC's `linear`, LAMMPS `hooke`, YADE's Cundall-Strack law.
+    Linear {
+        /// Normal stiffness k_n (N/m), > 0.
+        kn: Real,
+        /// Tangential stiffness k_t (N/m), > 0.
+        kt: Real,
+    },
+}
+
+/// Rolling resistance of pairs and walls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rolling {
+    /// None (the default): contacts transmit no moment.
+    None,
+    /// The elastic-plastic spring-dashpot model, type C of Ai, Chen, Rotter and Ooi
+    /// (2011): LIGGGHTS `epsd2`, LAMMPS `rolling sds`. A spring on the rolling
+    /// displacement (R* times the relative rotation), capped at mu_r R* F_n, with a
+    /// dashpot.
+    Epsd {
+        /// Rolling friction coefficient mu_r >= 0 (-).
+        mu_r: Real,
+        /// Rolling spring k_r (N/m); `None`: 2.25 mu_r^2 k_n, k_n the contact's
+        /// current normal stiffness (Ai et al. 2011).
+        k_r: Option<Real>,
+        /// Rolling dashpot gamma_r (N s/m), >= 0.
+        gamma_r: Real,
+    },
+}
+
 /// Particle (and wall) material. SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
@@ -18,6 +52,10 @@ pub struct Material {
     /// Coulomb friction coefficient mu >= 0 (particle-particle and particle-wall).
     /// Default 0.2.
     pub friction: Real,
+    /// The contact law. Default Hertz-Mindlin.
+    pub law: ContactLaw,
+    /// Rolling resistance. Default none.
+    pub rolling: Rolling,
 }
 
 impl Default for Material {
@@ -28,6 +66,8 @@ impl Default for Material {
             poisson: 0.25,
             damping: 0.1,
             friction: 0.2,
+            law: ContactLaw::HertzMindlin,
+            rolling: Rolling::None,
         }
     }
 }
@@ -40,7 +80,47 @@ impl Material {
         check_range("poisson", self.poisson, -1.0, false, 0.5, false)?;
         check_range("damping", self.damping, 0.0, true, 1.0, true)?;
         check_range("friction", self.friction, 0.0, true, f64::INFINITY, false)?;
+        if let ContactLaw::Linear { kn, kt } = self.law {
+            check_range("normal_stiffness", kn, 0.0, false, f64::INFINITY, false)?;
+            check_range("tangential_stiffness", kt, 0.0, false, f64::INFINITY, false)?;
+        }
+        if let Rolling::Epsd { mu_r, k_r, gamma_r } = self.rolling {
+            check_range("rolling_friction", mu_r, 0.0, true, f64::INFINITY, false)?;
+            if let Some(k) = k_r {
+                check_range("rolling_stiffness", k, 0.0, false, f64::INFINITY, false)?;
+            }
+            check_range("rolling_damping", gamma_r, 0.0, true, f64::INFINITY, false)?;
+        }
         Ok(())
+    }
+
+    /// Whether contacts carry a rolling moment.
+    pub fn has_rolling(&self) -> bool {
+        !matches!(self.rolling, Rolling::None)
+    }
+
+    /// The critical time step for the smallest radius `r_min` (s): the Rayleigh step
+    /// for Hertz-Mindlin ([`rayleigh_time_step`](Self::rayleigh_time_step)); for the
+    /// linear law sqrt(m / k) with m the mass of a sphere of radius r_min (the mass of
+    /// a disc of unit thickness is larger below r = 0.75 m, so this is the safe side)
+    /// and k the stiffer of the two springs. A given rolling spring adds
+    /// sqrt(0.4 m / k_r), the rotational period of that sphere on a wall (R* = r), the
+    /// stiffest case.
+    pub fn critical_time_step(&self, r_min: Real) -> Real {
+        let m = 4.0 / 3.0 * std::f64::consts::PI * self.density * r_min.powi(3);
+        let base = match self.law {
+            ContactLaw::HertzMindlin => self.rayleigh_time_step(r_min),
+            ContactLaw::Linear { kn, kt } => (m / kn.max(kt)).sqrt(),
+        };
+        match self.rolling {
+            Rolling::Epsd { k_r: Some(k), .. } => base.min((0.4 * m / k).sqrt()),
+            // 2.25 mu_r^2 k_n on R* = r against I = 0.4 m r^2: a rotational frequency
+            // sqrt(5.625) mu_r times the normal one
+            Rolling::Epsd {
+                mu_r, k_r: None, ..
+            } => base / (5.625f64.sqrt() * mu_r).max(1.0),
+            Rolling::None => base,
+        }
     }
 
     /// Effective Young's modulus of two bodies of this material,

@@ -186,7 +186,7 @@ where
             check_range("freeze_depth", depth, 0.0, true, f64::INFINITY, false)?;
         }
         if let Some(dt) = self.settle_dt {
-            let crit = self.sim.material.rayleigh_time_step(self.radii.r_min());
+            let crit = self.sim.material.critical_time_step(self.radii.r_min());
             if !(dt > 0.0 && dt <= crit) {
                 return Err(Error::invalid(
                     "settle_dt",
@@ -220,7 +220,7 @@ where
         let mut sim = self.sim.clone();
         sim.walls = Some(self.corners());
         sim.validate()?;
-        let crit = sim.material.rayleigh_time_step(self.radii.r_min());
+        let crit = sim.material.critical_time_step(self.radii.r_min());
         if sim.dt > crit {
             return Err(Error::UnstableTimeStep {
                 dt: sim.dt,

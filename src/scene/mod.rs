@@ -529,7 +529,7 @@ impl SceneSpec {
                 Container::Cylinder(radius) => Some(radius),
                 _ => None,
             },
-            critical_dt: self.material.rayleigh_time_step(r_min),
+            critical_dt: self.material.critical_time_step(r_min),
             estimated_particles: cfg.estimated_particles(),
             stages,
         };

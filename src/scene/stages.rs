@@ -589,7 +589,7 @@ impl ConsolidateSpec {
             });
         }
         if let Some(dt) = self.dt {
-            let critical = p.material.rayleigh_time_step(p.r_min);
+            let critical = p.material.critical_time_step(p.r_min);
             if dt > critical {
                 return Err(Error::UnstableTimeStep {
                     dt,

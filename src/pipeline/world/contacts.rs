@@ -202,6 +202,8 @@ where
                 // (glibc's realloc of a mapped chunk is an mremap, in place).
                 pr.blocks.truncate(k >> BLOCK_SHIFT);
                 pr.blocks.shrink_to_fit();
+                pr.roll.truncate(k >> BLOCK_SHIFT);
+                pr.roll.shrink_to_fit();
                 pr.ij.truncate(k);
                 pr.ij.shrink_to_fit();
             }

@@ -137,15 +137,26 @@ where
     }
 
     /// Elastic energy stored in the contacts at the last force evaluation (J): Hertz
-    /// 8/15 E* sqrt(R*) d^{5/2} (= 2/5 f_el d) plus the tangential springs
-    /// 1/2 k_t |xi_t|^2, capped at (mu f_el)^2 / (2 k_t), over pairs and wall contacts.
+    /// 8/15 E* sqrt(R*) d^{5/2} (= 2/5 f_el d), or 1/2 k_n d^2 under the linear law,
+    /// plus the tangential springs 1/2 k_t |xi_t|^2, capped at (mu f_el)^2 / (2 k_t),
+    /// over pairs and wall contacts. (The rolling springs' energy is left out: at most
+    /// (mu_r R* f_n)^2 / (2 k_r R*^2) a contact, a share of the normal spring's.)
     pub fn elastic_energy(&self) -> Real {
         let mu = self.cfg.material.friction;
         // Energy of one contact from its law coefficients. A sliding contact stores the
         // stretch -(f_t + c_t v_t) / k_t, which includes the dashpot's share; the spring
         // itself can hold at most (mu f_n)^2 / (2 k_t) under Coulomb's cap, with f_n the
         // elastic normal force, so the tangential term is capped there.
+        let linear = match self.cfg.material.law {
+            ContactLaw::Linear { kn, kt } => Some((kn, kt)),
+            ContactLaw::HertzMindlin => None,
+        };
         let contact = |kn: Real, kt: Real, d: Real, h2: Real| {
+            if let Some((kn, k_t)) = linear {
+                // 1/2 k_n d^2 and the tangential spring, capped as below
+                let f_el = kn * d;
+                return 0.5 * f_el * d + (0.5 * k_t * h2).min((mu * f_el).powi(2) / (2.0 * k_t));
+            }
             let s = d.sqrt();
             let f_el = (2.0 / 3.0) * kn * s * d;
             let k_t = kt * s;

@@ -94,6 +94,21 @@ unsafe fn block_of<const D: usize>(blocks: &[PairBlock<D>], e: usize) -> &PairBl
     unsafe { at_ref(blocks, e >> BLOCK_SHIFT) }
 }
 
+/// Pair e's rolling moment on its second particle, R* n x f_r, as a spin-space
+/// vector (three components in 3D, one in 2D).
+#[inline(always)]
+fn roll_moment<const D: usize>(roll: &[RollBlock<D>], e: usize) -> Ang<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    let (b, l) = (&roll[e >> BLOCK_SHIFT], e & (BLOCK - 1));
+    let mut c = [0.0; 3];
+    for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
+        *x = b.m[a][l];
+    }
+    <Ang<D> as AngOps>::from_comps(&c)
+}
+
 impl<const D: usize> World<D>
 where
     Dim<D>: Spatial<D>,
@@ -200,8 +215,17 @@ where
         let skip_frozen = !all && self.n_frozen > 0;
         let mat = self.cfg.material;
         let dt = self.cfg.dt;
+        let consts = match mat.law {
+            ContactLaw::HertzMindlin => {
+                LawConsts::new(self.e_star, self.g_star, mat.damping, mat.friction)
+            }
+            ContactLaw::Linear { kn, kt } => LawConsts::linear(kn, kt, mat.damping, mat.friction),
+        };
+        // rolling acts through spins: nothing to do without rotations
+        let roll = (self.cfg.rotations && mat.has_rolling()).then(|| RollCoefs::new(&mat.rolling));
         let law = LawPass {
-            consts: LawConsts::new(self.e_star, self.g_star, mat.damping, mat.friction),
+            consts,
+            roll,
             dt,
             rot: self.cfg.rotations,
             torques: TORQUE,
@@ -218,6 +242,7 @@ where
             wh: SyncPtr(p.wall_hist.as_mut_ptr()),
             wf: SyncPtr(p.wall_force.as_mut_ptr()),
             wm: SyncPtr(p.wall_mask.as_mut_ptr()),
+            wr: SyncPtr(p.wall_roll.as_mut_ptr()),
             v: SyncPtr(p.v.as_mut_ptr()),
             w: SyncPtr(p.w.as_mut_ptr()),
         };
@@ -232,6 +257,8 @@ where
             ij,
             n_frozen_pairs,
             blocks,
+            roll: roll_blocks,
+            roll_on: _,
             i_frozen,
             i_active,
             j_start,
@@ -261,6 +288,8 @@ where
                 damping: mat.damping,
                 friction: mat.friction,
             },
+            law: mat.law,
+            roll: law.roll,
             gravity: self.cfg.gravity,
             drag: self.cfg.drag,
             dt,
@@ -277,8 +306,19 @@ where
         if len * std::mem::size_of::<PairBlock<D>>() / BLOCK < self.sweep_min_bytes {
             let first = if skip_frozen { a0 } else { 0 };
             // SAFETY: no particle is gathered during this pass.
-            let bad_pair = unsafe { pair_pass(team, scratch, blocks, first..len, ij, &pin, &law) };
-            let blocks = &blocks[..];
+            let bad_pair = unsafe {
+                pair_pass(
+                    team,
+                    scratch,
+                    blocks,
+                    roll_blocks,
+                    first..len,
+                    ij,
+                    &pin,
+                    &law,
+                )
+            };
+            let (blocks, roll_blocks) = (&blocks[..], &roll_blocks[..]);
             let Gathered {
                 bad_wall,
                 suspicious,
@@ -293,7 +333,7 @@ where
                         gather_each::<D, TORQUE, KICK, FROZEN, _>(
                             &gin,
                             out,
-                            blocks,
+                            (blocks, roll_blocks),
                             qs,
                             skip_frozen,
                         )
@@ -312,7 +352,7 @@ where
         if !skip_frozen && a0 > 0 {
             bad_pair = Team::scoped(|team| {
                 // SAFETY: no particle is gathered during this pass.
-                unsafe { pair_pass(team, scratch, blocks, 0..a0, ij, &pin, &law) }
+                unsafe { pair_pass(team, scratch, blocks, roll_blocks, 0..a0, ij, &pin, &law) }
             });
         }
 
@@ -346,16 +386,29 @@ where
         block_cut[pieces] = blocks.len();
         let mut owned = Vec::with_capacity(pieces);
         let mut rest = &mut blocks[block_cut[0]..];
+        let rolls = !roll_blocks.is_empty();
+        let mut rest_roll = if rolls {
+            &mut roll_blocks[block_cut[0]..]
+        } else {
+            &mut roll_blocks[..]
+        };
         for k in 0..pieces {
-            let (head, tail) = rest.split_at_mut(block_cut[k + 1] - block_cut[k]);
-            owned.push((k, head));
+            let take = block_cut[k + 1] - block_cut[k];
+            let (head, tail) = rest.split_at_mut(take);
+            let (head_roll, tail_roll) = if rolls {
+                rest_roll.split_at_mut(take)
+            } else {
+                rest_roll.split_at_mut(0)
+            };
+            owned.push((k, head, head_roll));
             rest = tail;
+            rest_roll = tail_roll;
         }
         let swept: Vec<Sweep> = owned
             .into_par_iter()
             .map_init(
                 || Box::new(Geometry::<D>::default()),
-                |g, (k, own)| {
+                |g, (k, own, own_roll)| {
                     let piece = Piece {
                         pairs: cut[k]..cut[k + 1],
                         particles: q_cut[k]..q_cut[k + 1],
@@ -367,7 +420,14 @@ where
                     // piece gathers a particle only once the sweep has passed its pairs.
                     unsafe {
                         sweep_piece::<D, TORQUE, KICK, FROZEN>(
-                            own, g, &piece, ij, &pin, &law, &gin, out,
+                            (own, own_roll),
+                            g,
+                            &piece,
+                            ij,
+                            &pin,
+                            &law,
+                            &gin,
+                            out,
                         )
                     }
                 },
@@ -380,7 +440,7 @@ where
             .min();
 
         // The particles left over, with every pair computed now.
-        let blocks = &blocks[..];
+        let (blocks, roll_blocks) = (&blocks[..], &roll_blocks[..]);
         let late: Vec<u32> = swept
             .iter()
             .flat_map(|s| s.deferred.iter().copied())
@@ -390,7 +450,15 @@ where
             .map(|qs| {
                 let qs = qs.iter().map(|&q| q as usize);
                 // SAFETY: each particle is deferred once, and nothing else runs.
-                unsafe { gather_each::<D, TORQUE, KICK, FROZEN, _>(&gin, out, blocks, qs, false) }
+                unsafe {
+                    gather_each::<D, TORQUE, KICK, FROZEN, _>(
+                        &gin,
+                        out,
+                        (blocks, roll_blocks),
+                        qs,
+                        false,
+                    )
+                }
             })
             .reduce(Gathered::default, Gathered::merge);
         let all = swept.iter().fold(late, |a, s| a.merge(s.gathered));
@@ -432,10 +500,12 @@ impl Gathered {
 ///
 /// # Safety
 /// No thread writes a velocity or spin meanwhile (see [`pair_block`]).
+#[allow(clippy::too_many_arguments)]
 unsafe fn pair_pass<const D: usize>(
     team: &mut Team,
     scratch: &mut Vec<Box<Geometry<D>>>,
     blocks: &mut [PairBlock<D>],
+    roll: &mut [RollBlock<D>],
     range: std::ops::Range<usize>,
     ij: &[[u32; 2]],
     pin: &PairIn<D>,
@@ -450,6 +520,8 @@ where
     assert!(range.end <= blocks.len() * BLOCK);
     let first = range.start & !(TEAM_PAIRS - 1);
     let blks = SyncPtr(blocks.as_mut_ptr());
+    // (a dangling pointer without rolling: never read then)
+    let rolls = SyncPtr(roll.as_mut_ptr());
     let geos = Disjoint::new(scratch);
     team.map_reduce(
         (range.end.saturating_sub(first)).div_ceil(TEAM_PAIRS),
@@ -464,7 +536,14 @@ where
             // SAFETY: block bi exists (asserted above); the items' lanes are disjoint,
             // and pair_block makes no reference to the whole block; the rest as the
             // caller guarantees.
-            unsafe { pair_block(blks.ptr().add(bi), g, base, lanes, ij, pin, law) }
+            unsafe {
+                let rb = if law.roll.is_some() {
+                    rolls.ptr().add(bi)
+                } else {
+                    std::ptr::null_mut()
+                };
+                pair_block(blks.ptr().add(bi), rb, g, base, lanes, ij, pin, law)
+            }
         },
         // the first pair too deep: items come in list order
         |a: Option<usize>, b| a.or(b),
@@ -483,7 +562,7 @@ where
 unsafe fn visit<const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool>(
     gin: &GatherIn<D>,
     out: GatherOut<D>,
-    own: &[PairBlock<D>],
+    own: (&[PairBlock<D>], &[RollBlock<D>]),
     b0: usize,
     (a0, plo): (usize, usize),
     skip_frozen: bool,
@@ -530,7 +609,7 @@ unsafe fn gather_each [
 ] (
     gin: &GatherIn<D>,
     out: GatherOut<D>,
-    blocks: &[PairBlock<D>],
+    blocks: (&[PairBlock<D>], &[RollBlock<D>]),
     qs: I,
     skip_frozen: bool,
 ) -> Gathered where [Dim<D>: Spatial<D>] [D, TORQUE, KICK, FROZEN, I] {
@@ -576,7 +655,7 @@ crate::cpu::multiversion! {
 /// The piece owns `own` (its blocks); no other piece gathers a particle with a pair in
 /// this piece before the sweep has passed it.
 unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool] (
-    own: &mut [PairBlock<D>],
+    owned: (&mut [PairBlock<D>], &mut [RollBlock<D>]),
     g: &mut Geometry<D>,
     piece: &Piece,
     ij: &[[u32; 2]],
@@ -585,6 +664,7 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
     gin: &GatherIn<D>,
     out: GatherOut<D>,
 ) -> Sweep where [Dim<D>: Spatial<D>] [D, TORQUE, KICK, FROZEN] {
+    let (own, own_roll) = owned;
     let (plo, phi) = (piece.pairs.start, piece.pairs.end);
     let (b0, a0, skip_frozen) = (piece.b0, piece.a0, piece.skip_frozen);
     let mut s = Sweep::default();
@@ -600,7 +680,12 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
             if !lanes.is_empty() {
                 // SAFETY: the pairs of this piece involve no particle gathered before
                 // the sweep has passed them (below).
-                let b = unsafe { pair_block(&raw mut own[bi], g, base, lanes, ij, pin, law) };
+                let rb = if law.roll.is_some() {
+                    &raw mut own_roll[bi]
+                } else {
+                    std::ptr::null_mut()
+                };
+                let b = unsafe { pair_block(&raw mut own[bi], rb, g, base, lanes, ij, pin, law) };
                 s.bad_pair = s.bad_pair.or(b);
             }
             done
@@ -614,7 +699,7 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
                 visit::<D, TORQUE, KICK, FROZEN>(
                     gin,
                     out,
-                    own,
+                    (own, own_roll),
                     b0,
                     (a0, plo),
                     skip_frozen,
@@ -634,6 +719,8 @@ unsafe fn sweep_piece [const D: usize, const TORQUE: bool, const KICK: bool, con
 /// The law's settings for one pass.
 struct LawPass {
     consts: LawConsts,
+    /// Rolling resistance, when on and spins move.
+    roll: Option<RollCoefs>,
     dt: Real,
     rot: bool,
     torques: bool,
@@ -667,6 +754,7 @@ crate::cpu::multiversion! {
 /// and no thread writes the velocity or spin of a particle of these pairs.
 unsafe fn pair_block [const D: usize] (
     blk: *mut PairBlock<D>,
+    rblk: *mut RollBlock<D>,
     g: &mut Geometry<D>,
     base: usize,
     lanes: std::ops::Range<usize>,
@@ -680,7 +768,7 @@ unsafe fn pair_block [const D: usize] (
         let lo = lanes.start.max(off) - off;
         let hi = (lanes.end - off).min(LANES);
         // SAFETY: as the caller guarantees.
-        let b = unsafe { pair_lanes(blk, g, base, off, lo..hi, ij, p, law) };
+        let b = unsafe { pair_lanes(blk, rblk, g, base, off, lo..hi, ij, p, law) };
         bad = bad.or(b);
         off += LANES;
     }
@@ -697,6 +785,7 @@ unsafe fn pair_block [const D: usize] (
 #[inline(always)]
 unsafe fn pair_lanes<const D: usize>(
     blk: *mut PairBlock<D>,
+    rblk: *mut RollBlock<D>,
     g: &mut Geometry<D>,
     base: usize,
     off: usize,
@@ -747,6 +836,17 @@ where
             }
         }
     }
+    if law.roll.is_some() {
+        // the relative spins w_j - w_i, for the rolling law
+        for (l, &[i, j]) in (lo..hi).zip(&ij[first + lo..first + hi]) {
+            // SAFETY: as above.
+            let (wi, wj) = unsafe { (*p.w.0.add(i as usize), *p.w.0.add(j as usize)) };
+            let l = l & (LANES - 1);
+            for c in 0..<Ang<D> as AngOps>::NCOMP {
+                g.wr[c][l] = wj.comp(c) - wi.comp(c);
+            }
+        }
+    }
     let (contact, too_deep) = geometry_block(g, lo..hi, rot, law.max_ratio);
     let mut bad = None;
     if too_deep {
@@ -760,6 +860,13 @@ where
             law_block(blk, g, lo..hi, off, &law.consts, law.dt, law.torques);
         } else {
             clear_lanes(blk, off + lo..off + hi);
+        }
+        if let Some(rc) = &law.roll {
+            if contact {
+                roll_block(rblk, blk, g, lo..hi, off, &law.consts, rc, law.dt);
+            } else {
+                clear_roll_lanes(rblk, off + lo..off + hi);
+            }
         }
     }
     bad
@@ -789,6 +896,10 @@ where
     local_damping: Real,
     /// The wall law's material (the radius and mass are set per particle).
     params: PairParams,
+    /// The contact law (the wall's as the pairs').
+    law: ContactLaw,
+    /// Rolling resistance, when on and spins move.
+    roll: Option<RollCoefs>,
     gravity: Vector<D>,
     drag: Real,
     dt: Real,
@@ -809,6 +920,8 @@ where
     wh: SyncPtr<Vector<D>>,
     wf: SyncPtr<Vector<D>>,
     wm: SyncPtr<u8>,
+    /// Each particle's rolling displacement on each wall (with rolling resistance).
+    wr: SyncPtr<Vector<D>>,
     v: SyncPtr<Vector<D>>,
     w: SyncPtr<Ang<D>>,
 }
@@ -836,7 +949,7 @@ impl<const D: usize> Copy for GatherOut<D> where Dim<D>: Spatial<D> {}
 unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const FROZEN: bool>(
     c: &GatherIn<D>,
     out: GatherOut<D>,
-    blocks: &[PairBlock<D>],
+    (blocks, roll): (&[PairBlock<D>], &[RollBlock<D>]),
     pair_base: usize,
     q: usize,
     acc: &mut Gathered,
@@ -896,9 +1009,9 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             tq += t;
         };
         if frozen_q {
-            for_lanes(blocks, own_frozen, &mut visit);
+            for_lanes(blocks, own_frozen.clone(), &mut visit);
         }
-        for_lanes(blocks, active, visit);
+        for_lanes(blocks, active.clone(), visit);
         for &e in ends {
             let e = e as usize - pair_base;
             // SAFETY: the index lists stay below the pair count (see `at`), and q's
@@ -906,6 +1019,22 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             let (f, t) = lane_force_torque::<D>(unsafe { block_of(blocks, e) }, e, r);
             fq += f;
             tq += t;
+        }
+        if c.roll.is_some() {
+            // the rolling moments, after the tangential ones: -R* n x f_r on the
+            // pair's first particle, +R* n x f_r on its second
+            let mut ranges = [own_frozen.clone(), active];
+            if !frozen_q {
+                ranges[0] = 0..0;
+            }
+            for range in ranges {
+                for e in range {
+                    tq += roll_moment::<D>(roll, e) * -1.0;
+                }
+            }
+            for &e in ends {
+                tq += roll_moment::<D>(roll, e as usize - pair_base);
+            }
         }
     } else {
         let mut visit = |b: &PairBlock<D>, l| fq -= lane_force::<D>(b, l);
@@ -933,6 +1062,10 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             if *wm & (1 << wi) != 0 {
                 wh[wi] = Vector::<D>::zeros();
                 wf[wi] = Vector::<D>::zeros();
+                if c.roll.is_some() {
+                    // SAFETY: q's wall state is ours (above).
+                    unsafe { *out.wr.0.add(q * c.walls.len() + wi) = Vector::<D>::zeros() };
+                }
                 *wm &= !(1 << wi);
             }
             continue;
@@ -958,13 +1091,37 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             m_eff: m,
             ..c.params
         };
-        let fc = hertz_mindlin(&params, d, &n, &vrel, &mut wh[wi], c.dt);
+        let (fc, k_n) = match c.law {
+            ContactLaw::HertzMindlin => (
+                hertz_mindlin(&params, d, &n, &vrel, &mut wh[wi], c.dt),
+                2.0 * params.e_star * (params.r_eff * d).sqrt(),
+            ),
+            ContactLaw::Linear { kn, kt } => (
+                linear_coefs(
+                    &LawCoefs::linear(&params, kn, kt),
+                    d,
+                    &n,
+                    &vrel,
+                    &mut wh[wi],
+                    c.dt,
+                ),
+                kn,
+            ),
+        };
         let on_wall = n * fc.normal + fc.tangential;
         wf[wi] = on_wall;
         *wm |= 1 << wi;
         fq -= on_wall;
         if TORQUE {
             tq += <Dim<D>>::cross_vv(&n, &fc.tangential) * -arm;
+            if let Some(rc) = &c.roll {
+                // the wall does not spin: v_r = R* (0 - w) x n
+                let v_r = -<Dim<D>>::cross_wv(*w, &n) * params.r_eff;
+                // SAFETY: q's wall state is ours (above).
+                let hist = unsafe { &mut *out.wr.0.add(q * c.walls.len() + wi) };
+                let f_r = rolling_epsd(rc, fc.normal, k_n, &n, &v_r, hist, c.dt);
+                tq += <Dim<D>>::cross_vv(&n, &f_r) * -params.r_eff;
+            }
         }
     }
     // SAFETY: as for v above.

@@ -31,10 +31,12 @@
 //! bit-identical on any number of threads.
 
 use crate::dynamics::batched_law::{
-    clear_lanes, geometry_block, law_block, Geometry, LawConsts, PairBlock, PairFactors,
-    PairRecord, BLOCK, BLOCK_SHIFT, LANES,
+    clear_lanes, clear_roll_lanes, geometry_block, law_block, roll_block, Geometry, LawConsts,
+    PairBlock, PairFactors, PairRecord, RollBlock, RollRecord, BLOCK, BLOCK_SHIFT, LANES,
 };
-use crate::dynamics::{hertz_mindlin, PairParams};
+use crate::dynamics::contact_law::{linear_coefs, rolling_epsd, RollCoefs};
+use crate::dynamics::material::ContactLaw;
+use crate::dynamics::{hertz_mindlin, LawCoefs, PairParams};
 use crate::error::{check_range, BlowupKind, Error, Result};
 use crate::geometry::grid::{bin_starts, counting_sort};
 use crate::geometry::{neighbor_pairs_active, neighbor_pairs_periodic};
@@ -189,12 +191,14 @@ where
             || (Vec::new(), None),
             |(lo, hi)| container_walls(cfg.container, lo, hi),
         );
+        let mut pairs = Pairs::default();
+        pairs.keep_roll(cfg.material.has_rolling());
         Ok(World {
             e_star: cfg.material.e_star(),
             g_star: cfg.material.g_star(),
             cfg,
             p: Particles::default(),
-            pairs: Pairs::default(),
+            pairs,
             walls,
             period,
             time: 0.0,
@@ -363,9 +367,10 @@ where
         self.p.r.iter().cloned().fold(Real::INFINITY, Real::min)
     }
 
-    /// The Rayleigh critical step for the current particles (s).
+    /// The critical step for the current particles (s): the Rayleigh step, or the
+    /// linear law's (see [`Material::critical_time_step`]).
     pub fn critical_time_step(&self) -> Real {
-        self.cfg.material.rayleigh_time_step(self.r_min())
+        self.cfg.material.critical_time_step(self.r_min())
     }
 
     fn check_dt(&mut self) -> Result<()> {
@@ -406,6 +411,24 @@ where
         check_range("friction", mu, 0.0, true, f64::INFINITY, false)?;
         self.cfg.material.friction = mu;
         Ok(())
+    }
+
+    /// Changes the rolling friction coefficient mu_r (-) from the next step on, as
+    /// [`set_friction`](Self::set_friction) does mu; a derived rolling spring
+    /// (2.25 mu_r^2 k_n) follows it. Refused without a rolling model.
+    pub fn set_rolling_friction(&mut self, mu_r: Real) -> Result<()> {
+        check_range("rolling_friction", mu_r, 0.0, true, f64::INFINITY, false)?;
+        match &mut self.cfg.material.rolling {
+            crate::dynamics::material::Rolling::Epsd { mu_r: m, .. } => {
+                *m = mu_r;
+                Ok(())
+            }
+            crate::dynamics::material::Rolling::None => Err(Error::invalid(
+                "rolling_friction",
+                format!("{mu_r}"),
+                "needs a rolling model (the material's rolling is 'none')",
+            )),
+        }
     }
 
     /// Advances `n` steps (at most [`MAX_STEPS_PER_CALL`]). Stops with an error at the
@@ -553,6 +576,6 @@ where
     /// Whether contacts exert torques: rotations and friction both on. Without them no
     /// torque acts, and the steps neither gather torques nor kick spins.
     fn torques_on(&self) -> bool {
-        self.cfg.rotations && self.cfg.material.friction > 0.0
+        self.cfg.rotations && (self.cfg.material.friction > 0.0 || self.cfg.material.has_rolling())
     }
 }

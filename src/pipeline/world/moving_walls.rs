@@ -118,6 +118,9 @@ where
         };
         widen(&mut self.p.wall_hist);
         widen(&mut self.p.wall_force);
+        if self.cfg.material.has_rolling() {
+            widen(&mut self.p.wall_roll);
+        }
         self.walls.push(Wall::Plane {
             axis: vert,
             pos: z,

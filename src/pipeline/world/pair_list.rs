@@ -16,6 +16,11 @@ pub(super) struct Pairs<const D: usize> {
     /// gather: force on j, n x f_t, overlap), pair k in block
     /// `k >> BLOCK_SHIFT`, lane `k & (BLOCK - 1)`; `ceil(len / BLOCK)` blocks.
     pub(super) blocks: Vec<PairBlock<D>>,
+    /// The rolling state beside each block, with rolling resistance; empty without
+    /// it (no memory is spent on it then). Every move of the blocks moves it alike.
+    pub(super) roll: Vec<RollBlock<D>>,
+    /// Whether `roll` is kept (the material has rolling resistance).
+    pub(super) roll_on: bool,
     /// Pairs whose first particle is p: `i_frozen[p]..i_frozen[p + 1]` in the frozen
     /// run and `i_active[p]..i_active[p + 1]` in the active one (both runs are sorted
     /// by i, so these are ranges: the gather reads them in order, with no index list).
@@ -72,6 +77,34 @@ impl<const D: usize> Pairs<D> {
         self.blocks[k >> BLOCK_SHIFT].set(k & (BLOCK - 1), rec);
     }
 
+    /// Whether the list keeps rolling state.
+    #[inline]
+    pub(super) fn rolls(&self) -> bool {
+        self.roll_on
+    }
+
+    /// The rolling state of pair k (with rolling resistance).
+    #[inline]
+    pub(super) fn get_roll(&self, k: usize) -> RollRecord<D> {
+        self.roll[k >> BLOCK_SHIFT].get(k & (BLOCK - 1))
+    }
+
+    /// Sets the rolling state of pair k (with rolling resistance).
+    #[inline]
+    pub(super) fn set_roll(&mut self, k: usize, rec: &RollRecord<D>) {
+        self.roll[k >> BLOCK_SHIFT].set(k & (BLOCK - 1), rec);
+    }
+
+    /// Switches the rolling state on (zero for every pair) or off (freed).
+    pub(super) fn keep_roll(&mut self, on: bool) {
+        self.roll_on = on;
+        self.roll = if on {
+            zeroed_blocks(self.blocks.len())
+        } else {
+            Vec::new()
+        };
+    }
+
     /// Reorders every per-pair array in place: entry k takes the old entry
     /// `order[k]` (a permutation of `0..len`). Each cycle of the permutation is
     /// followed once, holding one record aside, so the pair state is never copied
@@ -85,6 +118,12 @@ impl<const D: usize> Pairs<D> {
                 continue;
             }
             let (held, held_ij) = (self.get(s), self.ij[s]);
+            let rolls = self.rolls();
+            let held_roll = if rolls {
+                self.get_roll(s)
+            } else {
+                RollRecord::default()
+            };
             let mut k = s;
             loop {
                 done[k / 64] |= 1 << (k % 64);
@@ -92,11 +131,18 @@ impl<const D: usize> Pairs<D> {
                 if o == s {
                     self.set(k, &held);
                     self.ij[k] = held_ij;
+                    if rolls {
+                        self.set_roll(k, &held_roll);
+                    }
                     break;
                 }
                 let rec = self.get(o);
                 self.set(k, &rec);
                 self.ij[k] = self.ij[o];
+                if rolls {
+                    let rr = self.get_roll(o);
+                    self.set_roll(k, &rr);
+                }
                 k = o;
             }
         }
@@ -212,7 +258,11 @@ impl<const D: usize> Pairs<D> {
                 }
             }
         });
-        drop((runs, buffered));
+        drop(buffered);
+        if self.rolls() {
+            self.merge_roll(&runs, n);
+        }
+        drop(runs);
         let first = keep >> BLOCK_SHIFT;
         self.blocks[first..n]
             .par_iter_mut()
@@ -233,11 +283,44 @@ impl<const D: usize> Pairs<D> {
                     }
                 }
             });
+        if self.rolls() {
+            // fresh pairs and lanes past the end start from zero
+            for k in keep..(n * BLOCK) {
+                if k >= total || src[k - keep] == u32::MAX {
+                    self.set_roll(k, &RollRecord::default());
+                }
+            }
+            self.roll.truncate(n);
+            trim(&mut self.roll);
+        }
         self.blocks.truncate(n);
         trim(&mut self.blocks);
         self.ij.truncate(keep);
         self.ij.extend_from_slice(ij);
         trim(&mut self.ij);
+    }
+
+    /// The rolling state's share of [`merge_in_place`](Self::merge_in_place): the same
+    /// runs moved in the same safe order, on one thread, into `n` blocks.
+    fn merge_roll(&mut self, runs: &[(u32, u32, u32)], n: usize) {
+        if self.roll.len() < n {
+            let more = n - self.roll.len();
+            self.roll.extend(zeroed_blocks::<RollBlock<D>>(more));
+        }
+        let base = self.roll.as_mut_ptr();
+        for &(k, o, len) in runs {
+            if o > k {
+                // SAFETY: both ranges lie in the n blocks; runs that move down are
+                // moved in increasing order, so none overwrites a state still to read.
+                unsafe { move_run(base, o as usize, k as usize, len as usize) };
+            }
+        }
+        for &(k, o, len) in runs.iter().rev() {
+            if o < k {
+                // SAFETY: as above, runs that move up in decreasing order.
+                unsafe { move_run(base, o as usize, k as usize, len as usize) };
+            }
+        }
     }
 
     /// Sorts the two runs into one run in (i, j) order, in place (see `permute`).
@@ -261,6 +344,10 @@ impl<const D: usize> Pairs<D> {
                 if out != k {
                     let rec = self.get(k);
                     self.set(out, &rec);
+                    if self.rolls() {
+                        let rr = self.get_roll(k);
+                        self.set_roll(out, &rr);
+                    }
                 }
                 self.ij[out] = ij;
                 out += 1;
@@ -270,6 +357,13 @@ impl<const D: usize> Pairs<D> {
         for k in out..(n * BLOCK).min(self.ij.len()) {
             // lanes past the end hold zeros, as a block built anew
             self.set(k, &PairRecord::default());
+            if self.rolls() {
+                self.set_roll(k, &RollRecord::default());
+            }
+        }
+        if self.rolls() {
+            self.roll.truncate(n);
+            trim(&mut self.roll);
         }
         self.blocks.truncate(n);
         trim(&mut self.blocks);
@@ -304,6 +398,7 @@ impl<const D: usize> Pairs<D> {
         assert!(self.i_frozen.windows(2).all(|w| w[0] <= w[1]));
         assert!(self.i_active.windows(2).all(|w| w[0] <= w[1]));
         assert!(self.blocks.len() == m.div_ceil(BLOCK));
+        assert!(self.roll.len() == if self.roll_on { self.blocks.len() } else { 0 });
     }
 
     /// Pair indices in (i, j) order: the merge of the two sorted runs.
@@ -397,10 +492,18 @@ unsafe fn set_lane<const D: usize>(base: *mut PairBlock<D>, k: usize, rec: &Pair
     }
 }
 
-/// Rows of [`BLOCK`] lanes in a pair block: every field of a [`PairBlock`] is one or
-/// more rows of f64, so a lane range moves as the same range of each row.
-const fn block_rows<const D: usize>() -> usize {
-    std::mem::size_of::<PairBlock<D>>() / std::mem::size_of::<[Real; BLOCK]>()
+/// Rows of [`BLOCK`] lanes in a block of pair state (a [`PairBlock`] or a
+/// [`RollBlock`]): every field is one or more rows of f64, so a lane range moves as
+/// the same range of each row.
+const fn block_rows<B>() -> usize {
+    std::mem::size_of::<B>() / std::mem::size_of::<[Real; BLOCK]>()
+}
+
+/// `n` blocks of pair state, all zero.
+fn zeroed_blocks<B: Default>(n: usize) -> Vec<B> {
+    let mut v: Vec<B> = Vec::with_capacity(n);
+    v.resize_with(n, B::default);
+    v
 }
 
 /// Moves the states of pairs `from..from + len` to `to..to + len` (pair indices in the
@@ -410,16 +513,15 @@ const fn block_rows<const D: usize>() -> usize {
 ///
 /// # Safety
 /// Both ranges lie within the blocks at `base`, and nothing else reads or writes them.
-unsafe fn move_run<const D: usize>(base: *mut PairBlock<D>, from: usize, to: usize, len: usize) {
+unsafe fn move_run<B>(base: *mut B, from: usize, to: usize, len: usize) {
     const MASK: usize = BLOCK - 1;
-    // a PairBlock is rows of f64 and nothing else: no padding, no other field
+    // a block is rows of f64 and nothing else: no padding, no other field
     const {
         assert!(
-            block_rows::<D>() * std::mem::size_of::<[Real; BLOCK]>()
-                == std::mem::size_of::<PairBlock<D>>()
+            block_rows::<B>() * std::mem::size_of::<[Real; BLOCK]>() == std::mem::size_of::<B>()
         )
     };
-    let rows = block_rows::<D>();
+    let rows = block_rows::<B>();
     let lanes = |from: usize, to: usize, n: usize| {
         // SAFETY: the caller's ranges; std::ptr::copy allows the two to overlap (a run
         // that moves within one block).
@@ -552,14 +654,18 @@ where
             let mut rec = PairRecord::default();
             let (ri, rj) = (r[i as usize], r[j as usize]);
             let (mi, mj) = (mass[i as usize], mass[j as usize]);
-            rec.coefs = PairFactors::new(&PairParams {
+            let params = PairParams {
                 r_eff: ri * rj / (ri + rj),
                 m_eff: mi * mj / (mi + mj),
                 e_star,
                 g_star,
                 damping: mat.damping,
                 friction: mat.friction,
-            });
+            };
+            rec.coefs = match mat.law {
+                ContactLaw::HertzMindlin => PairFactors::new(&params),
+                ContactLaw::Linear { .. } => PairFactors::linear(&params),
+            };
             rec
         };
         // With part of the list frozen, a list that grows a little at each rebuild
@@ -653,11 +759,39 @@ mod tests {
         rec
     }
 
-    /// A list of `m` pairs, pair k tagged `k` and named (k, k + 1).
+    /// A rolling state that names its pair.
+    fn tagged_roll(tag: u32) -> RollRecord<3> {
+        let t = tag as Real;
+        RollRecord {
+            h: [t + 0.05, t + 0.15, t + 0.25],
+            m: [t + 0.35, t + 0.45, t + 0.55],
+        }
+    }
+
+    /// Rolling blocks for `len` pairs, pair k set to `fill(k)`, the rest zero.
+    fn build_roll(len: usize, fill: impl Fn(usize) -> RollRecord<3>) -> Vec<RollBlock<3>> {
+        let mut v = zeroed_blocks::<RollBlock<3>>(len.div_ceil(BLOCK));
+        for k in 0..len {
+            v[k >> BLOCK_SHIFT].set(k & (BLOCK - 1), &fill(k));
+        }
+        v
+    }
+
+    /// Every lane of every rolling block, the lanes past the end included.
+    fn roll_lanes(v: &[RollBlock<3>]) -> Vec<RollRecord<3>> {
+        v.iter()
+            .flat_map(|b| (0..BLOCK).map(|l| b.get(l)))
+            .collect()
+    }
+
+    /// A list of `m` pairs, pair k tagged `k` and named (k, k + 1), with rolling
+    /// state, so that every move is checked on both.
     fn tagged_list(m: usize) -> Pairs<3> {
         Pairs {
             ij: (0..m as u32).map(|k| [k, k + 1]).collect(),
             blocks: Pairs::<3>::build_blocks(m, |k| tagged(k as u32)),
+            roll: build_roll(m, |k| tagged_roll(k as u32)),
+            roll_on: true,
             ..Default::default()
         }
     }
@@ -691,6 +825,8 @@ mod tests {
             };
             prop_assert_eq!(&p.ij, &want.ij);
             prop_assert_eq!(lanes(&p), lanes(&want));
+            let want_roll = build_roll(m, |k| tagged_roll(order[k]));
+            prop_assert_eq!(roll_lanes(&p.roll), roll_lanes(&want_roll));
         }
 
         /// The in-place merge gives what a list built beside the old one gives: the
@@ -737,6 +873,15 @@ mod tests {
             let want = Pairs::<3> { ij: want_ij, blocks: want, ..Default::default() };
             prop_assert_eq!(&p.ij, &want.ij);
             prop_assert_eq!(lanes(&p), lanes(&want));
+            // the rolling state moves alike; fresh pairs start from zero
+            let want_roll = build_roll(total, |k| match k {
+                k if k < keep => tagged_roll(k as u32),
+                k => match src[k - keep] {
+                    u32::MAX => RollRecord::default(),
+                    o => tagged_roll(o),
+                },
+            });
+            prop_assert_eq!(roll_lanes(&p.roll), roll_lanes(&want_roll));
         }
 
         /// Keeping some pairs in place gives what a list built beside the old one of
@@ -757,6 +902,8 @@ mod tests {
             };
             prop_assert_eq!(&p.ij, &want.ij);
             prop_assert_eq!(lanes(&p), lanes(&want));
+            let want_roll = build_roll(old.len(), |k| tagged_roll(old[k]));
+            prop_assert_eq!(roll_lanes(&p.roll), roll_lanes(&want_roll));
             prop_assert!(p.j_inc.is_empty() && p.i_active.is_empty());
         }
     }

@@ -25,6 +25,9 @@ pub(super) struct Particles<const D: usize, A> {
     /// its floor's alone (and the lid's once it has one), not the box's six.
     pub(super) wall_hist: Vec<Vector<D>>,
     pub(super) wall_force: Vec<Vector<D>>,
+    /// Rolling displacement on each wall, laid out as `wall_hist`; empty without
+    /// rolling resistance.
+    pub(super) wall_roll: Vec<Vector<D>>,
     /// Frozen particles are not integrated (see [`FreezeConfig`]).
     pub(super) frozen: Vec<bool>,
     /// Bit w set: wall w was in contact at the last evaluation (its state is nonzero).
@@ -156,6 +159,11 @@ where
             self.p
                 .wall_force
                 .extend(std::iter::repeat_n(Vector::<D>::zeros(), walls));
+            if self.cfg.material.has_rolling() {
+                self.p
+                    .wall_roll
+                    .extend(std::iter::repeat_n(Vector::<D>::zeros(), walls));
+            }
             self.p.frozen.push(false);
             self.p.wall_mask.push(0);
             self.p.wall_near.push(0);

@@ -77,6 +77,9 @@ where
         retain_by(&mut p.x_ref, keep);
         retain_by(&mut p.half_skin, keep);
         retain_runs(&mut p.wall_hist, keep, self.walls.len());
+        if !p.wall_roll.is_empty() {
+            retain_runs(&mut p.wall_roll, keep, self.walls.len());
+        }
         retain_runs(&mut p.wall_force, keep, self.walls.len());
         retain_by(&mut p.frozen, keep);
         retain_by(&mut p.wall_mask, keep);

@@ -114,6 +114,9 @@ where
         permute_runs(&mut p.x_ref, order, 1, &mut done);
         permute_runs(&mut p.half_skin, order, 1, &mut done);
         permute_runs(&mut p.wall_hist, order, self.walls.len(), &mut done);
+        if !p.wall_roll.is_empty() {
+            permute_runs(&mut p.wall_roll, order, self.walls.len(), &mut done);
+        }
         permute_runs(&mut p.wall_force, order, self.walls.len(), &mut done);
         permute_runs(&mut p.frozen, order, 1, &mut done);
         permute_runs(&mut p.wall_mask, order, 1, &mut done);
