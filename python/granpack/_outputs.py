@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ._console import Console
+from ._contact_model import model_record
 from ._validate import GranpackError, InvalidParameterError, check_outputs
 from .history import stage_table
 
@@ -171,6 +172,8 @@ def micro_record(pack, m, k: int) -> dict:
         "seed": pack.scene.seed,
         "stream": pack.scene.stream,
         "rotations": pack.scene.rotations,
+        # the contact model and its constants (docs/contact_models.md)
+        **model_record(pack.scene.material),
         "n_particles": len(pack),
         "n_layers": pack.n_layers,
         "height": pack.height,
@@ -196,6 +199,11 @@ def micro_record(pack, m, k: int) -> dict:
             density_phi=d["phi"],
             density_method=d["method"],
             density_friction=d["friction"],
+            **(
+                {"density_rolling_friction": d["rolling_friction"]}
+                if "rolling_friction" in d
+                else {}
+            ),
             density_generations=d["generations"],
         )
         if "e_min" in d:

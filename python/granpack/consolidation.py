@@ -28,6 +28,7 @@ import time
 import numpy as np
 
 from . import _core
+from ._contact_model import has_rolling
 from ._validate import short_repr
 from .analysis.stress import contact_forces, love_weber
 from .contacts import LID_ID, Contacts
@@ -105,11 +106,18 @@ def stage_time_step(pack: Pack, stress: float) -> float:
     times the mean force sigma (2 r_max)^2 (contact forces spread about four times
     their mean), at the smallest particle's mass: 5.3e-5 s for example 4.3 at 100 kPa,
     close to YADE's 0.8 of its P-wave step (5.1e-5 s) on the same pack.
+
+    The linear law's springs do not stiffen: its k is the material's normal_stiffness
+    k_n at any stress (docs/contact_models.md).
     """
     sc = pack.scene
     e_star = sc.material.e_star
     r_max = float(np.max(pack.radii))
     r_min = float(np.min(pack.radii))
+    if sc.material.contact_law == "linear":
+        assert sc.material.normal_stiffness is not None  # the linear law requires it
+        m_min = float(_masses(sc, np.array([r_min]))[0])
+        return min(float(sc.dt), STEP_FRACTION * math.sqrt(m_min / sc.material.normal_stiffness))
     force = 4.0 * stress * (2.0 * r_max) ** 2
     if pack.dim == 2:
         force = 4.0 * stress * 2.0 * r_max  # N per m of thickness over a disc's width
@@ -187,7 +195,10 @@ def consolidate(
         is in equilibrium and looser than the target, the friction is lowered in phases,
         each run to equilibrium under the servo, until phi lies within density_tol / 2
         of the target; then the material's friction is restored and equilibrium reached
-        again (docs/density.md). The record's ``density`` holds the phases. Default:
+        again (docs/density.md). A material's rolling model stays as it is in every
+        phase but one at zero friction, which runs without rolling resistance (mu_r = 0:
+        the frictionless dense end); restoring the friction restores it
+        (docs/contact_models.md). The record's ``density`` holds the phases. Default:
         none, the stage keeps the material's friction.
     density_tol : float
         Largest |phi - target_phi| at the end, in (0, 0.1]. Default 0.002.
@@ -356,16 +367,48 @@ def _sample_volume(pos: dict[str, float], sc) -> float:
     return float(sc.base_area) * height
 
 
+def _phase_rolling(mat, mu: float) -> float | None:
+    """The rolling friction mu_r (-) of a friction phase at `mu`: the material's (its
+    rolling model unchanged) at any friction above zero; 0, no rolling resistance, at
+    zero friction, the frictionless dense end that stands for the densest state; None
+    for a material without a rolling model."""
+    if not has_rolling(mat):
+        return None
+    return 0.0 if mu == 0.0 and mat.friction > 0.0 else float(mat.rolling_friction)
+
+
+def _set_phase(sim, mat, mu: float) -> None:
+    """The engine's contacts switched to the phase at friction `mu`, its rolling
+    friction `_phase_rolling` (the material's rolling model is left alone where the
+    material has none)."""
+    sim._sim.set_friction(mu)
+    mu_r = _phase_rolling(mat, mu)
+    if mu_r is not None:
+        sim._sim.set_rolling_friction(mu_r)
+
+
 def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dict]:
     """Lowers the friction under the servo, one phase to equilibrium at a time, until
     phi is within ACCEPT_SHARE * tol of `target`, then restores the material's friction
     and reaches equilibrium again. A phase that overshoots is undone (the engine's state
     before it is restored, bit for bit) and a friction between the last two is tried.
-    Returns the last servo report, with the steps of every phase, and the record."""
+    A material's rolling model is kept in every phase but the one at zero friction,
+    which runs without rolling resistance (`_phase_rolling`); restoring the friction
+    restores it. Returns the last servo report, with the steps of every phase, and the
+    record (each phase's ``rolling_friction`` too, for a material with a rolling
+    model)."""
     mu0 = float(mat.friction)
     phi0 = phi_now()
     steps = int(rep["steps"])
-    phases = [{"friction": mu0, "phi": phi0, "steps": steps, "kept": True}]
+
+    def phase(mu: float, phi: float, steps: int) -> dict:
+        out: dict = {"friction": mu}
+        mu_r = _phase_rolling(mat, mu)
+        if mu_r is not None:
+            out["rolling_friction"] = mu_r
+        return {**out, "phi": phi, "steps": steps, "kept": True}
+
+    phases = [phase(mu0, phi0, steps)]
 
     def record(phi: float, status: str) -> dict:
         return {
@@ -410,11 +453,11 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             mu = mu_lo * factor
             if mu < FRICTION_FLOOR * mu0:
                 mu = 0.0
-        sim._sim.set_friction(mu)
+        _set_phase(sim, mat, mu)
         rep = run()
         steps += int(rep["steps"])
         phi = phi_now()
-        phases.append({"friction": mu, "phi": phi, "steps": int(rep["steps"]), "kept": True})
+        phases.append(phase(mu, phi, int(rep["steps"])))
         if abs(phi - target) <= ACCEPT_SHARE * tol:
             reached = True
             break
@@ -438,11 +481,11 @@ def _lower_friction(sim, run, phi_now, rep, target, tol, mat) -> tuple[dict, dic
             phi0,
             min((p["phi"] for p in phases), key=lambda v: abs(v - target)),
         )
-    sim._sim.set_friction(mu0)
+    _set_phase(sim, mat, mu0)
     rep = run()
     steps += int(rep["steps"])
     phi = phi_now()
-    phases.append({"friction": mu0, "phi": phi, "steps": int(rep["steps"]), "kept": True})
+    phases.append(phase(mu0, phi, int(rep["steps"])))
     if abs(phi - target) > tol:
         raise _servo_error(
             f"target_phi = {target:g} reached under lowered friction, but restoring the "

@@ -15,12 +15,17 @@ then builds the pack through `generate_at_density`, by one of two mechanisms
   search in that variable, inside a bracket of measured packs (one pack denser and one
   looser than the target, adjacent in mu_dep) once it has one, and otherwise over the
   measured grid MU_DEP_GRID: deterministic, so the same scene and seed give the same
-  pack, bit for bit.
+  pack, bit for bit. The layers keep the material's rolling model, except at mu_dep =
+  0, the frictionless jam, which has no rolling resistance either; for a material with
+  a rolling model the grid also jams at the material's friction with each rolling
+  friction of MU_R_GRID, and the search splits a bracket among those in ln(mu_r +
+  MU_SHIFT) where the deposition frictions give none (docs/contact_models.md).
 - **Lowering friction under the servo** (``density_method = "servo"``; needs a
   ``[consolidate]`` table). The recipe's deposit is consolidated; while the servo holds
   the stress, the friction is lowered in phases, each run to equilibrium, until phi
   reaches the target; then the material's friction is restored and equilibrium reached
-  again (`granpack.consolidate`'s ``target_phi``). It only densifies.
+  again (`granpack.consolidate`'s ``target_phi``). It only densifies. Every phase keeps
+  the material's rolling model but the one at zero friction, which has none.
 
 ``"auto"`` (the default) lowers the friction under the servo when the scene consolidates
 and the recipe's sample is looser than the target (one generation), and searches the
@@ -35,9 +40,10 @@ what granpack makes of the scene: the packs jammed at every deposition friction 
 MU_DEP_GRID and at the material's own (the recipe), each brought back to the material's
 friction, settled and (when the scene consolidates) consolidated exactly as a target's
 pack is, and, when the scene consolidates (and its density_method is not
-"deposition"), the recipe's sample with its friction lowered to zero under the servo.
-e_min is the densest of them, e_max the loosest, whichever friction or mechanism gave
-each.
+"deposition"), the recipe's sample with its friction lowered to zero under the servo;
+for a material with a rolling model, also the packs jammed at the material's friction
+with each rolling friction of MU_R_GRID. e_min is the densest of them, e_max the
+loosest, whichever friction, rolling friction or mechanism gave each.
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from collections.abc import Callable
 from typing import Any
 
 from . import _core, stages
+from ._contact_model import has_rolling
 from ._validate import as_int
 from .analysis import microstructure
 from .errors import DensityTargetError, InvalidParameterError
@@ -69,6 +76,7 @@ __all__ = [
     "DensityWindowWarning",
     "MU_DEP_MAX",
     "MU_DEP_GRID",
+    "MU_R_GRID",
     "Spec",
     "spec_of",
     "run",
@@ -84,7 +92,12 @@ MU_DEP_MAX = 1.0
 #: to 10 kPa: 0.947, 0.936, 0.933, 0.925 and 0.927 at these five), so neither end of
 #: the range need be an extreme.
 MU_DEP_GRID = (0.0, 0.1, 0.2, 0.5, MU_DEP_MAX)
-#: The search variable is ln(mu_dep + MU_SHIFT), in which phi is nearly linear.
+#: The rolling frictions mu_r (-) at which the window is measured as well, with the
+#: material's friction, for a material with a rolling model (with the material's own
+#: mu_r): rolling resistance is a knob of the loose end (docs/contact_models.md).
+MU_R_GRID = (0.0, 0.1, 0.2, 0.4)
+#: The search variable is ln(mu_dep + MU_SHIFT), in which phi is nearly linear (and
+#: ln(mu_r + MU_SHIFT) along the rolling frictions).
 MU_SHIFT = 0.1
 #: The first step's slope, d phi / d ln(mu_dep + MU_SHIFT), before the search has two
 #: points of its own: -0.022 was measured on example 4.3 in the box (core phi).
@@ -194,17 +207,27 @@ def _measured_phi(pack: Pack, parameter: str, value: object) -> float:
 
 
 def _deposit_at(
-    scene: PackScene, mu_dep: float, progress: bool | Callable[[dict], None] = False
+    scene: PackScene,
+    mu_dep: float,
+    progress: bool | Callable[[dict], None] = False,
+    *,
+    rolling_friction: float | None = None,
 ) -> Pack:
-    """The scene's deposit with every layer jammed at friction `mu_dep`, the material's
-    friction restored and the pack settled where needed (not consolidated): the scene's
-    stages up to the consolidation, with the deposit's friction changed, and a settling
-    (to REST_TOL where the scene sets no rest_tol) where the friction was above the
-    material's."""
+    """The scene's deposit with every layer jammed at friction `mu_dep` (and rolling
+    friction `rolling_friction`: 0 without rolling resistance, None the material's
+    rolling model), the material restored and the pack settled where needed (not
+    consolidated): the scene's stages up to the consolidation, with the deposit's
+    friction changed, and a settling (to REST_TOL where the scene sets no rest_tol)
+    where the friction, or the rolling friction, was above the material's."""
     mat = scene.material
-    settles = mu_dep > mat.friction or scene.rest_tol is not None
+    settles = (
+        mu_dep > mat.friction
+        or (rolling_friction is not None and rolling_friction > _mu_r0(scene))
+        or scene.rest_tol is not None
+    )
     tol = scene.rest_tol if scene.rest_tol is not None else REST_TOL
-    steps = stages.with_spec(stages.plan(scene), "deposit", deposit_stage.Spec(friction=mu_dep))
+    spec = deposit_stage.Spec(friction=mu_dep, rolling_friction=rolling_friction)
+    steps = stages.with_spec(stages.plan(scene), "deposit", spec)
     steps = stages.with_spec(steps, "rest", rest_stage.Spec(tol) if settles else None)
     steps = stages.with_spec(steps, "consolidate", None)
     with warnings.catch_warnings():
@@ -237,11 +260,14 @@ def _at_friction(
     servo_phi: float | None = None,
     servo_tol: float = DEFAULT_TOL_PHI,
     progress: bool | Callable[[dict], None] = False,
+    *,
+    rolling_friction: float | None = None,
 ) -> Pack:
-    """The scene's pack with every layer jammed at friction `mu_dep`, the material's
-    friction restored, settled where needed, and consolidated when the scene asks
-    (lowering the friction under the servo to `servo_phi` when given)."""
-    pack = _deposit_at(scene, mu_dep, progress)
+    """The scene's pack with every layer jammed at friction `mu_dep` (and rolling
+    friction `rolling_friction`, as `_deposit_at`), the material restored, settled where
+    needed, and consolidated when the scene asks (lowering the friction under the servo
+    to `servo_phi` when given)."""
+    pack = _deposit_at(scene, mu_dep, progress, rolling_friction=rolling_friction)
     if scene.consolidate is not None:
         pack = _consolidated(scene, pack, target_phi=servo_phi, density_tol=servo_tol)
     return pack
@@ -249,7 +275,8 @@ def _at_friction(
 
 def _servo_end(scene: PackScene, deposit_pack: Pack) -> tuple[float, float]:
     """(phi at the material's friction, phi at zero friction) of `deposit_pack`
-    consolidated as the scene asks, the friction lowered to zero under the servo: the
+    consolidated as the scene asks, the friction lowered to zero under the servo (and,
+    at zero friction, the rolling resistance off: `granpack.consolidate`'s phases): the
     servo's window."""
     assert scene.consolidate is not None
     try:
@@ -273,20 +300,57 @@ def _mu(u: float) -> float:
     return min(max(math.exp(min(u, _u(MU_DEP_MAX))) - MU_SHIFT, 0.0), MU_DEP_MAX)
 
 
-def _grid(scene: PackScene) -> tuple[float, ...]:
-    """The deposition frictions the window is measured at: MU_DEP_GRID and the
-    material's own."""
-    return tuple(sorted({*MU_DEP_GRID, float(scene.material.friction)}))
+#: A deposit's jam: (mu_dep, mu_r), its friction and its rolling friction (-); mu_r is 0
+#: for a scene without a rolling model, and for a jam without rolling resistance.
+Point = tuple[float, float]
+
+
+def _mu_r0(scene: PackScene) -> float:
+    """The material's rolling friction mu_r (-), 0 without a rolling model."""
+    mat = scene.material
+    return float(mat.rolling_friction) if has_rolling(mat) and mat.rolling_friction else 0.0
+
+
+def _on_line(scene: PackScene, mu: float) -> Point:
+    """The jam at deposition friction `mu` with the material's rolling friction, except
+    the frictionless jam (mu = 0 below a material with friction), which stands for the
+    densest deposit: without rolling resistance either."""
+    mu = float(mu)
+    if mu == 0.0 and scene.material.friction > 0.0:
+        return (mu, 0.0)
+    return (mu, _mu_r0(scene))
+
+
+def _grid(scene: PackScene) -> tuple[Point, ...]:
+    """The jams the window is measured at: every deposition friction of MU_DEP_GRID and
+    the material's own (`_on_line`), then, for a material with a rolling model, the
+    material's friction with every rolling friction of MU_R_GRID and the material's
+    own."""
+    mu0 = float(scene.material.friction)
+    line = [_on_line(scene, mu) for mu in sorted({*MU_DEP_GRID, mu0})]
+    if has_rolling(scene.material):
+        line += [(mu0, float(r)) for r in sorted({*MU_R_GRID, _mu_r0(scene)})]
+    return tuple(dict.fromkeys(line))
 
 
 def _uses_servo(scene: PackScene) -> bool:
     return scene.consolidate is not None and scene.density_method != "deposition"
 
 
-def _describe(mechanism: str, friction: float) -> str:
+def _describe(mechanism: str, point: Point, rolling: bool = False) -> str:
+    """What made a pack of the window; `rolling`: the scene has a rolling model, and the
+    jam's mu_r is named too."""
     if mechanism == "servo":
-        return "the recipe's sample, friction lowered to zero under the servo"
-    return f"layers jammed at mu_dep = {friction:g}"
+        return "the recipe's sample, friction lowered to zero under the servo" + (
+            " (rolling resistance off)" if rolling else ""
+        )
+    return f"layers jammed at {_jam(point, rolling, 'g')}"
+
+
+def _jam(point: Point, rolling: bool, fmt: str) -> str:
+    """A jam as text: "mu_dep = 0.2", with ", mu_r = 0.1" for a rolling scene."""
+    text = f"mu_dep = {point[0]:{fmt}}"
+    return text + f", mu_r = {point[1]:{fmt}}" if rolling else text
 
 
 @dataclasses.dataclass(frozen=True)
@@ -305,6 +369,9 @@ class VoidRatioLimits:
             under the servo").
         points: every pack measured, as (stream, mechanism, friction, phi): mechanism
             "deposition" (friction: mu_dep) or "servo" (friction: 0, the servo's end).
+        rolling_frictions: for a material with a rolling model, each point's rolling
+            friction mu_r (-) during its layers (0 for the frictionless jam and the
+            servo's end, which run without rolling resistance); empty otherwise.
     """
 
     e_min: float
@@ -318,6 +385,7 @@ class VoidRatioLimits:
     e_min_from: tuple[str, ...] = ()
     e_max_from: tuple[str, ...] = ()
     points: tuple[tuple[int, str, float, float], ...] = ()
+    rolling_frictions: tuple[float, ...] = ()
 
     @property
     def phi_min(self) -> float:
@@ -355,11 +423,15 @@ def void_ratio_limits(
     material, each over `packs` streams: the measured extremes over what granpack makes.
 
     Per stream, one pack with every layer jammed at each deposition friction of
-    MU_DEP_GRID (0, 0.1, 0.2, 0.5, 1) and at the material's own, each given the
-    material's friction back, settled (REST_TOL, or the scene's rest_tol) and, when the
+    MU_DEP_GRID (0, 0.1, 0.2, 0.5, 1) and at the material's own (for a material with a
+    rolling model: with its rolling friction, except at mu_dep = 0, the frictionless
+    jam, which has no rolling resistance either; and at the material's friction with
+    each rolling friction of MU_R_GRID, 0, 0.1, 0.2, 0.4, and the material's own), each
+    given the material back, settled (REST_TOL, or the scene's rest_tol) and, when the
     scene consolidates, consolidated at the material's friction; and, when the scene
     consolidates (unless its density_method is "deposition"), the recipe's deposit
-    consolidated with its friction lowered to zero under the servo. e_min is the void
+    consolidated with its friction lowered to zero under the servo (rolling resistance
+    off at zero friction). e_min is the void
     ratio of the densest of these, e_max of the loosest (phi is not monotone in the
     deposition friction once the pack is settled and consolidated, so neither is
     assumed). The void ratio is the sample's (floor to lid) when the scene consolidates,
@@ -373,7 +445,8 @@ def void_ratio_limits(
         Streams per end, in [1, 1000]. Default 5.
     progress : bool or callable
         A callable gets a dict per pack (stream, mechanism, friction, phi, void_ratio,
-        seconds); True prints one line per pack to stderr.
+        seconds; and rolling_friction, for a material with a rolling model); True prints
+        one line per pack to stderr.
 
     Raises
     ------
@@ -392,28 +465,32 @@ def void_ratio_limits(
     dense_from: list[str] = []
     loose_from: list[str] = []
     points: list[tuple[int, str, float, float]] = []
+    rolls: list[float] = []
+    rolling = has_rolling(scene.material)
+    recipe = (float(scene.material.friction), _mu_r0(scene))
     for k in range(packs):
         stream = scene.stream + k
         sc = scene.replace(stream=stream)
-        here: list[tuple[str, float, float]] = []
-        for mu in _grid(sc):
+        here: list[tuple[str, Point, float]] = []
+        for point in _grid(sc):
             t0 = time.perf_counter()
-            dep = _deposit_at(sc, mu)
+            dep = _deposit_at(sc, point[0], rolling_friction=point[1] if rolling else None)
             pack = _consolidated(sc, dep) if sc.consolidate is not None else dep
-            here.append(("deposition", mu, _measured_phi(pack, "scene", None)))
-            _report_point(progress, stream, here[-1], t0)
-            if mu == sc.material.friction and _uses_servo(sc):
+            here.append(("deposition", point, _measured_phi(pack, "scene", None)))
+            _report_point(progress, stream, here[-1], t0, rolling)
+            if point == recipe and _uses_servo(sc):
                 t0 = time.perf_counter()
-                here.append(("servo", 0.0, _servo_end(sc, dep)[1]))
-                _report_point(progress, stream, here[-1], t0)
-        points += [(stream, *p) for p in here]
+                here.append(("servo", (0.0, 0.0), _servo_end(sc, dep)[1]))
+                _report_point(progress, stream, here[-1], t0, rolling)
+        points += [(stream, m, p[0], phi) for m, p, phi in here]
+        rolls += [p[1] for _, p, _ in here] if rolling else []
         dense = max(here, key=lambda p: p[2])
         loose = min(here, key=lambda p: p[2])
         e_min.append(1.0 / dense[2] - 1.0)
         e_max.append(1.0 / loose[2] - 1.0)
-        dense_from.append(_describe(dense[0], dense[1]))
-        loose_from.append(_describe(loose[0], loose[1]))
-    return _limits(e_min, e_max, measure, dense_from, loose_from, points)
+        dense_from.append(_describe(dense[0], dense[1], rolling))
+        loose_from.append(_describe(loose[0], loose[1], rolling))
+    return _limits(e_min, e_max, measure, dense_from, loose_from, points, rolls)
 
 
 def _limits(
@@ -423,6 +500,7 @@ def _limits(
     dense_from: list[str],
     loose_from: list[str],
     points: list[tuple[int, str, float, float]],
+    rolling_frictions: list[float] | None = None,
 ) -> VoidRatioLimits:
     """The limits from each stream's ends (the mean of one pack is its value, exactly),
     checked for order: each stream's ends are the extremes of its own packs, so a mean
@@ -442,25 +520,22 @@ def _limits(
         e_min_from=tuple(dense_from),
         e_max_from=tuple(loose_from),
         points=tuple(points),
+        rolling_frictions=tuple(rolling_frictions or ()),
     )
     if not lim.e_min <= lim.e_max:
         raise AssertionError(f"the window's ends cross: e_min {lim.e_min} > e_max {lim.e_max}")
     return lim
 
 
-def _report_point(progress, stream: int, point: tuple[str, float, float], t0: float) -> None:
-    mechanism, friction, phi = point
-    _report(
-        progress,
-        {
-            "stream": stream,
-            "mechanism": mechanism,
-            "friction": friction,
-            "phi": phi,
-            "void_ratio": 1.0 / phi - 1.0,
-            "seconds": time.perf_counter() - t0,
-        },
-    )
+def _report_point(
+    progress, stream: int, point: tuple[str, Point, float], t0: float, rolling: bool
+) -> None:
+    mechanism, (friction, rolling_friction), phi = point
+    row: dict[str, Any] = {"stream": stream, "mechanism": mechanism, "friction": friction}
+    if rolling:
+        row["rolling_friction"] = rolling_friction
+    row.update(phi=phi, void_ratio=1.0 / phi - 1.0, seconds=time.perf_counter() - t0)
+    _report(progress, row)
 
 
 def _report(progress, row: dict) -> None:
@@ -503,66 +578,75 @@ def _band(
 
 class _Runs:
     """The packs one target's search made of the scene (its seed and stream), each made
-    once: deposition samples by mu_dep, the recipe's deposit, and the servo's window."""
+    once: deposition samples by jam (mu_dep, mu_r), the recipe's deposit, and the
+    servo's window."""
 
     def __init__(self, scene: PackScene, key: str, value: float, progress) -> None:
         self.scene = scene
         self.key = key
         self.value = value
         self.progress = progress
+        self.rolling = has_rolling(scene.material)
         self.mu0 = float(scene.material.friction)
-        self.phi: dict[float, float] = {}  # deposition samples' phi by mu_dep
-        self.packs: dict[float, Pack] = {}
+        self.p0: Point = (self.mu0, _mu_r0(scene))  # the recipe's jam
+        self.phi: dict[Point, float] = {}  # deposition samples' phi by jam
+        self.packs: dict[Point, Pack] = {}
         self.recipe_deposit: Pack | None = None
         self.servo: tuple[float, float] | None = None  # (phi at mu0, phi at zero friction)
         self.history: list[dict[str, Any]] = []
 
     @property
     def generations(self) -> int:
-        """Layer loops run: one per deposition friction measured."""
-        return len(set(self.phi) | ({self.mu0} if self.recipe_deposit is not None else set()))
+        """Layer loops run: one per jam measured."""
+        return len(set(self.phi) | ({self.p0} if self.recipe_deposit is not None else set()))
 
-    def deposit(self, mu: float) -> Pack:
-        if mu == self.mu0:
+    def entry(self, point: Point, **values: Any) -> dict[str, Any]:
+        """A history entry of the jam `point`: its friction, its rolling friction for a
+        scene with a rolling model, then `values`."""
+        out: dict[str, Any] = {"friction": point[0]}
+        if self.rolling:
+            out["rolling_friction"] = point[1]
+        return {**out, **values}
+
+    def deposit(self, point: Point) -> Pack:
+        roll = point[1] if self.rolling else None
+        if point == self.p0:
             if self.recipe_deposit is None:
-                self.recipe_deposit = _deposit_at(self.scene, mu, self.progress)
+                self.recipe_deposit = _deposit_at(
+                    self.scene, point[0], self.progress, rolling_friction=roll
+                )
             return self.recipe_deposit
-        return _deposit_at(self.scene, mu, self.progress)
+        return _deposit_at(self.scene, point[0], self.progress, rolling_friction=roll)
 
-    def sample(self, mu: float) -> tuple[Pack, float]:
-        """The deposition sample at `mu` (made again, bit for bit, where only its phi was
-        kept)."""
-        if mu not in self.packs:
+    def sample(self, point: Point) -> tuple[Pack, float]:
+        """The deposition sample of the jam `point` (made again, bit for bit, where only
+        its phi was kept)."""
+        if point not in self.packs:
             t = time.perf_counter()
-            pack = self.deposit(mu)
+            pack = self.deposit(point)
             if self.scene.consolidate is not None:
                 pack = _consolidated(self.scene, pack)
             phi = _measured_phi(pack, self.key, self.value)
-            self.packs[mu] = pack
-            if mu not in self.phi:
-                self.phi[mu] = phi
+            self.packs[point] = pack
+            if point not in self.phi:
+                self.phi[point] = phi
                 self.history.append(
-                    {
-                        "friction": mu,
-                        "phi": phi,
-                        "method": "deposition",
-                        "seconds": time.perf_counter() - t,
-                    }
+                    self.entry(point, phi=phi, method="deposition", seconds=time.perf_counter() - t)
                 )
-        return self.packs[mu], self.phi[mu]
+        return self.packs[point], self.phi[point]
 
     def servo_window(self) -> tuple[float, float]:
         if self.servo is None:
             t = time.perf_counter()
-            self.servo = _servo_end(self.scene, self.deposit(self.mu0))
-            self.phi.setdefault(self.mu0, self.servo[0])
+            self.servo = _servo_end(self.scene, self.deposit(self.p0))
+            self.phi.setdefault(self.p0, self.servo[0])
             self.history.append(
-                {
-                    "friction": 0.0,
-                    "phi": self.servo[1],
-                    "method": "servo window",
-                    "seconds": time.perf_counter() - t,
-                }
+                self.entry(
+                    (0.0, 0.0),
+                    phi=self.servo[1],
+                    method="servo window",
+                    seconds=time.perf_counter() - t,
+                )
             )
         return self.servo
 
@@ -572,16 +656,19 @@ class _Runs:
         packs, and so the same window, as `void_ratio_limits` of this seed and stream.
         `every`: over the search's other packs too, the window it reached."""
         grid = _grid(self.scene)
-        for mu in grid:
-            if mu not in self.phi:
-                self.sample(mu)
-        pts = [(self.phi[mu], _describe("deposition", mu)) for mu in (self.phi if every else grid)]
+        for point in grid:
+            if point not in self.phi:
+                self.sample(point)
+        pts = [
+            (self.phi[p], _describe("deposition", p, self.rolling))
+            for p in (self.phi if every else grid)
+        ]
         if _uses_servo(self.scene):
-            pts.append((self.servo_window()[1], _describe("servo", 0.0)))
+            pts.append((self.servo_window()[1], _describe("servo", (0.0, 0.0), self.rolling)))
         return min(pts), max(pts)
 
     def grid_measured(self) -> bool:
-        return all(mu in self.phi for mu in _grid(self.scene))
+        return all(p in self.phi for p in _grid(self.scene))
 
 
 def generate_at_density(
@@ -636,7 +723,7 @@ def generate_at_density(
         limits.relative_density(limits.e_min)  # the window has a width, or the error
     phi_t, lo, hi, tol = _band(key, value, scene.density_tol, limits)
 
-    def finish(pack: Pack, phi: float, method: str, friction: float) -> Pack:
+    def finish(pack: Pack, phi: float, method: str, point: Point) -> Pack:
         e = 1.0 / phi - 1.0
         record: dict[str, Any] = {
             "target": {key: value},
@@ -644,7 +731,8 @@ def generate_at_density(
             "density_tol": tol,
             "measure": measure,
             "method": method,
-            "friction": friction,
+            "friction": point[0],
+            **({"rolling_friction": point[1]} if runs.rolling else {}),
             "phi": phi,
             "void_ratio": e,
             "generations": runs.generations,
@@ -685,38 +773,35 @@ def generate_at_density(
     if method == "auto":
         method = "servo" if scene.consolidate is not None else "deposition"
     if method == "servo":
-        phi0 = runs.servo[0] if runs.servo is not None else runs.phi.get(runs.mu0)
+        phi0 = runs.servo[0] if runs.servo is not None else runs.phi.get(runs.p0)
         if scene.density_method == "servo" or phi0 is None or phi0 < phi_t:
             t = time.perf_counter()
             try:
                 pack = _consolidated(
                     scene,
-                    runs.deposit(runs.mu0),
+                    runs.deposit(runs.p0),
                     target_phi=phi_t,
                     density_tol=min(hi - phi_t, phi_t - lo),
                 )
                 phi = _measured_phi(pack, key, value)
                 runs.history.append(
-                    {
-                        "friction": runs.mu0,
-                        "phi": phi,
-                        "method": "servo",
-                        "seconds": time.perf_counter() - t,
-                        "phases": _consolidation_report(pack)["density"]["phases"],
-                    }
+                    runs.entry(
+                        runs.p0,
+                        phi=phi,
+                        method="servo",
+                        seconds=time.perf_counter() - t,
+                        phases=_consolidation_report(pack)["density"]["phases"],
+                    )
                 )
-                return finish(pack, phi, "servo", runs.mu0)
+                return finish(pack, phi, "servo", runs.p0)
             except DensityTargetError as e:
                 runs.history.append(
-                    {
-                        "friction": runs.mu0,
-                        "phi": e.realised,
-                        "method": "servo",
-                        "seconds": time.perf_counter() - t,
-                    }
+                    runs.entry(
+                        runs.p0, phi=e.realised, method="servo", seconds=time.perf_counter() - t
+                    )
                 )
                 # the servo's first equilibrium is the recipe's sample, bit for bit
-                runs.phi.setdefault(runs.mu0, float(e.phi_min))
+                runs.phi.setdefault(runs.p0, float(e.phi_min))
                 if math.isfinite(e.phi_max):
                     runs.servo = (float(e.phi_min), float(e.phi_max))
                 if scene.density_method == "servo":
@@ -724,31 +809,34 @@ def generate_at_density(
     return _search(key, value, phi_t, lo, hi, runs, finish)
 
 
-def _best_in_band(runs: _Runs, lo: float, hi: float, phi_t: float) -> float | None:
-    """The measured deposition friction whose phi lies in [lo, hi], nearest the target."""
-    inside = [mu for mu, phi in runs.phi.items() if lo <= phi <= hi]
+def _best_in_band(runs: _Runs, lo: float, hi: float, phi_t: float) -> Point | None:
+    """The measured jam whose phi lies in [lo, hi], nearest the target."""
+    inside = [p for p, phi in runs.phi.items() if lo <= phi <= hi]
     if not inside:
         return None
-    return min(inside, key=lambda mu: (abs(runs.phi[mu] - phi_t), mu))
+    return min(inside, key=lambda p: (abs(runs.phi[p] - phi_t), p))
 
 
 def _search(key, value, phi_t, lo, hi, runs: _Runs, finish) -> Pack:
     """The secant search of the deposition friction in ln(mu + MU_SHIFT), from the
     recipe's friction or from the packs measured: inside the best bracket where the
-    packs bracket the target, over the measured grid where they do not."""
+    packs bracket the target, over the measured grid where they do not. For a material
+    with a rolling model, a bracket among the rolling frictions of the grid (at the
+    material's friction) is split the same way, in ln(mu_r + MU_SHIFT), where the
+    deposition frictions give none."""
     extrapolations = 0
     while True:
         hit = _best_in_band(runs, lo, hi, phi_t)
         if hit is not None:
             pack, phi = runs.sample(hit)
             return finish(pack, phi, "deposition", hit)
-        mu, extrapolated = _next_friction(runs, phi_t, extrapolations)
-        if mu is None:
+        point, extrapolated = _next_friction(runs, phi_t, extrapolations)
+        if point is None:
             break
         if runs.generations >= MAX_GENERATIONS:
             raise _not_reached(key, value, phi_t, runs, f"in {MAX_GENERATIONS} packs")
         extrapolations += extrapolated
-        runs.sample(mu)
+        runs.sample(point)
     # every grid friction measured and no bracket left to split: out of the window that
     # every pack made spans, or phi jumps across the band
     (phi_min, loose_from), (phi_max, dense_from) = runs.window(every=True)
@@ -769,33 +857,61 @@ def _search(key, value, phi_t, lo, hi, runs: _Runs, finish) -> Pack:
     )
 
 
-def _next_friction(runs: _Runs, phi_t: float, extrapolations: int) -> tuple[float | None, int]:
-    """The next deposition friction to try, and 1 where it is an extrapolation (no
-    bracket); None once the grid is measured and no bracket can be split."""
-    pts = sorted(runs.phi.items())
-    if not pts:
-        return runs.mu0, 0
+def _bracket(
+    pts: list[tuple[float, float]], phi_t: float
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """Among `pts` (knob, phi), sorted by the knob (mu_dep or mu_r), the bracket
+    ((a, phi_a), (b, phi_b)) of the target where phi changes the least per unit of
+    ln(knob + MU_SHIFT): the smooth part of the curve, rather than a jump (where
+    splitting converges on the jump, never on the band); None without a bracket."""
     brackets = [
         (a, b)
         for a, b in zip(pts, pts[1:], strict=False)
         if (a[1] - phi_t) * (b[1] - phi_t) < 0 and _u(b[0]) - _u(a[0]) > MIN_BRACKET
     ]
-    if brackets:
-        # the bracket where phi changes the least per unit of u: the smooth part of the
-        # curve, rather than a jump (where splitting converges on the jump, never on the
-        # band)
-        a, b = min(
-            brackets, key=lambda ab: abs(ab[1][1] - ab[0][1]) / (_u(ab[1][0]) - _u(ab[0][0]))
-        )
-        ua, ub = _u(a[0]), _u(b[0])
-        untried = [mu for mu in _grid(runs.scene) if mu not in runs.phi]
-        if abs(b[1] - a[1]) / (ub - ua) > STEEP and untried:
+    if not brackets:
+        return None
+    return min(brackets, key=lambda ab: abs(ab[1][1] - ab[0][1]) / (_u(ab[1][0]) - _u(ab[0][0])))
+
+
+def _split(bracket, phi_t: float) -> tuple[float, bool]:
+    """Regula falsi in ln(knob + MU_SHIFT), kept strictly inside `bracket`, and whether
+    the bracket looks like a jump (STEEP)."""
+    a, b = bracket
+    ua, ub = _u(a[0]), _u(b[0])
+    steep = abs(b[1] - a[1]) / (ub - ua) > STEEP
+    u = ua + (phi_t - a[1]) * (ub - ua) / (b[1] - a[1])
+    u = min(max(u, ua + 0.1 * (ub - ua)), ub - 0.1 * (ub - ua))
+    return math.exp(u) - MU_SHIFT, steep
+
+
+def _next_friction(runs: _Runs, phi_t: float, extrapolations: int) -> tuple[Point | None, int]:
+    """The next jam to try, and 1 where it is an extrapolation (no bracket); None once
+    the grid is measured and no bracket can be split. The deposition frictions (at the
+    material's rolling friction) first; for a material with a rolling model, then the
+    rolling frictions at the material's friction."""
+    scene = runs.scene
+    if not runs.phi:
+        return runs.p0, 0
+    untried = [p for p in _grid(scene) if p not in runs.phi]
+    # the deposition frictions' line: the jams `_on_line` makes
+    pts = sorted((p[0], phi) for p, phi in runs.phi.items() if p == _on_line(scene, p[0]))
+    bracket = _bracket(pts, phi_t)
+    if bracket is not None:
+        mu, steep = _split(bracket, phi_t)
+        if steep and untried:
             # a jump, by the look of it: the grid may hold a smoother bracket
             return _toward(runs, phi_t, untried), 0
-        # regula falsi in u, kept strictly inside the bracket
-        u = ua + (phi_t - a[1]) * (ub - ua) / (b[1] - a[1])
-        u = min(max(u, ua + 0.1 * (ub - ua)), ub - 0.1 * (ub - ua))
-        return math.exp(u) - MU_SHIFT, 0
+        return _on_line(scene, mu), 0
+    if runs.rolling:
+        # the rolling frictions' line, at the material's friction
+        rolls = sorted((p[1], phi) for p, phi in runs.phi.items() if p[0] == runs.mu0)
+        bracket = _bracket(rolls, phi_t)
+        if bracket is not None:
+            mu_r, steep = _split(bracket, phi_t)
+            if steep and untried:
+                return _toward(runs, phi_t, untried), 0
+            return (runs.mu0, mu_r), 0
     if extrapolations < MAX_EXTRAPOLATIONS and not runs.grid_measured():
         near = sorted(pts, key=lambda p: abs(p[1] - phi_t))
         if len(near) == 1:
@@ -808,19 +924,18 @@ def _next_friction(runs: _Runs, phi_t: float, extrapolations: int) -> tuple[floa
             # search to the grid
             u = ua + (phi_t - pa) * (ub - ua) / (pb - pa) if (pb - pa) * (ub - ua) < 0 else math.nan
         if math.isfinite(u):
-            nxt = _mu(u)
+            nxt = _on_line(scene, _mu(u))
             if nxt not in runs.phi:
                 return nxt, 1
-    untried = [mu for mu in _grid(runs.scene) if mu not in runs.phi]
     if not untried:
         return None, 0
     return _toward(runs, phi_t, untried), 0
 
 
-def _toward(runs: _Runs, phi_t: float, untried: list[float]) -> float:
-    """The untried grid friction toward the side the target lies on: the frictionless
-    end first for a target denser than every pack measured, the loosest end first
-    otherwise."""
+def _toward(runs: _Runs, phi_t: float, untried: list[Point]) -> Point:
+    """The untried grid jam toward the side the target lies on: the frictionless end
+    first for a target denser than every pack measured, the loosest end first otherwise
+    (the largest rolling friction, for a material with a rolling model)."""
     denser = phi_t > max(runs.phi.values(), default=-1.0)
     return untried[0] if denser else untried[-1]
 
@@ -842,8 +957,8 @@ def _out_of_window(key, value, phi_t, loose, dense) -> DensityTargetError:
 
 def _not_reached(key, value, phi_t, runs: _Runs, why: str, window=None) -> DensityTargetError:
     """The target lies between packs the search made, but no pack met it."""
-    best_mu = min(runs.phi, key=lambda mu: abs(runs.phi[mu] - phi_t))
-    best = runs.phi[best_mu]
+    best_at = min(runs.phi, key=lambda p: abs(runs.phi[p] - phi_t))
+    best = runs.phi[best_at]
     if window is None and runs.grid_measured():
         window = runs.window(every=True)
     if window is not None:
@@ -857,7 +972,7 @@ def _not_reached(key, value, phi_t, runs: _Runs, why: str, window=None) -> Densi
         )
     return DensityTargetError(
         f"{key} = {value:g} (phi = {phi_t:.4f}) not reached {why.lstrip('; ')} "
-        f"(nearest: phi = {best:.4f} at mu_dep = {best_mu:.4g}){where}; phi changes "
+        f"(nearest: phi = {best:.4f} at {_jam(best_at, runs.rolling, '.4g')}){where}; phi changes "
         "between neighbouring deposition frictions by more than the tolerance here (the "
         "spread of phi between packs grows as the pack gets smaller): give a larger "
         "density_tol or a larger scene",

@@ -12,6 +12,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from ._contact_model import model_text
 from ._files import atomic_write
 from ._report_page import column, dev_banner, environment_line, grouped_links, mean_sd, rel_link
 
@@ -58,6 +59,8 @@ def ensemble_report(
         f"H_d = {scene.height} m, {scene.radius_law} radii r_mean = {scene.r_mean} m), "
         f"master seed {scene.seed} (pack k uses random stream k). "
         f"{environment_line(wall_time)}.",
+        "",
+        model_text(scene.material),
         "",
         f"phi = {mean_sd(column(records, 'phi'), 4)}, Z = {mean_sd(column(records, 'z'), 3)} "
         "(mean ± sample standard deviation).",
@@ -121,7 +124,13 @@ def _density_lines(records: Sequence[Mapping]) -> list[str]:
         f"Density target {rec['density_target']} = {rec['density_target_value']:g}, phi "
         f"measured {where}: phi {mean_sd(column(records, 'density_phi'), 4)}; "
         f"{rec['density_method']} (deposition friction "
-        f"{mean_sd(column(records, 'density_friction'), 3)}), "
+        f"{mean_sd(column(records, 'density_friction'), 3)}"
+        + (
+            f", rolling friction {mean_sd(column(records, 'density_rolling_friction'), 3)}"
+            if "density_rolling_friction" in rec
+            else ""
+        )
+        + "), "
         f"{mean_sd(column(records, 'density_generations'), 1)} pack(s) generated per pack.",
         "",
         *(

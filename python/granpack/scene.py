@@ -69,9 +69,15 @@ def _material_table(table: Mapping) -> Material:
     try:
         return Material(**table)
     except InvalidParameterError as exc:
-        # every Material check raises "invalid <key> = ..." (`as_real`)
+        # every Material check raises "invalid <key> = ..." (`as_real`) or, for a key
+        # that another one needs, "missing <key>: ..."
+        text = str(exc)
+        for word in ("invalid ", "missing "):
+            if text.startswith(word):
+                text = word + "material." + text[len(word) :]
+                break
         raise InvalidParameterError(
-            str(exc).replace("invalid ", "invalid material.", 1),
+            text,
             parameter=f"material.{exc.parameter}",
             value=exc.value,
             expected=exc.expected,

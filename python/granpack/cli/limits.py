@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from .._console import Console
+from .._contact_model import model_record
 from .._validate import check_outputs
 
 HELP = "e_min and e_max of the model for a scene, over packs"
@@ -71,11 +72,23 @@ def run(args: argparse.Namespace, console: Console) -> int:
             "e_min_from": list(lim.e_min_from),
             "e_max_from": list(lim.e_max_from),
             "points": [
-                {"stream": k, "mechanism": m, "friction": mu, "phi": phi}
-                for k, m, mu, phi in lim.points
+                {
+                    "stream": k,
+                    "mechanism": m,
+                    "friction": mu,
+                    # a material with a rolling model: the point's rolling friction mu_r
+                    **(
+                        {"rolling_friction": lim.rolling_frictions[i]}
+                        if lim.rolling_frictions
+                        else {}
+                    ),
+                    "phi": phi,
+                }
+                for i, (k, m, mu, phi) in enumerate(lim.points)
             ],
             "measure": lim.measure,
             "packs": lim.packs,
+            "contact_model": model_record(scene.material),
         }
         atomic_write(args.json, json.dumps(body, indent=1).encode())
     return 0
@@ -84,7 +97,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
 def _what(row: dict) -> str:
     if row["mechanism"] == "servo":
         return "servo at zero friction"
-    return f"mu_dep {row['friction']:g}"
+    what = f"mu_dep {row['friction']:g}"
+    return what + (f", mu_r {row['rolling_friction']:g}" if "rolling_friction" in row else "")
 
 
 def _most(labels: tuple[str, ...]) -> str:

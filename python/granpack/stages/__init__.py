@@ -5,7 +5,8 @@ the scene lists, in the order of `STAGES`: the settling to rest (``rest_tol``,
 `granpack.stages.rest`) and the consolidation (``[consolidate]``,
 `granpack.stages.consolidate`). The tiling (`granpack.stages.tile`) runs on a finished
 pack (``granpack tile``). A density target (`granpack.density`) is no step of the list:
-it searches over it, running the list again with the deposit's friction changed.
+it searches over it, running the list again with the deposit's friction (and rolling
+friction) changed.
 
 Every module holds
 

@@ -1,6 +1,10 @@
 """The consolidation (the scene's ``[consolidate]`` table): servo-controlled walls bring
 the deposit to a target stress and hold it there until it is in static equilibrium
-(`granpack.consolidation.consolidate`)."""
+(`granpack.consolidation.consolidate`). It runs at the material's contact model
+throughout; with a density target (``target_phi``) it lowers the friction in phases,
+each keeping the material's rolling model but the one at zero friction, which runs
+without rolling resistance (mu_r = 0) until the friction is restored
+(docs/contact_models.md)."""
 
 from __future__ import annotations
 

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .. import pack as _pack
+from .._contact_model import phase_material
 from ..pack import Pack
 from ..scene import PackScene
 
@@ -25,9 +26,15 @@ class Spec:
         The friction (-) every layer is jammed with, the deposition friction of a
         density target's search; the pack keeps the scene's material (its friction).
         None: the material's friction.
+    rolling_friction : float or None
+        The rolling friction mu_r (-) every layer is jammed with (the density window's
+        rolling knob, docs/contact_models.md); the pack keeps the scene's material. 0:
+        no rolling resistance (``rolling = "none"``) during the layers; None: the
+        material's rolling model unchanged, as a `friction` alone leaves it.
     """
 
     friction: float | None = None
+    rolling_friction: float | None = None
 
 
 def spec_of(scene: PackScene) -> Spec:
@@ -42,11 +49,12 @@ def run(
     *,
     _stacklevel: int = 2,
 ) -> Pack:
-    """The layer loop of `scene` (`granpack.pack.deposit`), every layer jammed at
-    ``spec.friction`` where it is given and differs from the material's."""
+    """The layer loop of `scene` (`granpack.pack.deposit`), every layer jammed with the
+    material of ``spec.friction`` and ``spec.rolling_friction``
+    (`granpack._contact_model.phase_material`) where they differ from the material's;
+    the pack keeps the scene, its material whole."""
     mat = scene.material
-    jam = scene
-    if spec.friction is not None and spec.friction != mat.friction:
-        jam = scene.replace(material=dataclasses.replace(mat, friction=spec.friction))
+    jam_mat = phase_material(mat, spec.friction, spec.rolling_friction)
+    jam = scene if jam_mat is mat else scene.replace(material=jam_mat)
     pack = _pack.deposit(jam, progress, _stacklevel=_stacklevel + 1)
     return pack if jam is scene else dataclasses.replace(pack, scene=scene)
