@@ -43,6 +43,7 @@ __all__ = [
     "LayerPacker",
     "find_contacts",
     "rayleigh_time_step",
+    "critical_time_step",
     "resolve_scene",
     "number_fractions",
     "sample_radii",
@@ -451,6 +452,9 @@ def find_contacts(
     one flag per horizontal axis of `walls` (minimum image, no walls there);
     `cylinder`: a radius R (3D), the side walls replaced by a vertical cylinder with
     its axis through lo + (R, R)."""
+
+def critical_time_step(material: MaterialFields, r_min: float) -> float:
+    """The critical time step (s) of a material for the smallest radius r_min (m)."""
 
 def rayleigh_time_step(density: float, young: float, poisson: float, r_min: float) -> float:
     """pi r_min sqrt(rho / G) / (0.1631 nu + 0.8766) (s)."""

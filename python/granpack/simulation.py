@@ -180,8 +180,11 @@ class Material:
         return self.young / (2.0 * (1.0 - self.poisson**2))
 
     def critical_time_step(self, r_min: float) -> float:
-        """Rayleigh time step pi r_min sqrt(rho/G) / (0.1631 nu + 0.8766) (s)."""
-        return _core.rayleigh_time_step(self.density, self.young, self.poisson, float(r_min))
+        """The critical time step for the smallest radius r_min (m), in s: the Rayleigh
+        step pi r_min sqrt(rho/G) / (0.1631 nu + 0.8766) under Hertz-Mindlin, sqrt(m /
+        max(k_n, k_t)) under the linear law (m the mass of a sphere of r_min), shortened
+        by a rolling spring (see docs/contact_models.md)."""
+        return _core.critical_time_step(self, float(r_min))
 
 
 class Simulation:

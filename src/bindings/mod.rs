@@ -1347,6 +1347,17 @@ fn rayleigh_time_step(density: f64, young: f64, poisson: f64, r_min: f64) -> PyR
     Ok(m.rayleigh_time_step(r_min))
 }
 
+/// The critical time step (s) of a `granpack.Material` for the smallest radius r_min
+/// (m): the Rayleigh step, or the linear law's, shortened by a rolling spring
+/// (`Material::critical_time_step`).
+#[pyfunction]
+fn critical_time_step(material: MaterialArgs, r_min: f64) -> PyResult<f64> {
+    let m = material.material()?;
+    m.validate()?;
+    crate::error::check_range("r_min", r_min, 0.0, false, f64::INFINITY, false)?;
+    Ok(m.critical_time_step(r_min))
+}
+
 /// The instruction-set level the hot kernels run at (`x86-64`, `x86-64-v2`, `x86-64-v3`
 /// or `x86-64-v4`; `baseline` off x86-64): the CPU's highest, or `GRANPACK_CPU_LEVEL`.
 #[pyfunction]
@@ -1381,6 +1392,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<LayerPacker>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(rayleigh_time_step, m)?)?;
+    m.add_function(wrap_pyfunction!(critical_time_step, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_scene, m)?)?;
     m.add_function(wrap_pyfunction!(number_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(sample_radii, m)?)?;

@@ -767,7 +767,8 @@ pub unsafe fn roll_block<const D: usize>(
         // SAFETY: as above.
         unsafe {
             for a in 0..D {
-                lane!(rb.h[a][o]) = if contact { h[a] } else { 0.0 };
+                // without a spring nothing is stored (see `rolling_epsd`)
+                lane!(rb.h[a][o]) = if contact && k_r > 0.0 { h[a] } else { 0.0 };
                 lane!(rb.m[a][o]) = if contact { mom[a] } else { 0.0 };
             }
         }

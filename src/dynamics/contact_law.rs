@@ -277,7 +277,9 @@ pub fn rolling_epsd<const D: usize>(
             Vector::<D>::zeros()
         };
     }
-    *history = h;
+    // without a spring (mu_r = 0 under the derived k_r) nothing is stored: a
+    // displacement would otherwise grow unbounded and snap back once mu_r returns
+    *history = if k_r > 0.0 { h } else { Vector::<D>::zeros() };
     f_r
 }
 

@@ -541,7 +541,7 @@ impl ConsolidateSpec {
 
     /// Refuses a target stress the stage cannot drive on these particles, by its own key
     /// (`consolidate.stress` for the lid, `consolidate.lateral` for the side walls), and
-    /// a `dt` beyond the Rayleigh step of the smallest one ([`Error::UnstableTimeStep`]).
+    /// a `dt` beyond the critical step of the smallest one ([`Error::UnstableTimeStep`]).
     pub fn check_particles(
         &self,
         dim: usize,
@@ -549,19 +549,41 @@ impl ConsolidateSpec {
         p: &Particles<'_>,
     ) -> Result<()> {
         let e_star = p.material.e_star();
-        let (lo, hi) = stress_range(dim, p.r_mean, e_star, p.max_overlap_ratio);
+        // the linear law's mean contact: d = F / k_n for the force sigma (2 r)^(D-1)
+        let linear_kn = match p.material.law {
+            crate::dynamics::material::ContactLaw::Linear { kn, .. } => Some(kn),
+            crate::dynamics::material::ContactLaw::HertzMindlin => None,
+        };
+        let area = (2.0 * p.r_mean).powi(dim as i32 - 1);
+        let (lo, hi) = match linear_kn {
+            Some(kn) => {
+                let at = |ratio: Real| kn * ratio * p.r_mean / area;
+                (
+                    at(MIN_OVERLAP_RATIO),
+                    at(p.max_overlap_ratio).min(MAX_STRESS),
+                )
+            }
+            None => stress_range(dim, p.r_mean, e_star, p.max_overlap_ratio),
+        };
+        let stiffness = match linear_kn {
+            Some(kn) => format!("k_n = {} N/m", crate::error::fmt_g(kn)),
+            None => format!("E = {} Pa", crate::error::fmt_g(p.material.young)),
+        };
         for (wall, value) in self.targets(dim, container)? {
             let key = if wall == "lid" {
                 "consolidate.stress"
             } else {
                 "consolidate.lateral"
             };
-            let est = overlap_ratio(value, dim, p.r_mean, e_star);
+            let est = match linear_kn {
+                Some(kn) => value * area / kn / p.r_mean,
+                None => overlap_ratio(value, dim, p.r_mean, e_star),
+            };
             let g3 = |x: Real| fmt_g_digits(x, 3);
             let why = if est > p.max_overlap_ratio {
                 format!(
                     "it needs overlaps of about {} of the radius, beyond max_overlap_ratio = \
-                     {}, where the Hertz law does not hold; lower the stress or stiffen the \
+                     {}, where the contact law does not hold; lower the stress or stiffen the \
                      material",
                     g3(est),
                     crate::error::fmt_g(p.max_overlap_ratio)
@@ -582,8 +604,7 @@ impl ConsolidateSpec {
                 value: format!("{} Pa", crate::error::fmt_g(value)),
                 number: Some(value),
                 expected: format!(
-                    "with E = {} Pa and a mean radius {} m {why}. It must lie in {allowed}",
-                    crate::error::fmt_g(p.material.young),
+                    "with {stiffness} and a mean radius {} m {why}. It must lie in {allowed}",
                     crate::error::fmt_g(p.r_mean)
                 ),
             });
