@@ -286,8 +286,11 @@ where
             + b(&p.wall_near);
         [
             ("particles", particles),
-            ("wall_contacts", b(&p.wall_hist) + b(&p.wall_force)),
-            ("pair_list", b(&pr.ij) + b(&pr.blocks)),
+            (
+                "wall_contacts",
+                b(&p.wall_hist) + b(&p.wall_force) + b(&p.wall_roll),
+            ),
+            ("pair_list", b(&pr.ij) + b(&pr.blocks) + b(&pr.roll)),
             (
                 "incidence",
                 b(&pr.i_frozen) + b(&pr.i_active) + b(&pr.j_start) + b(&pr.j_inc),

@@ -304,8 +304,11 @@ impl<const D: usize> Pairs<D> {
     /// runs moved in the same safe order, on one thread, into `n` blocks.
     fn merge_roll(&mut self, runs: &[(u32, u32, u32)], n: usize) {
         if self.roll.len() < n {
+            // grown as the pair blocks grow, not doubled
             let more = n - self.roll.len();
-            self.roll.extend(zeroed_blocks::<RollBlock<D>>(more));
+            self.roll
+                .reserve_exact(more + self.blocks.capacity().saturating_sub(n));
+            self.roll.resize_with(n, RollBlock::default);
         }
         let base = self.roll.as_mut_ptr();
         for &(k, o, len) in runs {
