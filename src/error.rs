@@ -24,7 +24,8 @@ pub enum Error {
     /// The time step exceeds the stability estimate.
     #[error(
         "invalid dt = {dt:e} s: must not exceed the critical (Rayleigh) time step {critical:e} s \
-         estimated for r_min = {r_min:e} m (sqrt(m / k) under the linear law); use dt <= \
+         estimated for r_min = {r_min:e} m (sqrt(m / k) under the linear law; a rolling \
+         spring shortens either); use dt <= \
          {critical:e}"
     )]
     UnstableTimeStep {
