@@ -166,20 +166,22 @@ def test_lammps_derived_rolling_stiffness_is_at_the_mean_contact(pack3d, tmp_pat
 
 def test_a_consolidated_2d_pack_gives_its_lid_the_linear_law_and_rolling(tmp_path):
     pack = gp.load_pack(DATA / "consolidation_tiled.npz")
+    # (a k_n that carries the stage's 10 kPa at a small overlap: the scene refuses one
+    # whose mean contact would need more than max_overlap_ratio)
     m = gp.Material(
-        contact_law="linear", normal_stiffness=3e4, rolling="epsd", rolling_friction=0.1
+        contact_law="linear", normal_stiffness=1e5, rolling="epsd", rolling_friction=0.1
     )
     text = exported(with_material(pack, m), tmp_path, "lammps-data")["in.granpack"]
     lid = lammps_law(text, "fix             lid")
-    assert after(lid, "hooke", 1) == [3e4]
+    assert after(lid, "hooke", 1) == [1e5]
     # linear law: k_roll = 2.25 mu_r^2 k_n exactly
-    assert after(lid, "sds", 3) == pytest.approx([2.25 * 0.01 * 3e4, 0.0, 0.1], rel=1e-15)
+    assert after(lid, "sds", 3) == pytest.approx([2.25 * 0.01 * 1e5, 0.0, 0.1], rel=1e-15)
     assert "hertz" not in text  # no Hertz wall notes for a linear pack
     # the servo's gain is the inverse of the lid contacts' stiffness, k_n each
     gain = float(re.search(r"lid_gain equal (\S+)", text).group(1))
     lid_at = float(re.search(r"lid all wall/gran granular .* yplane NULL (\S+)", text).group(1))
     top = pack.positions[:, -1] + pack.radii - lid_at
-    assert gain == pytest.approx(1.0 / (3e4 * max(int((top > 0).sum()), 1)), rel=1e-5)
+    assert gain == pytest.approx(1.0 / (1e5 * max(int((top > 0).sum()), 1)), rel=1e-5)
 
 
 def test_lammps_refuses_a_linear_damping_beyond_tsuji(pack3d, tmp_path):
@@ -819,15 +821,17 @@ def test_peers_continue_a_rolling_pack_as_granpack_does(name, lmp, liggghts, tmp
     """A pack the engine made with rolling resistance, continued 500 steps by granpack and
     by LAMMPS and LIGGGHTS from the export: the peers' positions follow granpack's within
     the bounds below, and several times closer than the same inputs without the rolling
-    words. LAMMPS' linear law and rolling sds are granpack's exactly (measured: 1.1e-5 m
-    apart, 7.4e-4 without rolling, for motions of 14 mm); Hertz's constant k_roll and
-    LIGGGHTS' mean-m* damping and epsd3 are close (1.1e-4 to 2.2e-4 m, against 6e-4 to
-    7e-4 without rolling; the default Hertz pack itself ends 1.7e-4 m apart in LAMMPS,
-    1.8e-4 in LIGGGHTS)."""
+    words. The linear pack still moves (by 22 mm), so small differences grow: LAMMPS'
+    linear law and rolling sds are granpack's (tests/peers/test_contact_models_lammps.py
+    shows it contact by contact), yet the first steps' arms (r against r - d/2) and
+    history updates differ, and the packs end 2.8e-4 m apart in LAMMPS and 5.6e-4 in
+    LIGGGHTS (4.3e-3 and 4.5e-3 without rolling); Hertz's constant k_roll and LIGGGHTS' mean-m* damping and
+    epsd3 are close (1.1e-4 to 2.2e-4 m, against 6e-4 to 7e-4 without rolling; the
+    default Hertz pack itself ends 1.7e-4 m apart in LAMMPS, 1.8e-4 in LIGGGHTS)."""
     pack = gp.generate(small_scene(3, material=ENGINE_MATERIALS[name]).fast())
     ours = continued_by_granpack(pack, STEPS)
     assert np.abs(ours - pack.positions).max() > 1e-3  # the pack moves
-    bound = {"linear-rolling": (5e-5, 4e-4), "hertz-rolling": (3e-4, 3e-4)}[name]
+    bound = {"linear-rolling": (1e-3, 1e-3), "hertz-rolling": (3e-4, 3e-4)}[name]
     for program, fmt, strip, limit in (
         (lmp, "lammps-data", r" rolling sds \S+ \S+ \S+", bound[0]),
         (liggghts, "liggghts", r" rolling_friction epsd3", bound[1]),
