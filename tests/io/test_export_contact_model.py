@@ -825,9 +825,10 @@ def test_peers_continue_a_rolling_pack_as_granpack_does(name, lmp, liggghts, tmp
     linear law and rolling sds are granpack's (tests/peers/test_contact_models_lammps.py
     shows it contact by contact), yet the first steps' arms (r against r - d/2) and
     history updates differ, and the packs end 2.8e-4 m apart in LAMMPS and 5.6e-4 in
-    LIGGGHTS (4.3e-3 and 4.5e-3 without rolling); Hertz's constant k_roll and LIGGGHTS' mean-m* damping and
-    epsd3 are close (1.1e-4 to 2.2e-4 m, against 6e-4 to 7e-4 without rolling; the
-    default Hertz pack itself ends 1.7e-4 m apart in LAMMPS, 1.8e-4 in LIGGGHTS)."""
+    LIGGGHTS (4.3e-3 and 4.5e-3 without rolling); Hertz's constant k_roll and LIGGGHTS'
+    mean-m* damping and epsd3 are close (1.1e-4 to 2.2e-4 m, against 6e-4 to 7e-4
+    without rolling; the default Hertz pack itself ends 1.7e-4 m apart in LAMMPS, 1.8e-4
+    in LIGGGHTS)."""
     pack = gp.generate(small_scene(3, material=ENGINE_MATERIALS[name]).fast())
     ours = continued_by_granpack(pack, STEPS)
     assert np.abs(ours - pack.positions).max() > 1e-3  # the pack moves
