@@ -427,12 +427,14 @@ class Simulation:
         return self._sim.potential_energy()
 
     def elastic_energy(self) -> float:
-        """Elastic energy stored in the contacts (J): Hertz 8/15 E* sqrt(R*) d^{5/2} plus
-        the tangential springs 1/2 k_t |xi_t|^2, at the last force evaluation."""
+        """Elastic energy stored in the contacts (J): Hertz 8/15 E* sqrt(R*) d^{5/2} (1/2
+        k_n d^2 under the linear law) plus the tangential springs 1/2 k_t |xi_t|^2, at the
+        last force evaluation; the rolling springs are left out."""
         return self._sim.elastic_energy()
 
     def critical_time_step(self) -> float:
-        """Rayleigh critical step for the current smallest particle (s)."""
+        """The critical step for the current smallest particle (s): the Rayleigh step, or
+        the linear law's (see `Material.critical_time_step`)."""
         return self._sim.critical_time_step()
 
     def contacts(self) -> Contacts:
