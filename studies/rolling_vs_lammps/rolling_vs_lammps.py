@@ -241,7 +241,7 @@ def summarise(packs: list[dict]) -> list[dict]:
 
 
 def ensemble_table(rows: list[dict]) -> str:
-    names = {"phi": "phi", "phi_core": "phi_core", "z": "Z", "a_r": "|a^r|"}
+    names = {"phi": "phi", "phi_core": "phi_core", "z": "Z", "a_r": r"\|a^r\|"}
     out = [
         "| mu_r | code | n | particles | H_top m | "
         + " | ".join(names.values())
