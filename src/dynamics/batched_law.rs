@@ -665,17 +665,21 @@ pub unsafe fn clear_roll_lanes<const D: usize>(
     }
 }
 
+crate::cpu::multiversion! {
 /// The rolling law ([`rolling_epsd`](super::contact_law::rolling_epsd)) on the
 /// scratch's lanes `lanes` after [`law_block`] (whose normal force and normal
 /// stiffness factors it reads from `g.tmp` and the block's factors), with the relative
 /// spins in `g.wr`: advances each pair's rolling displacement and writes R* n x f_r;
-/// pairs apart get zeros. R* comes from the radii in the scratch.
+/// pairs apart get zeros. R* comes from the radii in the scratch. Branch-free, as
+/// [`law_block`]: both the elastic and the capped results are formed on every lane and
+/// selected, so the loop vectorises. Compiled for each instruction-set level (see
+/// [`crate::cpu`]).
 ///
 /// # Safety
 /// `rb` and `b` point to the blocks of these pairs, whose lanes `off + lanes` nothing
 /// else reads or writes meanwhile.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
-pub unsafe fn roll_block<const D: usize>(
+pub unsafe fn roll_block [const D: usize] (
     rb: *mut RollBlock<D>,
     b: *mut PairBlock<D>,
     g: &Geometry<D>,
@@ -684,7 +688,7 @@ pub unsafe fn roll_block<const D: usize>(
     c: &LawConsts,
     rc: &super::contact_law::RollCoefs,
     dt: Real,
-) {
+) -> () where [] [D] {
     let (lo, hi) = (lanes.start, lanes.end.min(LANES));
     let off = off & (BLOCK - LANES);
     for m in lo..hi {
@@ -744,16 +748,17 @@ pub unsafe fn roll_block<const D: usize>(
             fr2 += fr[a] * fr[a];
         }
         let f_max = rc.mu_r * g.tmp[3][m];
-        if fr2 > f_max * f_max {
-            let scale = if fr2 > 0.0 { f_max / fr2.sqrt() } else { 0.0 };
-            for a in 0..D {
-                fr[a] *= scale;
-                h[a] = if k_r > 0.0 {
-                    -(fr[a] + vr[a] * rc.gamma) * (1.0 / k_r)
-                } else {
-                    0.0
-                };
-            }
+        // at the cap: |f_r| = mu_r f_n (slide implies fr2 > 0) and the displacement the
+        // capped force implies
+        let slide = fr2 > f_max * f_max;
+        let scale = if slide { f_max / fr2.sqrt() } else { 1.0 };
+        let inv_kr = 1.0 / k_r;
+        // without a spring nothing is stored (see `rolling_epsd`)
+        let keep = contact && k_r > 0.0;
+        for a in 0..D {
+            fr[a] *= scale;
+            let capped = -(fr[a] + vr[a] * rc.gamma) * inv_kr;
+            h[a] = if slide { capped } else { h[a] };
         }
         // R* n x f_r
         let mut mom = [0.0; D];
@@ -767,12 +772,12 @@ pub unsafe fn roll_block<const D: usize>(
         // SAFETY: as above.
         unsafe {
             for a in 0..D {
-                // without a spring nothing is stored (see `rolling_epsd`)
-                lane!(rb.h[a][o]) = if contact && k_r > 0.0 { h[a] } else { 0.0 };
+                lane!(rb.h[a][o]) = if keep { h[a] } else { 0.0 };
                 lane!(rb.m[a][o]) = if contact { mom[a] } else { 0.0 };
             }
         }
     }
+}
 }
 
 #[cfg(test)]

@@ -837,13 +837,11 @@ where
         }
     }
     if law.roll.is_some() {
-        // the relative spins w_j - w_i, for the rolling law
-        for (l, &[i, j]) in (lo..hi).zip(&ij[first + lo..first + hi]) {
-            // SAFETY: as above.
-            let (wi, wj) = unsafe { (*p.w.0.add(i as usize), *p.w.0.add(j as usize)) };
-            let l = l & (LANES - 1);
-            for c in 0..<Ang<D> as AngOps>::NCOMP {
-                g.wr[c][l] = wj.comp(c) - wi.comp(c);
+        // the relative spins w_j - w_i, for the rolling law, from the spins just
+        // gathered (rolling runs only with rotations), before the geometry reuses them
+        for c in 0..<Ang<D> as AngOps>::NCOMP {
+            for l in lo..hi {
+                g.wr[c][l] = g.tmp[3 + c][l] - g.tmp[c][l];
             }
         }
     }
