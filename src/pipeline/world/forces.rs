@@ -96,12 +96,17 @@ unsafe fn block_of<const D: usize>(blocks: &[PairBlock<D>], e: usize) -> &PairBl
 
 /// Pair e's rolling moment on its second particle, R* n x f_r, as a spin-space
 /// vector (three components in 3D, one in 2D).
+///
+/// # Safety
+/// `e >> BLOCK_SHIFT < roll.len()`: the rolling blocks match the pair blocks
+/// (`Pairs::check_indices`), whose bound holds as for [`block_of`].
 #[inline(always)]
-fn roll_moment<const D: usize>(roll: &[RollBlock<D>], e: usize) -> Ang<D>
+unsafe fn roll_moment<const D: usize>(roll: &[RollBlock<D>], e: usize) -> Ang<D>
 where
     Dim<D>: Spatial<D>,
 {
-    let (b, l) = (&roll[e >> BLOCK_SHIFT], e & (BLOCK - 1));
+    // SAFETY: the caller's.
+    let (b, l) = (unsafe { at_ref(roll, e >> BLOCK_SHIFT) }, e & (BLOCK - 1));
     let mut c = [0.0; 3];
     for (a, x) in c.iter_mut().enumerate().take(<Ang<D> as AngOps>::NCOMP) {
         *x = b.m[a][l];
@@ -1027,11 +1032,13 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
             }
             for range in ranges {
                 for e in range {
-                    tq += roll_moment::<D>(roll, e) * -1.0;
+                    // SAFETY: q's pairs lie in `blocks`, and `roll` beside them (caller).
+                    tq += unsafe { roll_moment::<D>(roll, e) } * -1.0;
                 }
             }
             for &e in ends {
-                tq += roll_moment::<D>(roll, e as usize - pair_base);
+                // SAFETY: as above.
+                tq += unsafe { roll_moment::<D>(roll, e as usize - pair_base) };
             }
         }
     } else {
