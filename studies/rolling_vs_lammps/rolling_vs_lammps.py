@@ -15,6 +15,16 @@ Two parts, each writing its own table into ``--out`` (default this folder):
     (mean, sd, n per code and model, and whether granpack's mean lies within one sd of
     LAMMPS'), ``manifest_ensemble.json``.
 
+``--part ensemble --law linear [--kn 2e5]``
+    The same deposit (no rolling) with granpack's linear law in both codes:
+    ``Material(contact_law="linear", normal_stiffness=K_N)`` (the paper's mu 0.2 and xi
+    0.1, k_t by default k_n 2(1-nu)/(2-nu)) and, in in.pack3d's ``pair_coeff`` and its
+    three wall lines, the exact LAMMPS form of that law from
+    ``granpack.io.lammps_input`` (``hooke k_n e`` with ``damping tsuji limit_damping``, e
+    such that Tsuji's alpha(e) = 2 xi; ``tangential linear_history k_t sqrt(k_t/k_n)
+    mu``). ``--packs`` packs a code; writes ``ensemble_linear_packs.csv``,
+    ``ensemble_linear.csv``, ``ensemble_linear.md`` and ``manifest_ensemble_linear.json``.
+
 ``--part speed``
     The step on the settled 4.3 pack on one thread, alternating, ``--repeats`` times each:
     granpack's ``profile_step`` (default law; ``ROLLING=MU_R``; ``LINEAR=2e5``) and
@@ -121,9 +131,29 @@ def analyse(positions, radii) -> dict:
 # ---------------------------------------------------------------------------- LAMMPS
 
 
-def lammps_input(text: str, mu_r: float, k_r: float, gamma_r: float) -> str:
+#: in.pack3d's Hertz-Mindlin law, in its pair_coeff and its three wall/gran lines.
+HERTZ_LAW = "hertz/material ${E} ${e} ${nu} tangential mindlin NULL 1.0 ${mu} damping tsuji"
+
+
+def linear_lammps_law(k_n: float) -> str:
+    """LAMMPS' exact form of granpack's linear law with the 4.3 material (mu, xi) and
+    normal stiffness `k_n` (N/m), k_t its default: granpack.io.lammps_input's mapping."""
+    from granpack.io.lammps_input import _lammps_linear_law
+
+    return _lammps_linear_law(material(0.0, 0.0, 0.0, "linear", k_n))[0]
+
+
+def lammps_input(
+    text: str, mu_r: float, k_r: float, gamma_r: float, law: str = "hertz", k_n: float = 0.0
+) -> str:
     """in.pack3d with ``rolling sds k_r gamma_r mu_r`` after every ``damping tsuji`` (the
-    pair_coeff and the three wall/gran lines); unchanged at mu_r = 0."""
+    pair_coeff and the three wall/gran lines; none at mu_r = 0); with law "linear", its
+    Hertz-Mindlin law replaced by `linear_lammps_law` in those four lines."""
+    if law == "linear":
+        n = text.count(HERTZ_LAW)
+        if n != 4:
+            raise SystemExit(f"expected 4 '{HERTZ_LAW}' in in.pack3d (pair + 3 walls), found {n}")
+        text = text.replace(HERTZ_LAW, linear_lammps_law(k_n))
     if mu_r == 0:
         return text
     new, n = re.subn(
@@ -140,11 +170,11 @@ def lammps_seed(seed: int) -> int:
 
 
 def run_lammps_pack(mu_r: float, seed: int, core: int, work: Path, args) -> dict:
-    tag = f"lammps_mur{mu_r:g}_s{seed}"
+    tag = f"lammps{_law_tag(args)}_mur{mu_r:g}_s{seed}"
     d = work / tag
     d.mkdir(parents=True, exist_ok=True)
     src = (args.peers_dir / "lammps" / "in.pack3d").read_text()
-    (d / "in.pack3d").write_text(lammps_input(src, mu_r, args.k_r, args.gamma_r))
+    (d / "in.pack3d").write_text(lammps_input(src, mu_r, args.k_r, args.gamma_r, args.law, args.kn))
     cmd = ["taskset", "-c", str(core), "lmp", "-in", "in.pack3d", "-log", "log.txt"]
     cmd += ["-screen", "none", "-var", "seed0", str(lammps_seed(seed))]
     if args.maxlay:
@@ -168,10 +198,19 @@ def run_lammps_pack(mu_r: float, seed: int, core: int, work: Path, args) -> dict
 # ---------------------------------------------------------------------------- granpack
 
 
-def material(mu_r: float, k_r: float, gamma_r: float):
+def _law_tag(args) -> str:
+    """The law's part of file names: empty for the default Hertz-Mindlin law."""
+    return "" if args.law == "hertz" else f"_linear{args.kn:g}"
+
+
+def material(mu_r: float, k_r: float, gamma_r: float, law: str = "hertz", k_n: float = 0.0):
+    """The 4.3 material; with law "linear", granpack's linear law of normal stiffness
+    `k_n` (N/m) and the same friction and damping ratio; rolling epsd for mu_r > 0."""
     import granpack as gp
 
     base = gp.PackScene.preset("4.3").material
+    if law == "linear":
+        base = dataclasses.replace(base, contact_law="linear", normal_stiffness=k_n)
     if mu_r == 0:
         return base
     return dataclasses.replace(
@@ -183,12 +222,16 @@ def material(mu_r: float, k_r: float, gamma_r: float):
     )
 
 
-def granpack_worker(mu_r: float, seed: int, k_r: float, gamma_r: float, layers) -> dict:
+def granpack_worker(
+    mu_r: float, seed: int, k_r: float, gamma_r: float, layers, law: str = "hertz", k_n=0.0
+) -> dict:
     """One granpack pack of 4.3 with the paper's settings, in this process."""
     import granpack as gp
     from granpack.pack import _packer
 
-    scene = gp.PackScene.preset("4.3").replace(seed=seed, material=material(mu_r, k_r, gamma_r))
+    scene = gp.PackScene.preset("4.3").replace(
+        seed=seed, material=material(mu_r, k_r, gamma_r, law, k_n)
+    )
     t0 = time.perf_counter()
     packer = _packer(scene)
     reports = []
@@ -210,7 +253,7 @@ def granpack_worker(mu_r: float, seed: int, k_r: float, gamma_r: float, layers) 
 def run_granpack_pack(mu_r: float, seed: int, core: int, work: Path, args) -> dict:
     cmd = ["taskset", "-c", str(core), sys.executable, __file__, "--worker"]
     cmd += ["--mu-r", str(mu_r), "--seed", str(seed), "--k-r", str(args.k_r)]
-    cmd += ["--gamma-r", str(args.gamma_r)]
+    cmd += ["--gamma-r", str(args.gamma_r), "--law", args.law, "--kn", str(args.kn)]
     if args.maxlay:
         cmd += ["--layers", str(args.maxlay)]
     env = dict(os.environ, RAYON_NUM_THREADS="1")
@@ -276,13 +319,17 @@ def part_ensemble(args) -> None:
     work = args.work
     (work / "results").mkdir(parents=True, exist_ok=True)
     jobs = []
-    for mu_r, n in ((MU_R, args.packs), (0.0, args.control)):
+    # the linear law is compared without rolling only
+    counts = (
+        ((0.0, args.packs),) if args.law == "linear" else ((MU_R, args.packs), (0.0, args.control))
+    )
+    for mu_r, n in counts:
         for seed in range(1, n + 1):
             jobs += [("LAMMPS", mu_r, seed), ("granpack", mu_r, seed)]
 
     def result_path(job) -> Path:
         code, mu_r, seed = job
-        return work / "results" / f"{code}_mur{mu_r:g}_s{seed}.json"
+        return work / "results" / f"{code}{_law_tag(args)}_mur{mu_r:g}_s{seed}.json"
 
     # the two codes alternate, so that a run cut short still has packs of both
     todo = [] if args.report_only else [j for j in jobs if not result_path(j).is_file()]
@@ -311,30 +358,38 @@ def part_ensemble(args) -> None:
         p["h_top"] = p["particles"] * 4 / 3 * math.pi * 0.02**3 / p["phi"]
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
+    stem = "ensemble" if args.law == "hertz" else "ensemble_linear"
     fields = ["code", "mu_r", "seed", "particles", "layers", "wall_s", "particle_steps"]
     fields += ["ns_per_particle_step", "h_top", *STATS]
-    with open(out / "ensemble_packs.csv", "w", newline="") as f:
+    with open(out / f"{stem}_packs.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
         w.writerows(packs)
     rows = summarise(packs)
-    with open(out / "ensemble.csv", "w", newline="") as f:
+    with open(out / f"{stem}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     text = ensemble_table(rows)
-    (out / "ensemble.md").write_text(text)
+    (out / f"{stem}.md").write_text(text)
     write_manifest(
         out,
-        name="manifest_ensemble.json",
+        name=f"manifest_{stem}.json",
         seeds={
-            "granpack": f"1..{max(args.packs, args.control)}",
+            "granpack": f"1..{max(args.packs, 0 if args.law == 'linear' else args.control)}",
             "lammps_seed0": "4767 + 100000 seed",
         },
-        extra={
-            "mu_r": MU_R,
-            "k_r_N_per_m": args.k_r,
-            "gamma_r_N_s_per_m": args.gamma_r,
+        extra=(
+            {
+                "law": "linear",
+                "k_n_N_per_m": args.kn,
+                "lammps_law": linear_lammps_law(args.kn),
+                "maxlay": args.maxlay,
+            }
+            if args.law == "linear"
+            else {"mu_r": MU_R, "k_r_N_per_m": args.k_r, "gamma_r_N_s_per_m": args.gamma_r}
+        )
+        | {
             "lammps": _version("lammps"),
             "parallel_runs": args.parallel,
             "note": "other work shared the 2-core machine during the runs",
@@ -533,6 +588,13 @@ def main(argv=None) -> int:
     )
     p.add_argument("--k-r", type=float, help="rolling spring N/m (default: rolling_stiffness())")
     p.add_argument("--gamma-r", type=float, default=GAMMA_R)
+    p.add_argument(
+        "--law",
+        choices=["hertz", "linear"],
+        default="hertz",
+        help="ensemble: the contact law (linear: no rolling, --packs packs a code)",
+    )
+    p.add_argument("--kn", type=float, default=2e5, help="linear law's normal stiffness N/m")
     p.add_argument("--peers-dir", type=Path, default=ROOT.parent / "shared" / "peers")
     p.add_argument("--work", type=Path, default=Path("/tmp/rolling_vs_lammps"))
     p.add_argument("--out", type=Path, default=HERE)
@@ -547,7 +609,9 @@ def main(argv=None) -> int:
     if args.k_r is None:
         args.k_r = rolling_stiffness()
     if args.worker:
-        res = granpack_worker(args.mu_r, args.seed, args.k_r, args.gamma_r, args.layers)
+        res = granpack_worker(
+            args.mu_r, args.seed, args.k_r, args.gamma_r, args.layers, args.law, args.kn
+        )
         print(json.dumps(res))
         return 0
     for tool in ("taskset", "lmp"):
