@@ -134,6 +134,9 @@ def analyse(positions, radii) -> dict:
 #: in.pack3d's Hertz-Mindlin law, in its pair_coeff and its three wall/gran lines.
 HERTZ_LAW = "hertz/material ${E} ${e} ${nu} tangential mindlin NULL 1.0 ${mu} damping tsuji"
 
+#: in.pack3d's final dump, whose floats LAMMPS writes with six digits by default.
+DUMP = "write_dump      all custom pack3d_final.dump id x y z radius vx vy vz modify sort id"
+
 
 def linear_lammps_law(k_n: float) -> str:
     """LAMMPS' exact form of granpack's linear law with the 4.3 material (mu, xi) and
@@ -154,6 +157,11 @@ def lammps_input(
         if n != 4:
             raise SystemExit(f"expected 4 '{HERTZ_LAW}' in in.pack3d (pair + 3 walls), found {n}")
         text = text.replace(HERTZ_LAW, linear_lammps_law(k_n))
+        # the overlaps of the stiff linear contacts (~1e-6 m) lie below the dump's default
+        # six digits, which would open about one contact in ten: write every digit
+        if text.count(DUMP) != 1:
+            raise SystemExit(f"expected one '{DUMP}' in in.pack3d")
+        text = text.replace(DUMP, DUMP + " format float %.17g")
     if mu_r == 0:
         return text
     new, n = re.subn(
