@@ -21,7 +21,9 @@ CONTACT_LAWS = ("hertz_mindlin", "linear")
 #: The rolling-resistance models `Material.rolling` takes.
 ROLLING_MODELS = ("none", "epsd")
 _MODEL_DEFAULTS = {"contact_law": "hertz_mindlin", "rolling": "none"}
-_MODEL_KEYS = (
+#: The contact-model keys of `Material`, in order (`to_dict` writes them only where they
+#: differ from the default model).
+MODEL_KEYS = (
     "contact_law",
     "normal_stiffness",
     "tangential_stiffness",
@@ -168,7 +170,7 @@ class Material:
         the default (Hertz-Mindlin without rolling), so that a default material's table,
         and every record made from it, is what it was before the keys existed."""
         out = asdict(self)
-        for key in _MODEL_KEYS:
+        for key in MODEL_KEYS:
             if out[key] is None or out[key] == _MODEL_DEFAULTS.get(key):
                 del out[key]
         return out

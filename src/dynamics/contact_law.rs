@@ -173,6 +173,28 @@ fn tangential<const D: usize>(
     dt: Real,
 ) -> ContactForce<D> {
     let v_t = v_rel - n * vn;
+    let f_t = spring_slider(k_t, c_t, &v_t, n, mu * f_n, history, dt);
+    ContactForce {
+        normal: f_n,
+        tangential: f_t,
+    }
+}
+
+/// The spring-dashpot-slider of the tangential and the rolling law (Cundall and Strack
+/// 1979, as in LAMMPS' `granular` sub-models): the stored displacement `history` (m) is
+/// kept in the tangent plane of `n` with its magnitude, advanced by `v dt`, and gives
+/// the force -k xi - c v; beyond `f_max` the force is capped there and the
+/// displacement reset to the one the capped force implies. Returns the force (N).
+#[inline(always)]
+fn spring_slider<const D: usize>(
+    k: Real,
+    c: Real,
+    v: &Vector<D>,
+    n: &Vector<D>,
+    f_max: Real,
+    history: &mut Vector<D>,
+    dt: Real,
+) -> Vector<D> {
     // Keep the history in the current tangent plane; rescale so that rotating the
     // contact frame does not change the stored elastic energy.
     let h_old2 = history.norm_squared();
@@ -181,26 +203,22 @@ fn tangential<const D: usize>(
     if h_new2 > 0.0 && h_new2 != h_old2 {
         h *= (h_old2 / h_new2).sqrt();
     }
-    h += v_t * dt;
+    h += v * dt;
 
-    let mut f_t = -(h * k_t) - v_t * c_t;
-    let f_max = mu * f_n;
-    let ft2 = f_t.norm_squared();
-    if ft2 > f_max * f_max {
-        // Sliding: cap |f_t| at mu f_n and store the spring stretch consistent with it.
-        let scale = if ft2 > 0.0 { f_max / ft2.sqrt() } else { 0.0 };
-        f_t *= scale;
-        h = if k_t > 0.0 {
-            -(f_t + v_t * c_t) * (1.0 / k_t)
+    let mut f = -(h * k) - v * c;
+    let f2 = f.norm_squared();
+    if f2 > f_max * f_max {
+        // Sliding (rolling): cap |f| at f_max and store the stretch consistent with it.
+        let scale = if f2 > 0.0 { f_max / f2.sqrt() } else { 0.0 };
+        f *= scale;
+        h = if k > 0.0 {
+            -(f + v * c) * (1.0 / k)
         } else {
             Vector::<D>::zeros()
         };
     }
     *history = h;
-    ContactForce {
-        normal: f_n,
-        tangential: f_t,
-    }
+    f
 }
 
 /// The rolling-resistance constants of the elastic-plastic spring-dashpot model
@@ -258,28 +276,12 @@ pub fn rolling_epsd<const D: usize>(
     dt: Real,
 ) -> Vector<D> {
     let k_r = rc.k_abs + rc.k_rel * k_n;
-    let h_old2 = history.norm_squared();
-    let mut h = *history - n * history.dot(n);
-    let h_new2 = h.norm_squared();
-    if h_new2 > 0.0 && h_new2 != h_old2 {
-        h *= (h_old2 / h_new2).sqrt();
-    }
-    h += v_r * dt;
-    let mut f_r = -(h * k_r) - v_r * rc.gamma;
-    let f_max = rc.mu_r * f_n;
-    let fr2 = f_r.norm_squared();
-    if fr2 > f_max * f_max {
-        let scale = if fr2 > 0.0 { f_max / fr2.sqrt() } else { 0.0 };
-        f_r *= scale;
-        h = if k_r > 0.0 {
-            -(f_r + v_r * rc.gamma) * (1.0 / k_r)
-        } else {
-            Vector::<D>::zeros()
-        };
-    }
+    let f_r = spring_slider(k_r, rc.gamma, v_r, n, rc.mu_r * f_n, history, dt);
     // without a spring (mu_r = 0 under the derived k_r) nothing is stored: a
     // displacement would otherwise grow unbounded and snap back once mu_r returns
-    *history = if k_r > 0.0 { h } else { Vector::<D>::zeros() };
+    if k_r <= 0.0 {
+        *history = Vector::<D>::zeros();
+    }
     f_r
 }
 

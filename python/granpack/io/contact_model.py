@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..simulation import MODEL_KEYS
+
 if TYPE_CHECKING:
     from ..pack import Pack
     from ..simulation import Material
@@ -114,15 +116,7 @@ def model_words(material: Material) -> str:
     precision (empty for the default model): the comment lines' record of the model."""
     table = material.to_dict()
     words = []
-    for key in (
-        "contact_law",
-        "normal_stiffness",
-        "tangential_stiffness",
-        "rolling",
-        "rolling_friction",
-        "rolling_stiffness",
-        "rolling_damping",
-    ):
+    for key in MODEL_KEYS:
         if key in table:
             value = table[key]
             words.append(f"{key}={value if isinstance(value, str) else repr(float(value))}")

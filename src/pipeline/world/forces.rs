@@ -1026,11 +1026,8 @@ unsafe fn gather_one<const D: usize, const TORQUE: bool, const KICK: bool, const
         if c.roll.is_some() {
             // the rolling moments, after the tangential ones: -R* n x f_r on the
             // pair's first particle, +R* n x f_r on its second
-            let mut ranges = [own_frozen.clone(), active];
-            if !frozen_q {
-                ranges[0] = 0..0;
-            }
-            for range in ranges {
+            // (own_frozen is empty unless q is frozen)
+            for range in [own_frozen, active] {
                 for e in range {
                     // SAFETY: q's pairs lie in `blocks`, and `roll` beside them (caller).
                     tq += unsafe { roll_moment::<D>(roll, e) } * -1.0;
