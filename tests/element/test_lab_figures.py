@@ -89,4 +89,7 @@ def test_figures_refuse_an_empty_mapping_or_a_bad_table(tmp_path):
     with pytest.raises(InvalidParameterError, match="1 row") as info:
         compression_figure({"a": oedometer().head(1)}, tmp_path / "e.png")
     assert info.value.parameter == "table"
+    with pytest.raises(InvalidParameterError) as info:
+        compression_figure({"a": oedometer()}, tmp_path / "e.png", dim=1)
+    assert info.value.parameter == "dim"
     assert not list(tmp_path.iterdir())  # nothing written

@@ -22,6 +22,7 @@ import polars as pl
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from .._validate import as_int
 from ..errors import InvalidParameterError
 from ..plot import save
 from .lab import _columns, _sin_mobilised, compression_report
@@ -36,6 +37,12 @@ def _figure(width: float, height: float) -> Figure:
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
+
+
+def _unit(dim: int) -> str:
+    """The stress unit of the axes: kPa in 3D, kN/m in 2D (a 2D stress is a force per
+    length)."""
+    return "kN/m" if as_int("dim", dim, 2, 3) == 2 else "kPa"
 
 
 def _tables(tables: object) -> Mapping[str, pl.DataFrame]:
@@ -60,10 +67,10 @@ def triaxial_plot(tables: Mapping[str, pl.DataFrame], *, dim: int = 3) -> Figure
     ------
     InvalidParameterError
         ``tables`` empty or not a mapping; a table lacking a column or with fewer
-        than 2 rows (``table``).
+        than 2 rows (``table``); ``dim`` not 2 or 3.
     """
+    unit = _unit(dim)
     tables = _tables(tables)
-    unit = "kN/m" if dim == 2 else "kPa"
     fig = _figure(13.0, 4.0)
     ax_q, ax_v, ax_f = fig.subplots(1, 3)
     for n, (label, table) in enumerate(tables.items()):
@@ -103,10 +110,11 @@ def compression_plot(tables: Mapping[str, pl.DataFrame], *, dim: int = 3) -> Fig
     Raises
     ------
     InvalidParameterError
-        ``tables`` empty or not a mapping; a table as `compression_report` refuses.
+        ``tables`` empty or not a mapping; a table as `compression_report` refuses;
+        ``dim`` not 2 or 3.
     """
+    unit = _unit(dim)
     tables = _tables(tables)
-    unit = "kN/m" if dim == 2 else "kPa"
     fig = _figure(6.5, 4.5)
     ax = fig.subplots()
     names = set()
