@@ -304,6 +304,42 @@ def _gravity(gravity: Any, rec: StageRecord) -> bool:
     return gravity
 
 
+def _triaxial_values(
+    *,
+    confining: Any,
+    axial_strain: Any,
+    inertial_number: Any,
+    constant_p: Any,
+    checks: Any,
+    local_damping: Any,
+    gain: Any,
+    wall_friction: Any,
+) -> dict[str, Any]:
+    """`triaxial`'s checks of the settings that do not depend on the pack, each value
+    typed (`confining` None stays None: the pack's consolidation gives it); a bad one is
+    an InvalidParameterError naming its key."""
+    return {
+        "confining": None
+        if confining is None
+        else _real("confining", confining, 0.0, _core.MAX_STRESS),
+        "axial_strain": _real("axial_strain", axial_strain, 0.0, 1.0, hi_open=True),
+        "inertial_number": _real("inertial_number", inertial_number, 0.0, MAX_INERTIAL_NUMBER),
+        "constant_p": _flag("constant_p", constant_p),
+        "checks": _count("checks", checks, 2, MAX_CHECKS),
+        "local_damping": _real(
+            "local_damping", local_damping, 0.0, 1.0, lo_open=False, hi_open=True
+        ),
+        "gain": _real("gain", gain, 0.0, 1.0),
+        "wall_friction": _wall_friction(wall_friction),
+    }
+
+
+def _flag(key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise _fail(key, value, "True or False")
+    return value
+
+
 def triaxial(
     pack: Pack,
     confining: float | None = None,
@@ -385,15 +421,23 @@ def triaxial(
                 expected="a number in (0, 1e+12] Pa",
             )
         confining = float(np.mean(list(targets.values())))
-    confining = _real("confining", confining, 0.0, _core.MAX_STRESS)
-    axial_strain = _real("axial_strain", axial_strain, 0.0, 1.0, hi_open=True)
-    inertial_number = _real("inertial_number", inertial_number, 0.0, MAX_INERTIAL_NUMBER)
-    if not isinstance(constant_p, bool):
-        raise _fail("constant_p", constant_p, "True or False")
-    checks = _count("checks", checks, 2, MAX_CHECKS)
-    local_damping = _real("local_damping", local_damping, 0.0, 1.0, lo_open=False, hi_open=True)
-    gain = _real("gain", gain, 0.0, 1.0)
-    wall_friction = _wall_friction(wall_friction)
+    v = _triaxial_values(
+        confining=confining,
+        axial_strain=axial_strain,
+        inertial_number=inertial_number,
+        constant_p=constant_p,
+        checks=checks,
+        local_damping=local_damping,
+        gain=gain,
+        wall_friction=wall_friction,
+    )
+    confining, axial_strain, inertial_number = (
+        v["confining"],
+        v["axial_strain"],
+        v["inertial_number"],
+    )
+    constant_p, checks, local_damping = v["constant_p"], v["checks"], v["local_damping"]
+    gain, wall_friction = v["gain"], v["wall_friction"]
     grav = _gravity(gravity, rec)
     default_dt = min(
         float(rec.settings.get("dt", sc.dt)), stage_time_step(pack, PEAK_STRESS_RATIO * confining)
@@ -488,6 +532,46 @@ def _stresses(stresses: Any) -> list[float]:
     return [_real(f"stresses[{k}]", s, 0.0, _core.MAX_STRESS) for k, s in enumerate(stresses)]
 
 
+def _path_values(
+    scene: Any,
+    *,
+    stresses: Any,
+    stress_tol: Any,
+    unbalanced_tol: Any,
+    hold: Any,
+    check_every: Any,
+    max_steps: Any,
+    gain: Any,
+    local_damping: Any,
+    wall_friction: Any,
+) -> dict[str, Any]:
+    """`oedometer`'s and `isotropic_compression`'s checks of the settings that do not
+    depend on the pack, each value typed; a bad one is an InvalidParameterError naming
+    its key. `scene`: the pack's (its dim and container)."""
+    stresses = _stresses(stresses)
+    # the consolidation's checks of its own settings, by the same names
+    checked = dict(
+        _core.resolve_stage(
+            "rest",
+            scene,
+            {
+                "unbalanced_tol": unbalanced_tol,
+                "hold": hold,
+                "check_every": check_every,
+                "max_steps": max_steps,
+                "local_damping": local_damping,
+            },
+        )
+    )
+    return {
+        "stresses": stresses,
+        "stress_tol": _real("stress_tol", stress_tol, 1e-9, 1.0, lo_open=False, hi_open=True),
+        **checked,
+        "gain": _real("gain", gain, 0.0, 1.0),
+        "wall_friction": _wall_friction(wall_friction),
+    }
+
+
 def _stress_path(
     test: str,
     pack: Pack,
@@ -517,22 +601,20 @@ def _stress_path(
             value="periodic",
             expected="'box' or 'cylinder'",
         )
-    targets = _stresses(stresses)
-    # the consolidation's checks of its own settings, by the same names
-    checked = _core.resolve_stage(
-        "rest",
+    checked = _path_values(
         sc,
-        {
-            "unbalanced_tol": unbalanced_tol,
-            "hold": hold,
-            "check_every": check_every,
-            "max_steps": max_steps,
-            "local_damping": local_damping,
-        },
+        stresses=stresses,
+        stress_tol=stress_tol,
+        unbalanced_tol=unbalanced_tol,
+        hold=hold,
+        check_every=check_every,
+        max_steps=max_steps,
+        gain=gain,
+        local_damping=local_damping,
+        wall_friction=wall_friction,
     )
-    stress_tol = _real("stress_tol", stress_tol, 1e-9, 1.0, lo_open=False, hi_open=True)
-    gain = _real("gain", gain, 0.0, 1.0)
-    wall_friction = _wall_friction(wall_friction)
+    targets, stress_tol = checked["stresses"], checked["stress_tol"]
+    gain, wall_friction = checked["gain"], checked["wall_friction"]
     grav = _gravity(gravity, rec)
     default_dt = min(float(rec.settings.get("dt", sc.dt)), stage_time_step(pack, max(targets)))
     step = default_dt if dt is None else _real("dt", dt, 0.0, default_dt)
