@@ -450,7 +450,16 @@ class PackScene:
             elif kind == "consolidate?":
                 pass  # a table of the stage's settings: the engine types and checks it
             elif kind == "element?":
-                pass  # a table of an element test's settings: checked once resolved
+                # a table of an element test's settings: its keys and values are checked
+                # once the scene is resolved (`granpack.stages._element`)
+                if not isinstance(value, Mapping):
+                    raise InvalidParameterError(
+                        f"invalid {key} = {short_repr(value)}: expected a table of the "
+                        f"{key} test's settings (e.g. [{key}] in TOML)",
+                        parameter=key,
+                        value=value,
+                        expected="a table",
+                    )
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):
                     s(self, key, _material_table(dict(value)))

@@ -417,8 +417,8 @@ def _lid_of(pack, floor: float, given, x: np.ndarray, r: np.ndarray) -> float | 
     """The height (m) of the lid that closes the sample: `given` (the caller's ``lid=``),
     else a consolidated Pack's lid as its last stage left it (`lid_record`: its height
     above the floor at `floor`), else what a file said (``ParticleFile.lid``, the
-    container tag's ``lid=``); None for an open top. A lid that is not a finite height above the floor, or that lies below a
-    particle's centre, is refused."""
+    container tag's ``lid=``); None for an open top. A lid that is not a finite height
+    above the floor, or that lies below a particle's centre, is refused."""
     record = lid_record(pack)
     if given is not None:
         lid = as_real("lid", given, unit="m")

@@ -54,8 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=DEFAULT_INERTIAL_NUMBER,
         metavar="I",
-        help=f"the loading rate, in (0, 0.1] (default {DEFAULT_INERTIAL_NUMBER:g}: "
-        "quasi-static)",
+        help=f"the loading rate, in (0, 0.1] (default {DEFAULT_INERTIAL_NUMBER:g}: quasi-static)",
     )
     p.add_argument(
         "--constant-p",

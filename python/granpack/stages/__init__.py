@@ -5,10 +5,11 @@ the scene lists, in the order of `STAGES`: the settling to rest (``rest_tol``,
 `granpack.stages.rest`), the consolidation (``[consolidate]``,
 `granpack.stages.consolidate`) and an element test on the consolidated sample
 (``[triaxial]``, ``[oedometer]`` or ``[isotropic]``: `granpack.stages.triaxial`,
-`granpack.stages.oedometer`, `granpack.stages.isotropic`). The tiling (`granpack.stages.tile`) runs on a finished
-pack (``granpack tile``). A density target (`granpack.density`) is no step of the list:
-it searches over the list up to the consolidation, running it again with the deposit's
-friction (and rolling friction) changed; the element test runs on the pack it finds.
+`granpack.stages.oedometer`, `granpack.stages.isotropic`). The tiling
+(`granpack.stages.tile`) runs on a finished pack (``granpack tile``). A density target
+(`granpack.density`) is no step of the list: it searches over the list up to the
+consolidation, running it again with the deposit's friction (and rolling friction)
+changed; the element test runs on the pack it finds.
 
 Every module holds
 
