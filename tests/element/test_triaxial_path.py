@@ -141,7 +141,8 @@ def test_a_second_test_starts_from_the_first_ones_end(sheared):
     out = gp.oedometer(sheared, [1.5e5])
     start = out.record("oedometer").report["start_height"]
     assert start == pytest.approx(sheared.height, rel=5e-3)
-    first, last = gp.element_table(out).row(0, named=True), gp.element_table(sheared).row(-1, named=True)
+    first = gp.element_table(out).row(0, named=True)
+    last = gp.element_table(sheared).row(-1, named=True)
     assert first["sigma_1"] == pytest.approx(last["sigma_1"], rel=2e-3)
     assert first["e"] == pytest.approx(last["e"], rel=2e-2)
 
@@ -152,7 +153,8 @@ def test_cylinder_and_2d_biaxial(deposit):
     out = gp.triaxial(cyl, axial_strain=0.04, checks=5)
     t = gp.element_table(out)
     assert np.all(np.abs(t["sigma_3"].to_numpy() - 5e4) <= 0.02 * 5e4)
-    assert out.scene.cylinder_radius == pytest.approx(out.record("triaxial").report["walls"]["cylinder"])
+    radius = out.record("triaxial").report["walls"]["cylinder"]
+    assert out.scene.cylinder_radius == pytest.approx(radius)
     sc2 = gp.PackScene.preset("4.1").replace(seed=3, base=(0.4,), height=0.3)
     two = gp.consolidate(gp.generate(sc2.fast()), 2e3, "isotropic", gravity=False)
     out2 = gp.triaxial(two, axial_strain=0.04, checks=5)
