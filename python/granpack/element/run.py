@@ -153,7 +153,7 @@ class _Rig:
         the sample must find its balance again (it moves by a fraction of the overlaps)
         before a test can start from rest."""
         s = rec.settings
-        targets = rec.settings.get("targets", {"lid": rec.report["wall_stress"]["lid"]})
+        targets = _start_targets(self.pack, rec, self.names)
         out: dict[str, Any] = dict(
             self.sim._sim.consolidate(
                 [(self.names.index(n), float(v)) for n, v in targets.items()],
@@ -273,6 +273,20 @@ class _Rig:
             height=pos["lid"] - pos["floor"],
             history=(*self.pack.history, record),
         )
+
+
+def _start_targets(pack: Pack, rec: StageRecord, names: list[str]) -> dict[str, float]:
+    """The walls' stresses a test starts from: where the pack's last element test left
+    them (the lid's sigma_1, and the side walls' sigma_3 where that test controlled
+    them), or the consolidation's targets."""
+    last = pack.history[-1]
+    if last.stage not in _TESTS:
+        return dict(rec.settings.get("targets", {"lid": rec.report["wall_stress"]["lid"]}))
+    row = {k: v[-1] for k, v in last.report["table"].items()}
+    out = {"lid": float(row["sigma_1"])}
+    if last.stage != "oedometer":
+        out.update({n: float(row["sigma_3"]) for n in names if n not in ("floor", "lid")})
+    return out
 
 
 def _p_q(s1: float, s3: float, dim: int) -> tuple[float, float]:
@@ -444,7 +458,10 @@ def triaxial(
     )
     step = default_dt if dt is None else _real("dt", dt, 0.0, default_dt)
 
+    start = time.perf_counter()
     rig = _Rig(pack, rec, step, grav, wall_friction)
+    # the start: the sample in equilibrium again at its consolidation (its height H0)
+    reseat = rig.reseat(rec)
     eps_dot = inertial_number / (rig.d_mean * math.sqrt(rig.rho / confining))
     speed = eps_dot * rig.h0
     total = math.ceil(axial_strain * rig.h0 / (speed * step))
@@ -471,8 +488,6 @@ def triaxial(
         s1 = float(pack.record("consolidate").report["wall_stress"]["lid"])  # type: ignore[union-attr]
         mean_stress = _p_q(s1, confining, rig.dim)[0]
     bounds = np.unique(np.round(np.linspace(0, total, checks)).astype(np.int64))
-    start = time.perf_counter()
-    reseat = rig.reseat(rec)
     rows = [rig.row(0, 0.0, eps_dot)]
     done = 0
     for stop in bounds[1:]:
@@ -624,8 +639,13 @@ def _stress_path(
     start = time.perf_counter()
     reseat = rig.reseat(rec)
     steps = 0
+    # the first row: the sample at its consolidation, in equilibrium again
     first = rig.row(0, 0.0, 0.0)
     previous = first["sigma_1"] if test == "oedometer" else first["p"]
+    first["target"] = previous
+    if test == "oedometer":
+        first["k0"] = first["sigma_3"] / first["sigma_1"]
+    rows.append(first)
     for target in targets:
         # the consolidation's quasi-static wall speed, at the lower of the two stresses
         height = rig.positions()["lid"]
@@ -673,7 +693,6 @@ def _stress_path(
     }
     report = {
         "table": table,
-        "start": {k: first[k] for k in ("sigma_1", "sigma_3", "p", "e", "phi")},
         "start_height": rig.h0,
         "start_volume": rig.v0,
         "lab": lab.compression_report(_frame(table), test=test),
@@ -700,7 +719,8 @@ def oedometer(
     each stress of `stresses` in turn and holds it to equilibrium (as
     `granpack.consolidate` does), the side walls fixed (a periodic cell keeps its
     periods). Returns the sample at the last stress; its history gains the "oedometer"
-    record with one row per stress (K0 = sigma_3 / sigma_1 in ``k0``) and Cc and Cs
+    record with one row for the start (the sample at its consolidation) and one per
+    stress (K0 = sigma_3 / sigma_1 in ``k0``), and Cc and Cs
     (`granpack.element.lab.compression_report`).
 
     Parameters
@@ -765,7 +785,8 @@ def isotropic_compression(
     """Isotropic compression of a consolidated pack in a box or a cylinder: every wall's
     servo (the lid and the side walls) takes each stress of `stresses` in turn and holds
     it to equilibrium. Returns the sample at the last stress; its history gains the
-    "isotropic" record with one row per stress (the e-ln p line: lambda and kappa,
+    "isotropic" record with one row for the start and one per stress (the e-ln p line:
+    lambda and kappa,
     `granpack.element.lab.compression_report`). The settings are `oedometer`'s.
 
     Raises
