@@ -167,6 +167,7 @@ def summary(test: str, rec: Any, table: Any) -> str:
     if test == "oedometer":
         indices += f", K0 {_g(lab.get('k0_virgin'), '.3f')}"
     return (
-        f"{what} through {len(table)} stresses in {rec.steps} steps; {indices}; "
+        f"{what} through {len(rec.settings['stresses'])} stresses in {rec.steps} steps; "
+        f"{indices}; "
         f"e {table['e'][0]:.4f} -> {last['e']:.4f}"
     )

@@ -13,8 +13,9 @@ DESCRIPTION = (
     "Takes every wall of a consolidated pack (granpack consolidate; a box or a "
     "cylinder) through each of --stresses in turn with its servo, each held to "
     "equilibrium. Writes the pack at the last stress (its history holds the test's "
-    "record), the table (CSV, one row per stress), the lab report (JSON: Cc, Cs and "
-    "their ln slopes lambda, kappa) and the figure (PNG: e against log p); "
+    "record), the table (CSV: the sample at the start, then one row per stress), the "
+    "lab report (JSON: Cc, Cs and their ln slopes lambda_ln, kappa_ln) and the figure "
+    "(PNG: e against log p); "
     "docs/element_tests.md defines each quantity."
 )
 

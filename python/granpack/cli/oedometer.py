@@ -13,8 +13,9 @@ DESCRIPTION = (
     "Takes the lid of a consolidated pack (granpack consolidate) through each of "
     "--stresses in turn with its servo, each held to equilibrium, the side walls fixed "
     "(a periodic cell keeps its periods). Writes the pack at the last stress (its "
-    "history holds the test's record), the table (CSV, one row per stress), the lab "
-    "report (JSON: Cc, Cs, K0) and the figure (PNG: e against log sigma_v); "
+    "history holds the test's record), the table (CSV: the sample at the start, then "
+    "one row per stress), the lab report (JSON: Cc, Cs, K0) and the figure (PNG: e "
+    "against log sigma_v); "
     "docs/element_tests.md defines each quantity."
 )
 
