@@ -141,3 +141,22 @@ def test_an_output_that_is_the_input_is_refused_before_the_test(packs, capsys):
     assert status == 2 and "--out" in err and "would be overwritten" in err
     assert sample.read_bytes() == before
     assert not sample.with_name("sample_table.csv").exists()
+
+
+def test_the_commands_take_the_functions_defaults():
+    import inspect
+
+    from granpack.cli import build_parser
+
+    parser = build_parser()
+    tri = parser.parse_args(["triaxial", "sample.npz"])
+    defaults = {k: v.default for k, v in inspect.signature(gp.triaxial).parameters.items()}
+    for key in ("confining", "axial_strain", "inertial_number", "constant_p", "checks"):
+        assert getattr(tri, key) == defaults[key], key
+    assert tri.wall_friction == defaults["wall_friction"]
+    for test, func in (("oedometer", gp.oedometer), ("isotropic", gp.isotropic_compression)):
+        args = parser.parse_args([test, "sample.npz", "--stresses", "1e5,2e5"])
+        defaults = {k: v.default for k, v in inspect.signature(func).parameters.items()}
+        assert args.stresses == [1e5, 2e5]
+        for key in ("stress_tol", "unbalanced_tol", "max_steps", "wall_friction"):
+            assert getattr(args, key) == defaults[key], (test, key)

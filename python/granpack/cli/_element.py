@@ -44,8 +44,8 @@ def stresses(value: str) -> list[float]:
     return out
 
 
-def add_common(p: argparse.ArgumentParser, test: str) -> None:
-    """PACK, --out (-o), --wall-friction, --quiet."""
+def add_common(p: argparse.ArgumentParser, test: str, *, wall_friction: float) -> None:
+    """PACK, --out (-o), --wall-friction (its default the test function's), --quiet."""
     _args.add_pack(p, "a consolidated pack file (.npz; granpack consolidate)")
     p.add_argument(
         "-o",
@@ -59,10 +59,10 @@ def add_common(p: argparse.ArgumentParser, test: str) -> None:
     p.add_argument(
         "--wall-friction",
         type=float,
-        default=0.0,
+        default=wall_friction,
         metavar="MU",
-        help="the walls' Coulomb friction during the test, >= 0 (default 0: smooth "
-        "platens and side walls)",
+        help=f"the walls' Coulomb friction during the test, >= 0 (default {wall_friction:g}: "
+        "smooth platens and side walls)",
     )
     _args.add_quiet(p)
 

@@ -4,6 +4,7 @@ table, lab report and figure."""
 from __future__ import annotations
 
 import argparse
+import inspect
 
 from .._console import Console
 from . import _element
@@ -31,10 +32,15 @@ OPTIONS = {
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from .. import _core
+    from ..element import isotropic_compression
 
     c = _core.DEFAULT_CONSOLIDATE
     p = parser
-    _element.add_common(p, "isotropic")
+    _element.add_common(
+        p,
+        "isotropic",
+        wall_friction=inspect.signature(isotropic_compression).parameters["wall_friction"].default,
+    )
     p.add_argument(
         "--stresses",
         type=_element.stresses,

@@ -4,6 +4,7 @@ pack, with its table, lab report and figure."""
 from __future__ import annotations
 
 import argparse
+import inspect
 
 from .._console import Console
 from . import _element
@@ -30,10 +31,12 @@ OPTIONS = {
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..element.run import DEFAULT_INERTIAL_NUMBER
+    from ..element import triaxial
 
+    # the function's defaults, one place for both
+    d = {k: v.default for k, v in inspect.signature(triaxial).parameters.items()}
     p = parser
-    _element.add_common(p, "triaxial")
+    _element.add_common(p, "triaxial", wall_friction=d["wall_friction"])
     p.add_argument(
         "--confining",
         type=float,
@@ -45,16 +48,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--axial-strain",
         type=float,
-        default=0.25,
+        default=d["axial_strain"],
         metavar="X",
-        help="the final axial strain (H0 - H)/H0, in (0, 1) (default 0.25)",
+        help=f"the final axial strain (H0 - H)/H0, in (0, 1) (default {d['axial_strain']:g})",
     )
     p.add_argument(
         "--inertial-number",
         type=float,
-        default=DEFAULT_INERTIAL_NUMBER,
+        default=d["inertial_number"],
         metavar="I",
-        help=f"the loading rate, in (0, 0.1] (default {DEFAULT_INERTIAL_NUMBER:g}: quasi-static)",
+        help=f"the loading rate, in (0, 0.1] (default {d['inertial_number']:g}: quasi-static)",
     )
     p.add_argument(
         "--constant-p",
@@ -64,9 +67,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--checks",
         type=int,
-        default=100,
+        default=d["checks"],
         metavar="N",
-        help="rows of the table along the path, the start included (default 100)",
+        help=f"rows of the table along the path, the start included (default {d['checks']})",
     )
 
 
