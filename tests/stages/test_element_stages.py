@@ -6,6 +6,7 @@ digest) as before; a bad table is a typed error naming ``<test>.<key>``."""
 from __future__ import annotations
 
 import hashlib
+import warnings
 
 import pytest
 
@@ -208,3 +209,26 @@ def test_a_triaxial_after_an_oedometric_consolidation_needs_its_confining_stress
         oedometric.replace(triaxial={"axial_strain": 0.1})
     assert info.value.parameter == "triaxial.confining"
     assert oedometric.replace(triaxial={"confining": 5e4}).triaxial == {"confining": 5e4}
+
+
+@pytest.mark.parametrize(
+    ("container", "tables"),
+    [
+        ("cylinder", {"consolidate": CONSOLIDATE, "triaxial": TRIAXIAL}),
+        (
+            "periodic",
+            {
+                "consolidate": {"stress": 1e5, "gravity": False},
+                "oedometer": {"stresses": [2e5, 1e5]},
+            },
+        ),
+    ],
+)
+def test_the_analysis_of_a_tested_pack_measures_the_tables_last_sample(container, tables):
+    # the walls as the test left them (the cylinder's radius, the lid): the analysis'
+    # phi is the table's last one
+    pack = gp.generate(SMALL.replace(container=container, **tables))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MicrostructureWarning)  # a small sample's core
+        m = gp.microstructure(pack)
+    assert m.phi == pytest.approx(gp.element_table(pack)["phi"][-1], rel=1e-9)
