@@ -445,13 +445,9 @@ def triaxial(
         gain=gain,
         wall_friction=wall_friction,
     )
-    confining, axial_strain, inertial_number = (
-        v["confining"],
-        v["axial_strain"],
-        v["inertial_number"],
-    )
-    constant_p, checks, local_damping = v["constant_p"], v["checks"], v["local_damping"]
-    gain, wall_friction = v["gain"], v["wall_friction"]
+    confining, axial_strain = v["confining"], v["axial_strain"]
+    inertial_number, constant_p, checks = v["inertial_number"], v["constant_p"], v["checks"]
+    local_damping, gain, wall_friction = v["local_damping"], v["gain"], v["wall_friction"]
     grav = _gravity(gravity, rec)
     default_dt = min(
         float(rec.settings.get("dt", sc.dt)), stage_time_step(pack, PEAK_STRESS_RATIO * confining)
