@@ -148,13 +148,13 @@ def test_the_critical_state_window_takes_the_last_fifth_of_the_axial_strain():
     assert shifted["phi_cs"] == pytest.approx(rep["phi_cs"], abs=1e-12)
 
 
-@pytest.mark.parametrize("excess, marked", [(0.049, False), (0.051, True)])
+@pytest.mark.parametrize("excess, marked", [(0.099, False), (0.101, True)])
 def test_a_marked_peak_exceeds_the_critical_state_deviator_by_the_margin(excess, marked):
     eps = np.linspace(0, 0.2, 201)
     q_cs = 2e5
     q = np.interp(eps, [0, 0.02, 0.1, 0.2], [0, q_cs * (1 + excess), q_cs, q_cs])
     rep = triaxial_report(triaxial_table(eps, 1e5 + q, 1e5), 3)
-    assert PEAK_MARGIN == 0.05
+    assert PEAK_MARGIN == 0.10
     assert rep["q_cs"] == pytest.approx(q_cs, rel=1e-12)
     assert rep["peak"] is marked
 

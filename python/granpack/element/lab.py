@@ -48,8 +48,10 @@ CS_SHARE = 0.2
 #: packing's row-to-row noise averages out and cannot make a spurious maximum.
 DILATANCY_WINDOW = 0.02
 #: A test shows a marked peak where its peak deviator exceeds the critical-state mean
-#: deviator by more than this share (-).
-PEAK_MARGIN = 0.05
+#: deviator by more than this share (-). The deviator of a sample of a thousand spheres
+#: fluctuates by about 5 % about its critical-state mean (tests/element/
+#: test_triaxial_physics.py): a loose one's largest fluctuation must not count as a peak.
+PEAK_MARGIN = 0.10
 
 #: The columns `triaxial_report` reads.
 TRIAXIAL_COLUMNS = ("eps_a", "eps_v", "sigma_1", "sigma_3")

@@ -387,9 +387,9 @@ def triaxial(
         The loading rate as I = eps_dot d_mean sqrt(rho / sigma_3), in (0, 0.1]. Default
         1e-3 (quasi-static; docs/element_tests.md measures 1e-4 beside it).
     constant_p : bool
-        Hold the mean stress p of the walls at its start value instead of sigma_3: the
-        side walls follow sigma_3 = (3 p - sigma_1) / 2 (2 p - sigma_1 in 2D). Default
-        False.
+        Hold the mean stress p of the walls at its start value (the first row's)
+        instead of sigma_3: the side walls follow sigma_3 = (3 p - sigma_1) / 2
+        (2 p - sigma_1 in 2D). Default False.
     checks : int
         Rows of the table along the path (the start included), in [2, 100000]. Default
         100.
@@ -479,12 +479,10 @@ def triaxial(
             parameter="inertial_number",
             value=inertial_number,
         )
-    mean_stress = None
-    if constant_p:
-        s1 = float(pack.record("consolidate").report["wall_stress"]["lid"])  # type: ignore[union-attr]
-        mean_stress = _p_q(s1, confining, rig.dim)[0]
     bounds = np.unique(np.round(np.linspace(0, total, checks)).astype(np.int64))
     rows = [rig.row(0, 0.0, eps_dot)]
+    # constant p: the walls' mean stress at the start, the sample re-seated
+    mean_stress = float(rows[0]["p"]) if constant_p else None
     done = 0
     for stop in bounds[1:]:
         rig.sim._sim.shear(
