@@ -251,8 +251,21 @@ class _Rig:
             radius = pos["cylinder"]
             shift[:2] = radius - sc.base[0] / 2.0
             scene = sc.replace(base=(2.0 * radius, 2.0 * radius), cylinder_radius=radius)
+        walls = self.sim._sim.walls()
+        stress = {n: float(walls["force"][k] / walls["area"][k]) for k, n in enumerate(self.names)}
+        held = {"lid": stress["lid"]}
+        if stage != "oedometer":
+            held.update({n: stress[n] for n in self.names if n not in ("floor", "lid")})
         report = {
             **report,
+            # what the consolidation's record gives the exports and the analysis: where
+            # the sample ends (its lid height, its walls), the walls' stresses, and the
+            # stresses a continuation holds (the lid's, and the side walls' where the test
+            # controlled them)
+            "mode": stage,
+            "height": pos["lid"] - pos["floor"],
+            "wall_stress": stress,
+            "targets": held,
             "walls": {
                 n: v
                 + (float(shift[0]) if n.startswith("x_") else 0.0)
