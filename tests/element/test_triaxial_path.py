@@ -246,3 +246,21 @@ def test_an_oedometric_sample_needs_its_confining_stress(deposit):
     assert exc.value.parameter == "confining"
     out = gp.triaxial(oed, 5e4, axial_strain=0.01, checks=2)
     assert gp.element_table(out)["sigma_3"][-1] == pytest.approx(5e4, rel=0.02)
+
+
+def test_a_tested_pack_exports_where_the_test_left_it(sheared, tmp_path):
+    """The exports and the analysis read the walls of the last stage that moved them:
+    the LAMMPS input's lid is the triaxial's final one, and the analysis' phi is the
+    table's last."""
+    from granpack.io.lammps_input import lid_force, lid_height
+
+    assert lid_height(sheared) == pytest.approx(sheared.height, rel=1e-12)
+    t = gp.element_table(sheared)
+    area = float(np.prod(sheared.scene.base))
+    assert lid_force(sheared) == pytest.approx(t["sigma_1"][-1] * area, rel=1e-9)
+    gp.write(sheared, tmp_path / "sheared.data", format="lammps-data")
+    text = (tmp_path / "in.granpack").read_text()
+    assert f"lid z = {sheared.height!r}" in text or f"lid z = {sheared.height:.17g}" in text
+    with pytest.warns(Warning):  # the small sample has no core beyond the walls' margin
+        m = gp.microstructure(sheared)
+    assert m.phi == pytest.approx(t["phi"][-1], rel=1e-9)
