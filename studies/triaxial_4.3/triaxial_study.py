@@ -327,10 +327,10 @@ def _triaxial_report(out: Path) -> None:
         "largest deviator rise). Tables: `table_<sample>_I0.001.csv`; figure: "
         "`triaxial.png`.",
         "",
-        "| sample | phi_p (deg) | eps_a at phi_p | phi_cs (deg) | eta_cs | psi_max (deg) | "
-        "E_50 (MPa) | marked peak | eps_v at 10 % | eps_v at the end | steps | test s | "
-        "wall s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| sample | e (Dr) at the start | phi_p (deg) | eps_a at phi_p | phi_cs (deg) | "
+        "eta_cs | psi_max (deg) | E_50 (MPa) | marked peak | eps_v at 10 % | "
+        "eps_v at the end | e at the end | steps | test s | wall s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name in SAMPLES:
         run = _read_rows(out, [f"run_{name}_I0.001.csv"])
@@ -340,11 +340,13 @@ def _triaxial_report(out: Path) -> None:
         r = run[0]
         lab = json.loads(r["lab"])
         lines.append(
-            f"| {LABELS[name]} | {_fmt(lab['phi_peak'], 2)} | {_fmt(lab['eps_a_peak'], 4)} | "
+            f"| {LABELS[name]} | {t['e'][0]:.4f} ({_dr(t['e'][0]):.2f}) | "
+            f"{_fmt(lab['phi_peak'], 2)} | {_fmt(lab['eps_a_peak'], 4)} | "
             f"{_fmt(lab['phi_cs'], 2)} | {_fmt(lab['eta_cs'], 3)} | "
             f"{_fmt(lab['psi_max'], 2)} | "
             f"{_fmt(lab['E_50'] / 1e6 if lab['E_50'] else None, 1)} | {_fmt(lab['peak'])} | "
-            f"{_fmt(eps_v_at(t, 0.10), 4)} | {_fmt(lab['eps_v_end'], 4)} | {r['steps']} | "
+            f"{_fmt(eps_v_at(t, 0.10), 4)} | {_fmt(lab['eps_v_end'], 4)} | "
+            f"{t['e'][-1]:.4f} | {r['steps']} | "
             f"{float(r['test_seconds']):.0f} | {float(r['wall_seconds']):.0f} |"
         )
     lines += [
@@ -393,6 +395,7 @@ def _rate_report(out: Path) -> None:
                 {
                     "sample": name,
                     "inertial_number": inertial,
+                    "e_start": t["e"][0],
                     "phi_peak": lab["phi_peak"],
                     "eps_a_peak": lab["eps_a_peak"],
                     "phi_cs": lab["phi_cs"],
@@ -417,13 +420,14 @@ def _rate_report(out: Path) -> None:
         "`../triaxial/`, at I = 1e-4 (ten times slower). The criterion: phi_p within "
         "0.5 degree of the I = 1e-3 value.",
         "",
-        "| sample | I | phi_p (deg) | eps_a at phi_p | phi_cs (deg) | psi_max (deg) | "
-        "E_50 (MPa) | eps_v at 10 % | eps_v at the end | steps | wall s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| sample | I | e at the start | phi_p (deg) | eps_a at phi_p | phi_cs (deg) | "
+        "psi_max (deg) | E_50 (MPa) | eps_v at 10 % | eps_v at the end | steps | wall s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {LABELS[r['sample']]} | {r['inertial_number']:g} | {_fmt(r['phi_peak'], 2)} | "
+            f"| {LABELS[r['sample']]} | {r['inertial_number']:g} | {r['e_start']:.4f} | "
+            f"{_fmt(r['phi_peak'], 2)} | "
             f"{_fmt(r['eps_a_peak'], 4)} | {_fmt(r['phi_cs'], 2)} | {_fmt(r['psi_max'], 2)} | "
             f"{_fmt(r['E_50'] / 1e6 if r['E_50'] else None, 1)} | {_fmt(r['eps_v_10'], 4)} | "
             f"{_fmt(r['eps_v_end'], 4)} | {r['steps']} | {float(r['wall_seconds']):.0f} |"
@@ -445,6 +449,76 @@ def _rate_report(out: Path) -> None:
             )
     lines += ["", "![rate](rate.png)", "", _machine(), ""]
     _write_text(out / "summary.md", "\n".join(lines))
+
+
+# ----------------------------------------------------------------------------- reseat
+
+
+def _window() -> tuple[float, float]:
+    r = _read_rows(RESULTS / "samples", ["runs.csv"])[0]
+    return float(r["e_min"]), float(r["e_max"])
+
+
+def _dr(e: float) -> float:
+    e_min, e_max = _window()
+    return (e_max - e) / (e_max - e_min)
+
+
+def reseat(args) -> None:
+    """What the tests' reseat does to each sample: e as consolidated and at the first row
+    of a triaxial test (the sample brought back to equilibrium at the consolidation's
+    targets), with smooth walls (the tests' default) and with the material's friction on
+    the walls (the consolidation's). A test 1e-4 long is enough: its first row is the
+    reseated sample."""
+    out = RESULTS / "reseat"
+    rows = []
+    for name in args.samples:
+        pack = _load(name)
+        rec = pack.record("consolidate")
+        e0 = 1.0 / rec.report["phi"] - 1.0
+        for wf in (0.0, None):
+            done = gp.triaxial(pack, axial_strain=1e-4, checks=2, wall_friction=wf)
+            t = gp.element_table(done, "triaxial")
+            first = t.row(0, named=True)
+            rows.append(
+                {
+                    "sample": name,
+                    "wall_friction": "material's" if wf is None else wf,
+                    "e_consolidated": e0,
+                    "dr_consolidated": _dr(e0),
+                    "floor_kpa_consolidated": rec.report["wall_stress"]["floor"] / 1e3,
+                    "e_reseated": first["e"],
+                    "dr_reseated": _dr(first["e"]),
+                    "z_reseated": first["z"],
+                    "reseat_steps": done.record("triaxial").settings["reseat_steps"],
+                }
+            )
+            print(json.dumps(rows[-1]), flush=True)
+    _write_csv(out / "runs.csv", rows)
+    lines = [
+        "# The reseat: the sample at the start of a test against the sample as consolidated",
+        "",
+        "`python studies/triaxial_4.3/triaxial_study.py reseat`: each sample of "
+        "`../samples/` sheared by 1e-4 (`granpack.triaxial`, I = 1e-3), its first row "
+        "being the sample brought back to equilibrium at the consolidation's targets "
+        "before the lid moves; smooth walls (the tests' default, `wall_friction=0`) and "
+        "the material's friction on the walls (`wall_friction=None`, as in the "
+        "consolidation). Dr from this seed's e_min and e_max (`../samples/`).",
+        "",
+        "| sample | walls | e consolidated | Dr | floor (kPa) as consolidated | e reseated | "
+        "Dr reseated | Z reseated | reseat steps |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {LABELS[r['sample']]} | {r['wall_friction']} | {r['e_consolidated']:.4f} | "
+            f"{r['dr_consolidated']:.3f} | {r['floor_kpa_consolidated']:.1f} | "
+            f"{r['e_reseated']:.4f} | {r['dr_reseated']:.3f} | {r['z_reseated']:.3f} | "
+            f"{r['reseat_steps']} |"
+        )
+    lines += ["", _machine(), ""]
+    _write_text(out / "summary.md", "\n".join(lines))
+    write_manifest(out, seeds=[1], extra={"rayon_num_threads": _threads()})
 
 
 # -------------------------------------------------------------------------- oedometer
@@ -518,6 +592,8 @@ def main(argv: list[str] | None = None) -> int:
         "--sample", dest="samples", nargs="+", choices=list(SAMPLES), default=list(SAMPLES)
     )
     r.add_argument("--report", action="store_true", help="only set the runs side by side")
+    rs = sub.add_parser("reseat")
+    rs.add_argument("--samples", nargs="+", choices=list(SAMPLES), default=list(SAMPLES))
     o = sub.add_parser("oedometer")
     o.add_argument("--sample", default="dr_0.2", choices=list(SAMPLES))
     args = ap.parse_args(argv)
@@ -525,9 +601,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.study == "triaxial" and args.report:
         _triaxial_report(RESULTS / "triaxial")
         return 0
-    {"samples": samples, "triaxial": triaxial, "rate": rate, "oedometer": oedometer}[args.study](
-        args
-    )
+    {
+        "samples": samples,
+        "triaxial": triaxial,
+        "rate": rate,
+        "reseat": reseat,
+        "oedometer": oedometer,
+    }[args.study](args)
     return 0
 
 
