@@ -524,10 +524,35 @@ def reseat(args) -> None:
 # -------------------------------------------------------------------------- oedometer
 
 
+#: the oedometer's other sample: example 4.3's recipe deposit consolidated oedometrically
+#: to the first stress of the path, so that its loading branch is virgin from the start
+OED_25 = "oed_25kpa"
+
+
+def _oedometric_sample() -> tuple[gp.Pack, float]:
+    scene = (
+        gp.PackScene.preset("4.3")
+        .replace(seed=1, consolidate={"stress": OEDOMETER[0], "mode": "oedometric"})
+        .fast()
+    )
+    t = time.perf_counter()
+    pack = gp.generate(scene)
+    secs = time.perf_counter() - t
+    path = Path("/tmp/triaxial_4.3") / f"{OED_25}.npz"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pack.save(path)
+    return pack, secs
+
+
 def oedometer(args) -> None:
-    out = RESULTS / "oedometer"
+    out = RESULTS / ("oedometer" if args.sample != OED_25 else "oedometer_25kpa")
     out.mkdir(parents=True, exist_ok=True)
-    pack = _load(args.sample)
+    made = None
+    if args.sample == OED_25:
+        pack, made = _oedometric_sample()
+    else:
+        pack = _load(args.sample)
+    consolidated = pack.record("consolidate")
     t = time.perf_counter()
     done = gp.oedometer(pack, list(OEDOMETER))
     wall = time.perf_counter() - t
@@ -536,13 +561,28 @@ def oedometer(args) -> None:
     table.write_csv(out / f"table_{args.sample}.csv")
     lab = rec.report["lab"]
     (out / "lab.json").write_text(json.dumps(lab, indent=1, default=float) + "\n")
-    compression_figure({LABELS[args.sample]: table}, out / "e_log_sigma.png")
+    label = LABELS.get(args.sample, "recipe, oedometric 25 kPa")
+    compression_figure({label: table}, out / "e_log_sigma.png")
+    if args.sample == OED_25:
+        what = (
+            "`python studies/triaxial_4.3/triaxial_study.py oedometer --sample oed_25kpa`: "
+            "example 4.3's recipe deposit (seed 1, `fast()`, mu_dep = the material's 0.2) "
+            "consolidated oedometrically to 25 kPa (`consolidate = {stress = 25e3, mode = "
+            f'"oedometric"}}`; {made:.0f} s for the generation and consolidation; '
+            f"e = {1.0 / consolidated.report['phi'] - 1.0:.4f}, gravity "
+            f"{consolidated.settings['gravity']}; the pack is written to /tmp only, it is "
+            "made again by this command), then "
+        )
+    else:
+        what = (
+            "`python studies/triaxial_4.3/triaxial_study.py oedometer`: the isotropically "
+            "consolidated Dr 0.2 sample of `../samples/` (100 kPa on every wall), then "
+        )
     lines = [
-        "# Oedometric loading and unloading of the Dr 0.2 sample",
+        f"# Oedometric loading and unloading of example 4.3 ({label})",
         "",
-        "`python studies/triaxial_4.3/triaxial_study.py oedometer`: the isotropically "
-        "consolidated Dr 0.2 sample of `../samples/` (100 kPa on every wall), its side "
-        "walls then fixed, the lid's servo taken to 25, 50, 100, 200, 400 kPa and back to "
+        what + "its side "
+        "walls fixed, the lid's servo taken to 25, 50, 100, 200, 400 kPa and back to "
         "200, 100, 50 kPa, each held to equilibrium (`granpack.oedometer`, smooth walls). "
         "Cc and Cs are `granpack.element.lab.compression_report`'s (Cc over the loading "
         "branch's virgin rows, from the second on; Cs over the unloading branch).",
@@ -595,7 +635,7 @@ def main(argv: list[str] | None = None) -> int:
     rs = sub.add_parser("reseat")
     rs.add_argument("--samples", nargs="+", choices=list(SAMPLES), default=list(SAMPLES))
     o = sub.add_parser("oedometer")
-    o.add_argument("--sample", default="dr_0.2", choices=list(SAMPLES))
+    o.add_argument("--sample", default="dr_0.2", choices=[*SAMPLES, OED_25])
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore", gp.UnsettledPackWarning)
     if args.study == "triaxial" and args.report:
