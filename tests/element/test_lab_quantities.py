@@ -439,3 +439,17 @@ def test_settings_out_of_range_are_refused_naming_them():
     with pytest.raises(InvalidParameterError, match="<= 0 at row 0") as info:
         compression_report(compression_table([0.0, 2e5], [0.8, 0.7], isotropic=True))
     assert info.value.parameter == "table"
+
+
+def test_a_reloading_before_the_virgin_line_is_left_out_of_cc():
+    """A sample consolidated at 100 kPa, unloaded to 25 and loaded to 400: the rows at 25
+    and 50 kPa recompress and the virgin line runs from 100 kPa on."""
+    target = np.array([1e5, 2.5e4, 5e4, 1e5, 2e5, 4e5])
+    e0, cc, cr = 0.6, 0.2, 0.03
+    logs = np.log10(target)
+    # the virgin line through 100 kPa (slope cc), the recompression below it (slope cr)
+    e = np.where(target >= 1e5, e0 - cc * (logs - 5.0), e0 - cr * (logs - 5.0))
+    table = pl.DataFrame({"target": target, "sigma_1": target, "e": e, "k0": np.full(6, 0.5)})
+    rep = compression_report(table, test="oedometer")
+    assert rep["virgin_rows"] == [3, 4, 5]
+    assert rep["Cc"] == pytest.approx(cc, rel=1e-12)

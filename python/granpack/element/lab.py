@@ -339,8 +339,11 @@ def compression_report(table: pl.DataFrame, test: str | None = None) -> dict[str
     target; the unloading branch the rows from that row on while the target does not
     rise (a reloading after it is left out). ``Cc`` is minus the least-squares slope of e
     against log10(stress) over the loading branch's virgin part: its rows from the
-    second on where it has at least 3 rows (the first row is the sample as
-    consolidated, where a stiffer recompression begins), both rows where it has 2.
+    second on (the first row is the sample as consolidated, where a stiffer
+    recompression begins) whose target is at or above every earlier row's (a reloading
+    to a stress held before is a recompression too), where at least 2 such rows exist;
+    otherwise its rows from the second on where it has at least 3 rows, both rows where
+    it has 2.
     ``Cs`` is minus the least-squares slope over the unloading branch.
 
     Returns
@@ -386,7 +389,13 @@ def compression_report(table: pl.DataFrame, test: str | None = None) -> dict[str
     loading = np.arange(top + 1)
     rise = np.flatnonzero(np.diff(target[top:]) > 0)
     unloading = np.arange(top, top + 1 + (int(rise[0]) if rise.size else target.size - 1 - top))
-    virgin = loading[1:] if loading.size >= 3 else loading
+    # the virgin rows: beyond the first, those at or above every stress the sample held
+    # before (a reloading up to an earlier stress recompresses, stiffer, and is left out)
+    beyond = np.array([k for k in loading[1:] if target[k] >= np.max(target[:k])], dtype=np.int64)
+    if beyond.size >= 2:
+        virgin = beyond
+    else:
+        virgin = loading[1:] if loading.size >= 3 else loading
     logs = np.log10(s)
     cc = _slope(logs[virgin], e[virgin]) if virgin.size >= 2 else None
     cs = _slope(logs[unloading], e[unloading]) if unloading.size >= 2 else None
