@@ -95,6 +95,7 @@ ConsolidateKey: TypeAlias = Literal[
     "gain",
     "local_damping",
     "dt",
+    "wall_friction",
 ]
 CONSOLIDATION_MODES: tuple[ConsolidationMode, ...]
 """The consolidation modes (`granpack.consolidate`'s `mode`), the engine's list."""

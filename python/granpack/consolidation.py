@@ -145,6 +145,7 @@ def consolidate(
     gain: float = _C["gain"],
     local_damping: float = _C["local_damping"],
     dt: float | None = _C["dt"],
+    wall_friction: float | None = _C["wall_friction"],
     target_phi: float | None = None,
     density_tol: float = _core.DEFAULT_DENSITY_TOL,
 ) -> Pack:
@@ -190,6 +191,12 @@ def consolidate(
         usual value for quasi-static loading).
     dt : float, optional
         Time step (s). Default `stage_time_step(pack, stress)`.
+    wall_friction : float, optional
+        The walls' Coulomb friction during the stage (-), finite and >= 0. Default: the
+        material's. A sample meant for an element test (`granpack.triaxial`, whose
+        walls are smooth) is best made with 0: walls with friction carry part of the
+        lid's load down the sides, and a loose sample that was held by them compacts
+        when the test takes their friction away (docs/element_tests.md).
     target_phi : float, optional
         A density target, phi between the floor and the lid, in (0, 1). Once the sample
         is in equilibrium and looser than the target, the friction is lowered in phases,
@@ -276,6 +283,8 @@ def consolidate(
         max_wall_speed = s["max_wall_speed"]
 
     sim = _simulation(pack, step, gravity, drag=0.0)
+    if s["wall_friction"] is not None:
+        sim._sim.set_wall_friction(s["wall_friction"])
     lid = sim._sim.add_lid(height)
     names = list(s["walls"])
     assert lid == len(names) - 1
@@ -319,7 +328,13 @@ def consolidate(
         seconds,
         # what it ran with: the checked settings, and the defaults it chose
         settings={
-            **{k: s[k] for k in _core.CONSOLIDATE_KEYS if k not in ("stress", "lateral")},
+            **{
+                k: s[k]
+                for k in _core.CONSOLIDATE_KEYS
+                # the walls' own friction where one was given (a record without it:
+                # the material's, as before the key existed)
+                if k not in ("stress", "lateral") and (k != "wall_friction" or s[k] is not None)
+            },
             "gravity": gravity,
             "max_wall_speed": max_wall_speed,
             "dt": step,

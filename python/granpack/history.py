@@ -58,6 +58,7 @@ _LAYOUT: dict[str, tuple[tuple[str, ...], bool, bool]] = {
             "local_damping",
             "dt",
             "targets",
+            "wall_friction",
         ),
         True,
         True,

@@ -26,8 +26,8 @@ def packs(tmp_path_factory) -> dict[str, Path]:
     dep = gp.generate(SCENE)
     files = {
         "deposit": dep,
-        "sample": gp.consolidate(dep, STRESS, "isotropic", gravity=False),
-        "oedometric": gp.consolidate(dep, STRESS, gravity=False),
+        "sample": gp.consolidate(dep, STRESS, "isotropic", gravity=False, wall_friction=0.0),
+        "oedometric": gp.consolidate(dep, STRESS, gravity=False, wall_friction=0.0),
     }
     return {name: pack.save(folder / f"{name}.npz") for name, pack in files.items()}
 

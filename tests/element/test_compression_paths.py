@@ -23,7 +23,7 @@ PATH = [5e4, 1e5, 2e5, 4e5, 2e5, 1e5, 5e4]
 def samples() -> dict[str, gp.Pack]:
     """Each container's deposit consolidated oedometrically to 25 kPa."""
     return {
-        name: gp.consolidate(gp.generate(sc.fast()), 2.5e4, gravity=False)
+        name: gp.consolidate(gp.generate(sc.fast()), 2.5e4, gravity=False, wall_friction=0.0)
         for name, sc in CONTAINERS.items()
     }
 
@@ -87,7 +87,7 @@ def test_the_periodic_cells_lateral_stress_is_love_weber(oedometers):
 
 @pytest.fixture(scope="module")
 def isotropic(samples) -> gp.Pack:
-    iso = gp.consolidate(gp.generate(SMALL.fast()), 2.5e4, "isotropic", gravity=False)
+    iso = gp.consolidate(gp.generate(SMALL.fast()), 2.5e4, "isotropic", gravity=False, wall_friction=0.0)
     return gp.isotropic_compression(iso, [5e4, 1e5, 2e5, 1e5, 5e4])
 
 

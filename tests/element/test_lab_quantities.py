@@ -149,13 +149,15 @@ def test_the_critical_state_window_takes_the_last_fifth_of_the_axial_strain():
 
 
 @pytest.mark.parametrize("excess, marked", [(0.099, False), (0.101, True)])
-def test_a_marked_peak_exceeds_the_critical_state_deviator_by_the_margin(excess, marked):
+def test_a_marked_peak_exceeds_the_critical_state_stress_ratio_by_the_margin(excess, marked):
+    # a constant-p path (s1 = p + 2q/3, s3 = p - q/3): eta = q / p exactly
     eps = np.linspace(0, 0.2, 201)
-    q_cs = 2e5
-    q = np.interp(eps, [0, 0.02, 0.1, 0.2], [0, q_cs * (1 + excess), q_cs, q_cs])
-    rep = triaxial_report(triaxial_table(eps, 1e5 + q, 1e5), 3)
+    p, eta_cs = 1e5, 0.9
+    eta = np.interp(eps, [0, 0.02, 0.1, 0.2], [0, eta_cs * (1 + excess), eta_cs, eta_cs])
+    q = eta * p
+    rep = triaxial_report(triaxial_table(eps, p + 2 * q / 3, p - q / 3), 3)
     assert PEAK_MARGIN == 0.10
-    assert rep["q_cs"] == pytest.approx(q_cs, rel=1e-12)
+    assert rep["eta_cs"] == pytest.approx(eta_cs, rel=1e-12)
     assert rep["peak"] is marked
 
 

@@ -26,7 +26,7 @@ def deposit() -> gp.Pack:
 
 @pytest.fixture(scope="module")
 def sample(deposit) -> gp.Pack:
-    return gp.consolidate(deposit, 1e5, "isotropic", gravity=False)
+    return gp.consolidate(deposit, 1e5, "isotropic", gravity=False, wall_friction=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -149,14 +149,14 @@ def test_a_second_test_starts_from_the_first_ones_end(sheared):
 
 def test_cylinder_and_2d_biaxial(deposit):
     cyl_scene = SMALL.replace(container="cylinder", cylinder_radius=0.15)
-    cyl = gp.consolidate(gp.generate(cyl_scene.fast()), 5e4, "isotropic", gravity=False)
+    cyl = gp.consolidate(gp.generate(cyl_scene.fast()), 5e4, "isotropic", gravity=False, wall_friction=0.0)
     out = gp.triaxial(cyl, axial_strain=0.04, checks=5)
     t = gp.element_table(out)
     assert np.all(np.abs(t["sigma_3"].to_numpy() - 5e4) <= 0.02 * 5e4)
     radius = out.record("triaxial").report["walls"]["cylinder"]
     assert out.scene.cylinder_radius == pytest.approx(radius)
     sc2 = gp.PackScene.preset("4.1").replace(seed=3, base=(0.4,), height=0.3)
-    two = gp.consolidate(gp.generate(sc2.fast()), 2e3, "isotropic", gravity=False)
+    two = gp.consolidate(gp.generate(sc2.fast()), 2e3, "isotropic", gravity=False, wall_friction=0.0)
     out2 = gp.triaxial(two, axial_strain=0.04, checks=5)
     t2 = gp.element_table(out2)
     # in 2D p = (s1 + s3) / 2
@@ -233,14 +233,14 @@ def test_an_unconsolidated_pack_is_refused(deposit):
 
 def test_a_periodic_cell_is_refused_for_the_triaxial():
     sc = SMALL.replace(container="periodic")
-    pack = gp.consolidate(gp.generate(sc.fast()), 1e5, gravity=False)
+    pack = gp.consolidate(gp.generate(sc.fast()), 1e5, gravity=False, wall_friction=0.0)
     with pytest.raises(gp.InvalidParameterError, match="no side walls") as exc:
         gp.triaxial(pack, 1e5)
     assert exc.value.parameter == "container"
 
 
 def test_an_oedometric_sample_needs_its_confining_stress(deposit):
-    oed = gp.consolidate(deposit, 1e5, gravity=False)
+    oed = gp.consolidate(deposit, 1e5, gravity=False, wall_friction=0.0)
     with pytest.raises(gp.InvalidParameterError, match="no lateral target") as exc:
         gp.triaxial(oed)
     assert exc.value.parameter == "confining"

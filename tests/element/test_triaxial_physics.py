@@ -29,7 +29,7 @@ def _sheared(mu: float, target_phi: float | None = None, **rolling) -> dict:
     mat = dataclasses.replace(BASE.material, friction=mu, **rolling)
     sc = BASE.replace(seed=5, base=(0.4, 0.4), height=0.4, material=mat).fast()
     extra = {} if target_phi is None else {"target_phi": target_phi}
-    sample = gp.consolidate(gp.generate(sc), 1e5, "isotropic", gravity=False, **extra)
+    sample = gp.consolidate(gp.generate(sc), 1e5, "isotropic", gravity=False, wall_friction=0.0, **extra)
     out = gp.triaxial(sample, axial_strain=0.4, checks=81)
     return {
         "phi": sample.record("consolidate").report["phi"],

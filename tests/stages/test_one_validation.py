@@ -35,6 +35,7 @@ CONSOLIDATE = [
     ("local_damping", 1.0, gp.InvalidParameterError),
     ("dt", -1.0, gp.InvalidParameterError),
     ("dt", 1.0, gp.UnstableTimeStepError),  # beyond the Rayleigh step
+    ("wall_friction", -0.1, gp.InvalidParameterError),
 ]
 
 # the scene's density-target keys, and the settling's tolerance

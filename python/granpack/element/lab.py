@@ -47,10 +47,10 @@ CS_SHARE = 0.2
 #: difference from eps_a - w/2 to eps_a + w/2. Over 2 % axial strain the servo's and the
 #: packing's row-to-row noise averages out and cannot make a spurious maximum.
 DILATANCY_WINDOW = 0.02
-#: A test shows a marked peak where its peak deviator exceeds the critical-state mean
-#: deviator by more than this share (-). The deviator of a sample of a thousand spheres
-#: fluctuates by about 5 % about its critical-state mean (tests/element/
-#: test_triaxial_physics.py): a loose one's largest fluctuation must not count as a peak.
+#: A test shows a marked peak where its peak stress ratio q/p exceeds the critical-state
+#: mean ratio by more than this share (-). The ratio of a sample of a thousand spheres
+#: fluctuates by a few % about its critical-state mean, and a loose one's hardening ends
+#: in a rise of about 7 % (tests/element/test_triaxial_physics.py): neither is a peak.
 PEAK_MARGIN = 0.10
 
 #: The columns `triaxial_report` reads.
@@ -184,8 +184,8 @@ def triaxial_report(
         The axial strain (-) over which the dilatancy's centred increments are taken,
         > 0; default 0.02 (2 %).
     peak_margin
-        A marked peak: the peak q above the critical-state mean q by more than this
-        share (-), >= 0; default 0.05 (5 %).
+        A marked peak: the peak stress ratio eta = q/p above the critical-state mean
+        eta by more than this share (-), >= 0; default 0.10 (10 %).
 
     Returns
     -------
@@ -201,7 +201,7 @@ def triaxial_report(
         (both None where no row has the whole window inside the path); ``E_50`` (Pa) the
         secant modulus to half the peak deviator, measured from the first row, with
         ``eps_a_50`` (-) where it is reached (None where q never rises above its first
-        value); ``peak`` (bool) q_peak > (1 + peak_margin) q_cs; ``eps_a_end`` and
+        value); ``peak`` (bool) eta_peak > (1 + peak_margin) eta_cs; ``eps_a_end`` and
         ``eps_v_end`` (-) the last row's strains; and the settings used, ``dim``,
         ``cs_share``, ``dilatancy_window``, ``peak_margin``.
 
@@ -280,7 +280,7 @@ def triaxial_report(
         "dilatancy_max": dil_max,
         "E_50": e50,
         "eps_a_50": eps50,
-        "peak": bool(q[k] > (1.0 + peak_margin) * q_cs),
+        "peak": bool(eta_peak > (1.0 + peak_margin) * float(np.mean(eta[cs]))),
         "eps_a_end": float(eps_a[-1]),
         "eps_v_end": float(eps_v[-1]),
         "dim": dim,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -54,7 +55,17 @@ __all__ = [
     "isotropic_compression",
     "element_table",
     "MAX_INERTIAL_NUMBER",
+    "StartMovedWarning",
 ]
+
+
+class StartMovedWarning(UserWarning):
+    """The sample's void ratio moved by more than the density tolerance (0.002) when the
+    test brought it back to rest at its start stresses, and the test's walls have another
+    friction than the consolidation's: the walls held the sample, and the test took that
+    away (a loose sample of example 4.3 consolidated with the grains' friction on its
+    walls compacts by 0.014 in e when the test's walls are smooth). The test runs on the
+    moved sample; its settings record by how much (``reseat_void_ratio_change``)."""
 
 _C = _core.DEFAULT_CONSOLIDATE
 
@@ -136,6 +147,7 @@ class _Rig:
         self.sim = _simulation(pack, dt, gravity, drag=0.0)
         self.lid = self.sim._sim.add_lid(float(pack.height))
         self.sim._sim.set_wall_friction(wall_friction)
+        self.wall_friction = wall_friction
         assert self.lid == len(self.names) - 1
         self.sides = [k for k, n in enumerate(self.names) if n not in ("floor", "lid")]
         self.solid = float(np.sum(_volumes(pack.radii, self.dim)))
@@ -146,7 +158,7 @@ class _Rig:
         self.h0 = pos["lid"] - pos["floor"]
         self.v0 = _sample_volume(pos, sc)
 
-    def reseat(self, rec: StageRecord) -> int:
+    def reseat(self, rec: StageRecord, stacklevel: int) -> int:
         """Brings the sample back to equilibrium at the consolidation's targets; returns
         the steps it took. A Pack keeps no tangential springs: the rebuilt engine starts
         every contact's spring from zero, the friction that held the sample is gone, and
@@ -168,9 +180,30 @@ class _Rig:
             )
         )
         _check_converged(out, list(targets), {**_C, **s})
+        before = self.v0
         pos = self.positions()
         self.h0 = pos["lid"] - pos["floor"]
         self.v0 = _sample_volume(pos, self.scene)
+        # the void ratio's change, (V - V_before) / V_solid
+        self.reseat_de = (self.v0 - before) / self.solid
+        # The springs a pack does not keep move it by about the density tolerance (e by
+        # 0.002 in example 4.3, recorded); walls that lost their friction can move it by
+        # ten times that, and the user can avoid it: a warning says how.
+        mu_c = s.get("wall_friction")
+        mu_c = self.scene.material.friction if mu_c is None else float(mu_c)
+        mu_t = self.wall_friction
+        mu_t = self.scene.material.friction if mu_t is None else mu_t
+        if mu_c != mu_t and abs(self.reseat_de) > _core.DEFAULT_DENSITY_TOL:
+            warnings.warn(
+                f"the sample's void ratio moved by {self.reseat_de:+.4f} when it came back "
+                f"to rest at its start stresses, more than {_core.DEFAULT_DENSITY_TOL:g}: "
+                f"the test starts from e = {self.v0 / self.solid - 1.0:.4f}. The "
+                f"consolidation's walls had friction {mu_c:g}, the test's have {mu_t:g}: "
+                f"consolidate with wall_friction={mu_t:g} to make the sample as it will be "
+                "tested",
+                StartMovedWarning,
+                stacklevel=stacklevel,
+            )
         return int(out["steps"])
 
     def positions(self) -> dict[str, float]:
@@ -470,7 +503,7 @@ def triaxial(
     start = time.perf_counter()
     rig = _Rig(pack, rec, step, grav, wall_friction)
     # the start: the sample in equilibrium again at its consolidation (its height H0)
-    reseat = rig.reseat(rec)
+    reseat = rig.reseat(rec, stacklevel=3)
     eps_dot = inertial_number / (rig.d_mean * math.sqrt(rig.rho / confining))
     speed = eps_dot * rig.h0
     total = math.ceil(axial_strain * rig.h0 / (speed * step))
@@ -531,6 +564,7 @@ def triaxial(
         "lid_speed": speed,
         "max_wall_speed": lateral_speed,
         "reseat_steps": reseat,
+        "reseat_void_ratio_change": rig.reseat_de,
     }
     report = {
         "table": table,
@@ -644,7 +678,7 @@ def _stress_path(
     cap = OVERRUN_FRACTION * float(np.min(pack.radii)) / step
     rows = []
     start = time.perf_counter()
-    reseat = rig.reseat(rec)
+    reseat = rig.reseat(rec, stacklevel=4)
     steps = 0
     # the first row: the sample at its consolidation, in equilibrium again
     first = rig.row(0, 0.0, 0.0)
@@ -697,6 +731,7 @@ def _stress_path(
         "gravity": grav,
         "dt": step,
         "reseat_steps": reseat,
+        "reseat_void_ratio_change": rig.reseat_de,
     }
     report = {
         "table": table,
