@@ -229,10 +229,12 @@ def write_input(pack, folder: Path, setup: Setup) -> Path:
     h0 = float(pack.height)
     r_max = float(np.max(pack.radii))
     r_min = float(np.min(pack.radii))
-    # the meshes reach a margin past the sample (the walls move into it), and the domain
-    # past the meshes: a fixed boundary deletes no mesh element
-    m = 2.0 * r_max
-    box = 2.0 * m
+    # the meshes reach a margin past the sample: the side walls move out as the sample
+    # bulges (by 9 % of the width for eps_a = 0.25 at eps_v = -0.05), and a side wall must
+    # still span the gap between the other pair; the domain reaches past the meshes, as a
+    # fixed boundary deletes no mesh element
+    m = 0.2 * max(bx, by) + 2.0 * r_max
+    box = m + 2.0 * r_max
     data = gio.export(pack, folder / "pack.data", "liggghts")[0]
     (folder / "in.granpack").unlink(missing_ok=True)
     text = data.read_text()
@@ -373,7 +375,8 @@ def triaxial_table(rows: list[list[float]], pack, dt: float) -> pl.DataFrame:
             "sigma_3": s3,
             "p": p,
             "q": q,
-            "eta": q / p,
+            # a run's first row, from its setup, may have no wall force yet
+            "eta": np.divide(q, p, out=np.full_like(q, np.nan), where=p > 0),
             "e": 1.0 / phi - 1.0,
             "phi": phi,
             "sigma_x": s_x,
