@@ -22,7 +22,7 @@ engine, the re-seat and the table's rows (timed here around `_Rig`'s methods); f
 its "Loop time" of the loading run (its 100 thermo rows cost ~0.1 % of it).
 
 Writes into ``--out`` (default: this folder, files prefixed by the size): one CSV per run
-(the element table), ``<size>_summary.json``, ``<size>_manifest.json`` and
+(the element table), ``<size>_summary.json``, ``manifest_<size>.json`` and
 ``<size>_triaxial.png``.
 
     RAYON_NUM_THREADS=1 python studies/triaxial_vs_liggghts/triaxial_vs_liggghts.py --size small
@@ -288,7 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     write_manifest(
         out,
         seeds=[3] if args.size == "small" else [int(pack.scene.seed)],
-        name=f"{args.size}_manifest.json",
+        name=f"manifest_{args.size}.json",
         extra={
             "size": args.size,
             "particles": n,
