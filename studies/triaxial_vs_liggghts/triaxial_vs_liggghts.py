@@ -208,6 +208,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--axial-strain", type=float, default=0.25, help="final eps_a (-)")
     p.add_argument("--out", default=str(HERE), help="results folder")
     p.add_argument("--work", help="folder for the pack and LIGGGHTS' files (default: temp)")
+    p.add_argument(
+        "--pack",
+        help="a consolidated pack saved by an earlier run (<work>/<size>_consolidated.npz): "
+        "skips making it, for a repeat of the timings",
+    )
+    p.add_argument("--tag", help="prefix of the files written (default: the size)")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -215,7 +221,13 @@ def main(argv: list[str] | None = None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     print(f"work folder: {work}", flush=True)
 
-    pack, prep = make_pack(args.size, work)
+    if args.pack:
+        import granpack as gp
+
+        pack, prep = gp.load_pack(args.pack), {}
+    else:
+        pack, prep = make_pack(args.size, work)
+    tag = args.tag or args.size
     n = len(pack.radii)
     rec = pack.record("consolidate")
     print(f"{n} spheres; prep {prep}", flush=True)
@@ -227,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
         first = first or res.record("triaxial").settings
         tables[s["code"]] = table
         summaries.append(s)
-        write_csv(table, out / f"{args.size}_granpack_ld{ld:g}.csv")
+        write_csv(table, out / f"{tag}_granpack_ld{ld:g}.csv")
         print(json.dumps(s, indent=1), flush=True)
 
     g_rec = summaries[0]
@@ -249,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     ltable = lres["table"]
     label = "LIGGGHTS 3.8.0"
     tables[label] = ltable
-    write_csv(ltable, out / f"{args.size}_liggghts.csv")
+    write_csv(ltable, out / f"{tag}_liggghts.csv")
     target = ltable["target_sigma_3"].to_numpy()
     s = summarise(
         label,
@@ -283,14 +295,15 @@ def main(argv: list[str] | None = None) -> int:
         "preparation_seconds": prep,
         "runs": summaries,
     }
-    (out / f"{args.size}_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figure(tables, out / f"{args.size}_triaxial.png")
+    (out / f"{tag}_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    figure(tables, out / f"{tag}_triaxial.png")
     write_manifest(
         out,
         seeds=[3] if args.size == "small" else [int(pack.scene.seed)],
-        name=f"manifest_{args.size}.json",
+        name=f"manifest_{tag}.json",
         extra={
             "size": args.size,
+            "pack": args.pack,
             "particles": n,
             "threads": {"RAYON_NUM_THREADS": os.environ.get("RAYON_NUM_THREADS")},
             "liggghts": "LIGGGHTS-PUBLIC 3.8.0 (Debian package liggghts), serial, OMP 1",
