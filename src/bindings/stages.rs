@@ -148,7 +148,10 @@ pub(super) fn consolidate_spec<'py>(
         let key = key.as_str();
         let name = format!("consolidate.{key}");
         let name = name.as_str();
-        let optional = matches!(key, "lateral" | "gravity" | "max_wall_speed" | "dt");
+        let optional = matches!(
+            key,
+            "lateral" | "gravity" | "max_wall_speed" | "dt" | "wall_friction"
+        );
         if v.is_none() && optional {
             typed.set_item(key, py.None())?;
             continue;
@@ -213,6 +216,11 @@ pub(super) fn consolidate_spec<'py>(
                 spec.dt = Some(x);
                 typed.set_item(key, x)?;
             }
+            "wall_friction" => {
+                let x = real(name, &v, "")?;
+                spec.wall_friction = Some(x);
+                typed.set_item(key, x)?;
+            }
             _ => unreachable!("every key of CONSOLIDATE_KEYS is read"),
         }
     }
@@ -262,6 +270,7 @@ fn consolidate_to_py<'py>(py: Python<'py>, s: &ConsolidateSpec) -> PyResult<Boun
     d.set_item("gain", s.gain)?;
     d.set_item("local_damping", s.local_damping)?;
     d.set_item("dt", s.dt)?;
+    d.set_item("wall_friction", s.wall_friction)?;
     Ok(d)
 }
 

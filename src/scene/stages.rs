@@ -27,7 +27,7 @@ pub const TARGET_KEYS: [&str; 3] = ["target_phi", "target_void_ratio", "target_r
 pub const DENSITY_METHODS: [&str; 3] = ["auto", "deposition", "servo"];
 
 /// The keys of a scene's `[consolidate]` table: the consolidation's settings.
-pub const CONSOLIDATE_KEYS: [&str; 13] = [
+pub const CONSOLIDATE_KEYS: [&str; 14] = [
     "stress",
     "mode",
     "lateral",
@@ -41,6 +41,7 @@ pub const CONSOLIDATE_KEYS: [&str; 13] = [
     "gain",
     "local_damping",
     "dt",
+    "wall_friction",
 ];
 
 /// The largest target stress any stage takes (Pa; N/m in 2D), whatever the material.
@@ -386,6 +387,9 @@ pub struct ConsolidateSpec {
     /// Time step (s), at most the Rayleigh step of the smallest particle. None
     /// (default): the stage's own, from the stiffest contact it expects.
     pub dt: Option<Real>,
+    /// The walls' Coulomb friction during the stage (-), finite and >= 0. None
+    /// (default): the material's. 0 makes the smooth walls of the element tests.
+    pub wall_friction: Option<Real>,
 }
 
 impl Default for ConsolidateSpec {
@@ -404,6 +408,7 @@ impl Default for ConsolidateSpec {
             gain: 0.5,
             local_damping: 0.4,
             dt: None,
+            wall_friction: None,
         }
     }
 }
@@ -457,6 +462,16 @@ impl ConsolidateSpec {
         )?;
         if let Some(dt) = self.dt {
             check_range("consolidate.dt", dt, 0.0, false, Real::INFINITY, false)?;
+        }
+        if let Some(mu) = self.wall_friction {
+            check_range(
+                "consolidate.wall_friction",
+                mu,
+                0.0,
+                true,
+                Real::INFINITY,
+                false,
+            )?;
         }
         self.targets(dim, container).map(|_| ())
     }

@@ -29,7 +29,7 @@ def runs(tmp_path_factory, liggghts):
     finally:
         sys.path.remove(str(STUDY))
     scene = gp.PackScene.preset("4.3").replace(seed=3, base=(0.3, 0.3), height=0.2)
-    pack = gp.consolidate(gp.generate(scene), SIGMA_3, "isotropic")
+    pack = gp.consolidate(gp.generate(scene), SIGMA_3, "isotropic", wall_friction=0.0)
     out = gp.triaxial(pack, axial_strain=EPS, local_damping=0.0)
     rec = out.record("triaxial")
     s, cons = rec.settings, pack.record("consolidate").settings
