@@ -87,7 +87,9 @@ def test_the_periodic_cells_lateral_stress_is_love_weber(oedometers):
 
 @pytest.fixture(scope="module")
 def isotropic(samples) -> gp.Pack:
-    iso = gp.consolidate(gp.generate(SMALL.fast()), 2.5e4, "isotropic", gravity=False, wall_friction=0.0)
+    iso = gp.consolidate(
+        gp.generate(SMALL.fast()), 2.5e4, "isotropic", gravity=False, wall_friction=0.0
+    )
     return gp.isotropic_compression(iso, [5e4, 1e5, 2e5, 1e5, 5e4])
 
 

@@ -149,14 +149,18 @@ def test_a_second_test_starts_from_the_first_ones_end(sheared):
 
 def test_cylinder_and_2d_biaxial(deposit):
     cyl_scene = SMALL.replace(container="cylinder", cylinder_radius=0.15)
-    cyl = gp.consolidate(gp.generate(cyl_scene.fast()), 5e4, "isotropic", gravity=False, wall_friction=0.0)
+    cyl = gp.consolidate(
+        gp.generate(cyl_scene.fast()), 5e4, "isotropic", gravity=False, wall_friction=0.0
+    )
     out = gp.triaxial(cyl, axial_strain=0.04, checks=5)
     t = gp.element_table(out)
     assert np.all(np.abs(t["sigma_3"].to_numpy() - 5e4) <= 0.02 * 5e4)
     radius = out.record("triaxial").report["walls"]["cylinder"]
     assert out.scene.cylinder_radius == pytest.approx(radius)
     sc2 = gp.PackScene.preset("4.1").replace(seed=3, base=(0.4,), height=0.3)
-    two = gp.consolidate(gp.generate(sc2.fast()), 2e3, "isotropic", gravity=False, wall_friction=0.0)
+    two = gp.consolidate(
+        gp.generate(sc2.fast()), 2e3, "isotropic", gravity=False, wall_friction=0.0
+    )
     out2 = gp.triaxial(two, axial_strain=0.04, checks=5)
     t2 = gp.element_table(out2)
     # in 2D p = (s1 + s3) / 2
