@@ -31,6 +31,7 @@ os.environ.setdefault("RAYON_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -60,7 +61,7 @@ def load_or_make_deposit(args):
         scene = scene.fast()
     t0 = time.perf_counter()
     pack = gp.generate(scene)
-    path = pack.save(Path(args.out) / "deposit.npz")
+    path = pack.save(Path(args.work) / "deposit.npz")
     print(
         f"pack: preset 4.3 seed {args.seed}, {len(pack.radii)} particles, "
         f"{time.perf_counter() - t0:.1f} s; saved to {path} (reuse with --pack)",
@@ -85,6 +86,20 @@ def consolidated(pack, confining: float):
     return out
 
 
+#: granpack's triaxial takes the consolidation's step, or the step of the stiffer contacts
+#: at this many times sigma_3 (the axial stress at the peak at most), whichever is less.
+PEAK_STRESS_RATIO = 5.0
+
+
+def stage_default_dt(pack, confining: float) -> float:
+    """The time step (s) `granpack.triaxial` takes by default: the consolidation's, or
+    `stage_time_step` at PEAK_STRESS_RATIO sigma_3 where that is smaller."""
+    from granpack.consolidation import stage_time_step
+
+    rec = pack.record("consolidate")
+    return min(float(rec.settings["dt"]), stage_time_step(pack, PEAK_STRESS_RATIO * confining))
+
+
 def run_granpack(pack, args, out: Path):
     """granpack's triaxial stage, its table and summary; None where this checkout has no
     `granpack.triaxial`."""
@@ -101,6 +116,7 @@ def run_granpack(pack, args, out: Path):
         inertial_number=args.inertial,
         checks=args.checks,
         local_damping=args.local_damping,
+        dt=args.dt,
     )
     wall = time.perf_counter() - t0
     table = gp.element_table(res)
@@ -159,12 +175,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=1, help="seed of the pack made here")
     p.add_argument("--small", action="store_true", help="a 0.25 m box (a few hundred spheres)")
     p.add_argument("--out", default=str(HERE), help="results folder")
-    p.add_argument("--work", help="YADE's folder (default: OUT/yade_work)")
+    p.add_argument("--work", help="folder for the deposit and YADE's files (default: temp)")
     p.add_argument("--confining", type=float, default=1e5, help="sigma_3, Pa")
     p.add_argument("--axial-strain", type=float, default=0.25)
     p.add_argument("--inertial", type=float, default=1e-3, help="inertial number I")
     p.add_argument("--checks", type=int, default=100, help="checks along the path")
     p.add_argument("--local-damping", type=float, default=0.4)
+    p.add_argument("--dt", type=float, help="time step, s (default: granpack.triaxial's)")
     p.add_argument("--max-vel", type=float, default=1.0, help="YADE's servo max_vel, m/s")
     p.add_argument("--cpu", type=int, help="pin both codes to this CPU")
     p.add_argument("--codes", default="granpack,yade", help="comma-separated")
@@ -172,6 +189,10 @@ def main(argv: list[str] | None = None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if not args.work:
+        args.work = tempfile.mkdtemp(prefix="triaxial_")
+    Path(args.work).mkdir(parents=True, exist_ok=True)
+    print(f"work folder: {args.work}", flush=True)
     if args.cpu is not None and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {args.cpu})
     codes = {c.strip() for c in args.codes.split(",") if c.strip()}
@@ -191,8 +212,13 @@ def main(argv: list[str] | None = None) -> int:
             tables["granpack"], summaries["granpack"] = table, summary
             print("granpack:", json.dumps(summary, indent=1), flush=True)
     if "yade" in codes:
-        work = Path(args.work) if args.work else out / "yade_work"
-        dt = summaries.get("granpack", {}).get("dt")  # the same dt as granpack's run
+        work = Path(args.work) / "yade"
+        # the same dt as granpack's run; without it, the one granpack's stage defaults to
+        dt = (
+            args.dt
+            or summaries.get("granpack", {}).get("dt")
+            or stage_default_dt(pack, args.confining)
+        )
         table = run_yade_triaxial(
             pack,
             args.confining,
@@ -234,6 +260,7 @@ def main(argv: list[str] | None = None) -> int:
         "strain_rate": eps_dot,
         "local_damping": args.local_damping,
         "consolidation_dt": float(rec.settings["dt"]),
+        "dt": summaries.get("yade", summaries.get("granpack", {})).get("dt"),
         "consolidation_phi": float(rec.report["phi"]),
         "gravity": bool(rec.settings["gravity"]),
     }

@@ -149,18 +149,23 @@ def test_a_bad_rate_or_strain_is_refused_by_name(sample, tmp_path, rate, axial):
     assert not (tmp_path / "yade.log").exists()  # refused before YADE starts
 
 
-def test_granpack_triaxial_agrees_with_yade(sample, yade_run):
+def test_granpack_triaxial_agrees_with_yade(yade, sample, tmp_path):
     if not hasattr(gp, "triaxial"):
         pytest.skip("this checkout has no granpack.triaxial stage yet")
-    table, work = yade_run
-    # the same dt as YADE's run (the consolidation's), the same rate and damping
-    out = gp.triaxial(
+    out = gp.triaxial(sample, CONFINING, axial_strain=AXIAL, inertial_number=INERTIAL)
+    dt = float(out.record("triaxial").settings["dt"])
+    # YADE at granpack's dt, rate and damping
+    table = run_yade_triaxial(
         sample,
         CONFINING,
-        axial_strain=AXIAL,
-        inertial_number=INERTIAL,
-        local_damping=0.4,
-        dt=sample.record("consolidate").settings["dt"],
+        AXIAL,
+        ("inertial_number", INERTIAL),
+        dt,
+        0.4,
+        0.0025,
+        tmp_path,
+        yade=yade,
+        timeout=600,
     )
     mine = summary_figures(gp.element_table(out))
     theirs = summary_figures(table)
