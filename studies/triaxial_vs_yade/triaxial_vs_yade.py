@@ -183,6 +183,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--local-damping", type=float, default=0.4)
     p.add_argument("--dt", type=float, help="time step, s (default: granpack.triaxial's)")
     p.add_argument("--max-vel", type=float, default=1.0, help="YADE's servo max_vel, m/s")
+    p.add_argument(
+        "--wall-friction",
+        type=float,
+        help="YADE's wall friction coefficient (default: the particles' mu, as granpack's)",
+    )
     p.add_argument("--cpu", type=int, help="pin both codes to this CPU")
     p.add_argument("--codes", default="granpack,yade", help="comma-separated")
     args = p.parse_args(argv)
@@ -229,6 +234,7 @@ def main(argv: list[str] | None = None) -> int:
             args.axial_strain / args.checks,
             work,
             max_vel=args.max_vel,
+            wall_friction=args.wall_friction,
             cpu=args.cpu,
         )
         table.write_csv(out / "yade_triaxial.csv")
@@ -241,6 +247,7 @@ def main(argv: list[str] | None = None) -> int:
             "loop_seconds": ys["loop_seconds"],
             "ns_per_particle_step": ys["ns_per_particle_step"],
             "lid_speed": ys["lid_speed"],
+            "wall_friction": ys["wall_friction"],
             "sigma_3_max_rel_error": float((table["sigma_3"] / args.confining - 1.0).abs().max()),
             **summary_figures(table),
         }

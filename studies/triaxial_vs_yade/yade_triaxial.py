@@ -92,15 +92,20 @@ lx, ly = cfg["base"]
 h0 = cfg["height"]
 mat = O.materials.append(FrictMat(young=cfg["young"], poisson=cfg["poisson"],
                                   density=cfg["density"], frictionAngle=math.atan(cfg["friction"])))
+# a contact takes the smaller friction angle of its two materials: the walls' own material
+# sets the wall contacts' friction (the particles' mu by default, as granpack's walls)
+wall_mat = O.materials.append(FrictMat(young=cfg["young"], poisson=cfg["poisson"],
+                                       density=cfg["density"],
+                                       frictionAngle=math.atan(cfg["wall_friction"])))
 # granpack's z (up) is YADE's y
 O.bodies.append([utils.sphere((x, z, y), r, material=mat) for x, y, z, r in xyzr])
 walls = {
-    "left": utils.wall(0.0, axis=0, sense=1, material=mat),
-    "right": utils.wall(lx, axis=0, sense=-1, material=mat),
-    "bottom": utils.wall(0.0, axis=1, sense=1, material=mat),
-    "top": utils.wall(h0, axis=1, sense=-1, material=mat),
-    "back": utils.wall(0.0, axis=2, sense=1, material=mat),
-    "front": utils.wall(ly, axis=2, sense=-1, material=mat),
+    "left": utils.wall(0.0, axis=0, sense=1, material=wall_mat),
+    "right": utils.wall(lx, axis=0, sense=-1, material=wall_mat),
+    "bottom": utils.wall(0.0, axis=1, sense=1, material=wall_mat),
+    "top": utils.wall(h0, axis=1, sense=-1, material=wall_mat),
+    "back": utils.wall(0.0, axis=2, sense=1, material=wall_mat),
+    "front": utils.wall(ly, axis=2, sense=-1, material=wall_mat),
 }
 ids = {k: O.bodies.append(b) for k, b in walls.items()}
 sigma3 = cfg["confining"]
@@ -216,6 +221,7 @@ def run_yade_triaxial(
     workdir: str | Path = "yade_triaxial",
     *,
     max_vel: float = 1.0,
+    wall_friction: float | None = None,
     cpu: int | None = None,
     yade: str | None = None,
     timeout: float | None = None,
@@ -245,6 +251,9 @@ def run_yade_triaxial(
         Folder for YADE's script, settings, sphere file, log and result (created).
     max_vel : float
         TriaxialStressController.max_vel (m/s), the side walls' speed cap. Default 1 (YADE's).
+    wall_friction : float, optional
+        The walls' friction coefficient (-), in [0, mu]. Default: the particles' mu, as
+        granpack's walls; 0 gives frictionless walls (no end-platen friction).
     cpu : int, optional
         Pins YADE to this CPU with ``taskset`` where available.
     yade : str, optional
@@ -305,6 +314,15 @@ def run_yade_triaxial(
     per_step = eps_dot * step  # axial strain per step
     check_every = max(1, round(check_every_strain / per_step))
     steps = check_every * math.ceil(axial_strain / (check_every * per_step) - 1e-9)
+    if wall_friction is not None and not 0.0 <= wall_friction <= float(
+        pack.scene.material.friction
+    ):
+        raise InvalidParameterError(
+            f"invalid wall_friction = {wall_friction}: must lie in [0, "
+            f"{pack.scene.material.friction}] (a contact takes the smaller friction)",
+            parameter="wall_friction",
+            value=wall_friction,
+        )
     prog = yade or yade_executable()
     if prog is None:
         raise RuntimeError("yade is not installed (apt-get install yade)")
@@ -326,6 +344,7 @@ def run_yade_triaxial(
         "young": float(m.young),
         "poisson": float(m.poisson),
         "friction": float(m.friction),
+        "wall_friction": float(m.friction) if wall_friction is None else float(wall_friction),
         "damping_ratio": float(m.damping),
         "confining": confining,
         "lid_speed": eps_dot * h0,
@@ -374,6 +393,7 @@ def run_yade_triaxial(
         "gravity": gravity,
         "local_damping": local_damping,
         "max_vel": max_vel,
+        "wall_friction": cfg["wall_friction"],
         "loop_seconds": float(res["loop_seconds"]),
         "check_seconds": float(res["check_seconds"]),
         "stepping_seconds": stepping,

@@ -127,6 +127,32 @@ def test_yade_volumetric_strain_is_the_change_of_the_walls_volume(sample, yade_r
     np.testing.assert_allclose(table["eta"].to_numpy(), (s1 - s3) / ((s1 + 2.0 * s3) / 3.0))
 
 
+def test_frictionless_walls_pass_the_lid_load_to_the_floor(yade, sample, yade_run, tmp_path):
+    # frictionless walls: the side walls carry no vertical load, so once the tangential
+    # forces of granpack's frictional consolidation are gone (the first rows) the floor
+    # carries the lid's force, less the little that accelerates the sample (I = 1e-3)
+    table = run_yade_triaxial(
+        sample,
+        CONFINING,
+        0.05,
+        ("inertial_number", INERTIAL),
+        None,
+        0.4,
+        0.0025,
+        tmp_path,
+        wall_friction=0.0,
+        yade=yade,
+        timeout=600,
+    )
+    ratio = (table["sigma_floor"] / table["sigma_1"]).to_numpy()[1:]
+    assert np.max(np.abs(ratio - 1.0)) < 0.06
+    assert abs(float(np.median(ratio)) - 1.0) < 0.01
+    # walls with the particles' friction (granpack's) hold part of it up
+    frictional, _ = yade_run
+    ratio = (frictional["sigma_floor"] / frictional["sigma_1"]).to_numpy()[1:]
+    assert np.max(ratio) < 0.95
+
+
 def test_an_unconsolidated_pack_is_refused(tmp_path):
     deposit = gp.generate(
         gp.PackScene.preset("4.3").replace(base=(0.15, 0.15), height=0.1, seed=1).fast()
@@ -146,6 +172,23 @@ def test_a_bad_rate_or_strain_is_refused_by_name(sample, tmp_path, rate, axial):
     with pytest.raises(InvalidParameterError) as err:
         run_yade_triaxial(sample, CONFINING, axial, rate, None, 0.4, 0.01, tmp_path)
     assert err.value.parameter in ("strain_rate_or_lid_speed", "axial_strain")
+    assert not (tmp_path / "yade.log").exists()  # refused before YADE starts
+
+
+def test_a_wall_friction_above_the_particles_is_refused(sample, tmp_path):
+    with pytest.raises(InvalidParameterError, match="wall_friction") as err:
+        run_yade_triaxial(
+            sample,
+            CONFINING,
+            0.1,
+            ("inertial_number", 1e-3),
+            None,
+            0.4,
+            0.01,
+            tmp_path,
+            wall_friction=0.5,
+        )
+    assert err.value.parameter == "wall_friction"
     assert not (tmp_path / "yade.log").exists()  # refused before YADE starts
 
 
