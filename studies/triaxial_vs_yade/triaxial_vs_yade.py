@@ -78,6 +78,7 @@ def consolidated(pack, confining: float):
     t0 = time.perf_counter()
     out = gp.consolidate(pack, confining, mode="isotropic")
     rec = out.record("consolidate")
+    assert rec is not None  # consolidate records itself
     print(
         f"consolidated to {confining:g} Pa in {rec.steps} steps, {time.perf_counter() - t0:.1f} s; "
         f"phi {rec.report['phi']:.4f}, dt {rec.settings['dt']:.4g} s",
@@ -138,18 +139,17 @@ def run_granpack(pack, args, out: Path):
 
 
 def figure(tables: dict, path: Path) -> None:
-    """q and eps_v against eps_a, one line per code."""
+    """q and eps_v against eps_a, one line per code: granpack's own figure
+    (`granpack.element.figures.triaxial_figure`) where this checkout has it."""
     try:
-        from granpack.element.figures import triaxial_figure  # type: ignore[import-not-found]
-    except ImportError:
-        triaxial_figure = None
-    if triaxial_figure is not None:
-        try:
-            fig = triaxial_figure(tables)
-            fig.savefig(path, dpi=120)
-            return
-        except (TypeError, ValueError):
-            pass  # its signature is not settled: the plain figure below
+        from granpack.element import figures
+
+        figures.triaxial_figure(tables, path)
+        return
+    except (ImportError, AttributeError, ValueError):
+        # a checkout without granpack's element figures, or one whose figure wants columns
+        # YADE's table lacks (the Love-Weber and fabric columns): the plain figure below
+        pass
     import matplotlib
 
     matplotlib.use("Agg")

@@ -439,7 +439,7 @@ def summary_figures(table: pl.DataFrame) -> dict:
     """The figures a triaxial test is compared by: eta and q at the peak of eta, the peak
     friction angle phi_p (degrees) = asin((s1 - s3) / (s1 + s3)) there, eps_a at the peak,
     eps_v at 10 % axial strain (interpolated) and at the end."""
-    k = int(table["eta"].arg_max())
+    k = int(np.argmax(table["eta"].to_numpy()))
     s1, s3 = float(table["sigma_1"][k]), float(table["sigma_3"][k])
     eps_a = table["eps_a"].to_numpy()
     eps_v = table["eps_v"].to_numpy()
