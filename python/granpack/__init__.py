@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from .consolidation import consolidate, settle
     from .contacts import Contacts
     from .density import DensityWindowWarning, VoidRatioLimits, void_ratio_limits
+    from .element import element_table, isotropic_compression, oedometer, triaxial
     from .ensemble_run import generate_ensemble
     from .generation import generate
     from .grading import Grading, realised_grading, target_grading
@@ -55,6 +56,10 @@ _LAZY = {
     "VoidRatioLimits": "density",
     "DensityWindowWarning": "density",
     "void_ratio_limits": "density",
+    "triaxial": "element",
+    "oedometer": "element",
+    "isotropic_compression": "element",
+    "element_table": "element",
     "Material": "simulation",
     "Simulation": "simulation",
     "Grading": "grading",
@@ -132,6 +137,10 @@ __all__ = [
     "tile",
     "consolidate",
     "settle",
+    "triaxial",
+    "oedometer",
+    "isotropic_compression",
+    "element_table",
     "void_ratio_limits",
     "VoidRatioLimits",
     "DensityWindowWarning",

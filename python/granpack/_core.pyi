@@ -411,6 +411,23 @@ class Simulation:
         step on (finite, >= 0)."""
     def set_rolling_friction(self, rolling_friction: float) -> None:
         """Sets mu_r (-) from the next step on; refused without a rolling model."""
+    def set_wall_friction(self, friction: float | None = None) -> None:
+        """Gives the walls their own mu (-) from the next step on; None: the material's."""
+    def shear(
+        self,
+        axial: int,
+        axial_speed: float,
+        lateral: list[int],
+        *,
+        confining: float | None = None,
+        mean_stress: float | None = None,
+        steps: int,
+        max_wall_speed: float,
+        gain: float,
+        local_damping: float,
+    ) -> None:
+        """The triaxial drive: the lid in at axial_speed (m/s), the side walls' servo at
+        confining (Pa) or at the mean stress; `steps` steps, GIL released."""
     def clone(self) -> Simulation:
         """A copy of the engine's whole state: stepping it gives the original's bits."""
 

@@ -230,6 +230,8 @@ def _deposit_at(
     steps = stages.with_spec(stages.plan(scene), "deposit", spec)
     steps = stages.with_spec(steps, "rest", rest_stage.Spec(tol) if settles else None)
     steps = stages.with_spec(steps, "consolidate", None)
+    for name in stages.ELEMENT_STAGES:  # they run on the pack the search finds
+        steps = stages.with_spec(steps, name, None)
     with warnings.catch_warnings():
         if settles or scene.consolidate is not None:
             # the deposit is brought to rest right after (settled below, or consolidated

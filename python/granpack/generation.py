@@ -24,11 +24,13 @@ def generate(
     height) until the height reaches `scene.height`, with the flat top (`trim`) where
     the scene asks; then each stage the scene lists, in the order of
     `granpack.stages.STAGES`: the settling to rest (`rest_tol`), the consolidation
-    (`[consolidate]`). Each stage adds its record to the pack's `history`. A scene with
-    a density target (``target_phi``, ``target_void_ratio`` or
+    (`[consolidate]`), the element test on the consolidated sample (`[triaxial]`,
+    `[oedometer]` or `[isotropic]`). Each stage adds its record to the pack's
+    `history`. A scene with a density target (``target_phi``, ``target_void_ratio`` or
     ``target_relative_density``) is built by the density target's search
-    (`granpack.density.run`), which runs that list again with the deposit's friction
-    changed and so may generate several packs of the scene (docs/density.md).
+    (`granpack.density.run`), which runs that list up to the consolidation again with
+    the deposit's friction changed and so may generate several packs of the scene
+    (docs/density.md); the element test then runs on the pack it finds.
 
     Parameters
     ----------
@@ -54,9 +56,16 @@ def generate(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
     target = density.spec_of(scene)
-    if target is not None:
-        return density.run(scene, target, progress)
     t0 = time.perf_counter()
+    if target is not None:
+        pack = density.run(scene, target, progress)
+        tests = [s for s in stages.plan(scene) if s.stage in stages.ELEMENT_STAGES]
+        if not tests:
+            return pack
+        # the element test runs on the sample at the density target
+        for step in tests:
+            pack = stages.run_step(pack, step, progress)
+        return dataclasses.replace(pack, wall_time=time.perf_counter() - t0)
     steps = stages.plan(scene)
     pack = stages.run(scene, steps, progress, _stacklevel=3)
     if len(steps) > 1:

@@ -19,7 +19,16 @@ __all__ = ["StageRecord", "STAGE_NAMES", "TABLE_NAMES", "stage_table"]
 
 #: The stages a pack's history can hold, in the order `generate` runs them (the tiling
 #: is `granpack.tile`'s, on a finished pack).
-STAGE_NAMES = ("trim", "rest", "consolidate", "density", "tile")
+STAGE_NAMES = (
+    "trim",
+    "rest",
+    "consolidate",
+    "density",
+    "tile",
+    "triaxial",
+    "oedometer",
+    "isotropic",
+)
 
 #: Each stage's table in a 0.1.0 pack file (and its `Pack` attribute then).
 TABLE_NAMES = {
@@ -55,6 +64,11 @@ _LAYOUT: dict[str, tuple[tuple[str, ...], bool, bool]] = {
     ),
     "density": (("target", "target_phi", "density_tol"), False, True),
     "tile": (("counts",), False, False),
+    # the element tests came after 0.1.0: their tables are their records' settings and
+    # report together
+    "triaxial": ((), True, True),
+    "oedometer": ((), True, True),
+    "isotropic": ((), True, True),
 }
 
 
@@ -65,7 +79,8 @@ class StageRecord:
     Attributes
     ----------
     stage : str
-        The stage: "trim", "rest", "consolidate", "density" or "tile".
+        The stage: "trim", "rest", "consolidate", "density", "tile", or an element
+        test: "triaxial", "oedometer" or "isotropic".
     settings : dict
         What it ran with (its settings, the defaults it chose included).
     report : dict

@@ -262,6 +262,9 @@ def _history(meta: dict, version: int, dim: int, n: int) -> tuple[StageRecord, .
         "consolidate": _consolidation_record,
         "density": _density_record,
         "tile": lambda table: _tiled_record(table, dim, n),
+        "triaxial": _element_record,
+        "oedometer": _element_record,
+        "isotropic": _element_record,
     }
     if version >= 2:
         history = meta.get("history", [])
@@ -271,7 +274,11 @@ def _history(meta: dict, version: int, dim: int, n: int) -> tuple[StageRecord, .
         for rec in records:
             checks[rec.stage](rec.table())
         return records
-    tables = {stage: check(meta.get(TABLE_NAMES[stage])) for stage, check in checks.items()}
+    tables = {
+        stage: check(meta.get(TABLE_NAMES[stage]))
+        for stage, check in checks.items()
+        if stage in TABLE_NAMES  # the stages that 0.1.0 had
+    }
     return tuple(
         StageRecord.from_table(stage, table) for stage, table in tables.items() if table is not None
     )
@@ -320,6 +327,19 @@ def _checked_record(value, name: str, key: str, what: str) -> dict | None:
         return None
     if not isinstance(value, dict) or not math.isfinite(float(value[key])):
         raise ValueError(f"{name} record: expected a table with a finite {what}")
+    return value
+
+
+def _element_record(value) -> dict:
+    """An element test's record of a pack file: its table must be columns of one length."""
+    if not isinstance(value, dict):
+        raise ValueError(f"an element test's record is {type(value).__name__}, expected a table")
+    table = value.get("table")
+    if not isinstance(table, dict) or not table:
+        raise ValueError("an element test's record holds no 'table' of columns")
+    lengths = {k: len(v) if isinstance(v, list) else -1 for k, v in table.items()}
+    if len(set(lengths.values())) != 1 or min(lengths.values()) < 1:
+        raise ValueError(f"an element test's table has columns of lengths {lengths}")
     return value
 
 

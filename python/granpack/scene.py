@@ -282,6 +282,19 @@ class PackScene:
         servo holds the stress, then restores it (needs ``consolidate``); "auto"
         (default) does the servo's when the scene consolidates and the recipe's pack is
         looser than the target, and the deposition's otherwise.
+    triaxial : dict or None
+        A ``[triaxial]`` table: `granpack.triaxial`'s keyword arguments (``confining``,
+        ``axial_strain``, ``inertial_number``, ``constant_p``, ``checks``, ``gravity``,
+        ``local_damping``, ``gain``, ``wall_friction``, ``dt``; each optional), run on
+        the consolidated pack (needs ``consolidate``). None (default): no triaxial test.
+    oedometer : dict or None
+        An ``[oedometer]`` table: `granpack.oedometer`'s keyword arguments
+        (``stresses`` needed, Pa), run on the consolidated pack (needs ``consolidate``).
+        None (default).
+    isotropic : dict or None
+        An ``[isotropic]`` table: `granpack.isotropic_compression`'s keyword arguments
+        (``stresses`` needed, Pa), run on the consolidated pack (needs ``consolidate``).
+        None (default). A scene gives one of the three element tables at most.
     """
 
     dim: int = 2
@@ -327,6 +340,9 @@ class PackScene:
     target_relative_density: float | None = None
     density_tol: float | None = None
     density_method: DensityMethod = _core.DEFAULT_DENSITY["density_method"]
+    triaxial: dict | None = None
+    oedometer: dict | None = None
+    isotropic: dict | None = None
 
     def __post_init__(self) -> None:
         s = object.__setattr__
@@ -379,6 +395,14 @@ class PackScene:
         # the scene (keys, ranges, the mode against the container, the stresses and the
         # step against these radii and this material), now rather than after the deposit
         s(self, "consolidate", resolved["consolidate"])
+        if any(getattr(self, k) is not None for k in _ELEMENT_KEYS):
+            # the element tests' own checks of their settings (granpack.element.run),
+            # now rather than after the deposit and the consolidation; the engine's
+            # scene does not carry these tables
+            from .stages._element import check_scene_tables
+
+            for key, table in check_scene_tables(self).items():
+                s(self, key, table)
 
     def _check_types(self) -> None:
         """Types every key (`_KEY_TYPES`) without checking its range: a value of the
@@ -425,6 +449,17 @@ class PackScene:
                     )
             elif kind == "consolidate?":
                 pass  # a table of the stage's settings: the engine types and checks it
+            elif kind == "element?":
+                # a table of an element test's settings: its keys and values are checked
+                # once the scene is resolved (`granpack.stages._element`)
+                if not isinstance(value, Mapping):
+                    raise InvalidParameterError(
+                        f"invalid {key} = {short_repr(value)}: expected a table of the "
+                        f"{key} test's settings (e.g. [{key}] in TOML)",
+                        parameter=key,
+                        value=value,
+                        expected="a table",
+                    )
             elif kind == "material":
                 if isinstance(value, Mapping) and not isinstance(value, Material):
                     s(self, key, _material_table(dict(value)))
@@ -781,8 +816,13 @@ _KEY_TYPES: dict[str, str] = {
     "target_relative_density": "real?",
     "density_tol": "real?",
     "density_method": "text",
+    "triaxial": "element?",
+    "oedometer": "element?",
+    "isotropic": "element?",
 }
-_OPTIONAL_KINDS = ("real?", "reals?", "consolidate?")
+_OPTIONAL_KINDS = ("real?", "reals?", "consolidate?", "element?")
+#: The element tests' tables (`granpack.stages.triaxial`, ``oedometer``, ``isotropic``).
+_ELEMENT_KEYS = ("triaxial", "oedometer", "isotropic")
 _UNITS = {
     "base": "m",
     "cylinder_radius": "m",

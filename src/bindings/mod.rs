@@ -623,10 +623,67 @@ impl Simulation {
         )
     }
 
+    /// Runs `steps` steps of the triaxial drive (see `pipeline::shear`) with the GIL
+    /// released: the lid (`axial`) moves in at `axial_speed` (m/s) while the side walls
+    /// `lateral` hold `confining` (Pa), or, given `mean_stress` instead, the lateral
+    /// stress that keeps the walls' mean stress there.
+    #[pyo3(signature = (axial, axial_speed, lateral, *, confining=None, mean_stress=None,
+                        steps, max_wall_speed, gain, local_damping))]
+    #[allow(clippy::too_many_arguments)]
+    fn shear(
+        &mut self,
+        py: Python<'_>,
+        axial: usize,
+        axial_speed: f64,
+        lateral: Vec<usize>,
+        confining: Option<f64>,
+        mean_stress: Option<f64>,
+        steps: u64,
+        max_wall_speed: f64,
+        gain: f64,
+        local_damping: f64,
+    ) -> PyResult<()> {
+        use crate::pipeline::shear::{shear, Lateral, ShearConfig};
+        let target = match (confining, mean_stress) {
+            (Some(s), None) => Lateral::Stress(s),
+            (None, Some(p)) => Lateral::MeanStress(p),
+            _ => {
+                return Err(bad(
+                    "confining",
+                    "give exactly one of confining and mean_stress",
+                ))
+            }
+        };
+        let cfg = ShearConfig {
+            axial,
+            axial_speed,
+            lateral,
+            target,
+            max_wall_speed,
+            gain,
+            local_damping,
+        };
+        let inner = &mut self.inner;
+        py.detach(|| with_world!(inner, w, _D, shear(w, &cfg, steps)))?;
+        Ok(())
+    }
+
     /// Sets the Coulomb friction coefficient (-) of particles and walls from the next
     /// step on (finite, >= 0).
     fn set_friction(&mut self, friction: f64) -> PyResult<()> {
         consolidate::set_friction(&mut self.inner, friction)
+    }
+
+    /// Gives the walls their own Coulomb friction (-) from the next step on (finite,
+    /// >= 0), or the material's again with None.
+    #[pyo3(signature = (friction=None))]
+    fn set_wall_friction(&mut self, friction: Option<f64>) -> PyResult<()> {
+        Ok(with_world!(
+            &mut self.inner,
+            w,
+            _D,
+            w.set_wall_friction(friction)
+        )?)
     }
 
     /// Sets the rolling friction coefficient mu_r (-) from the next step on (finite,

@@ -1,9 +1,11 @@
 //! The time step, the world that owns the state, random sequential addition, the
-//! layer loop and the consolidation stage.
+//! layer loop, the consolidation stage and the strain-controlled drive of the element
+//! tests.
 
 pub mod consolidate;
 pub mod pack;
 pub mod rsa;
+pub mod shear;
 pub mod world;
 
 pub use crate::scene::{DiscreteLaw, FractionsBy, SieveLaw};

@@ -64,7 +64,7 @@ def wrong_values(kind: str) -> st.SearchStrategy:
             st.lists(bad_item, min_size=1, max_size=3),
             st.lists(st.floats(0.01, 1), max_size=1).map(lambda a: [*a, "0.1"]),
         ) | (st.none() if kind == "reals" else st.nothing())
-    if kind == "consolidate?":
+    if kind in ("consolidate?", "element?"):
         return st.one_of(st.floats(), _text, st.lists(st.floats(), max_size=2), st.booleans())
     assert kind == "material"
     return st.one_of(st.floats(), _text, st.lists(st.floats(), max_size=2), st.booleans())
@@ -121,6 +121,7 @@ TOML_WRONG = {
     "reals": ["1.0", 1.0, [True], ["0.1"], {"a": 1.0}],
     "material": [1.0, "steel", [1.0], {"young": "1e7"}],
     "consolidate": [1e5, "1e5", [1e5], {"stress": "1e5"}, {"stress": 1e5, "hold": 1.5}],
+    "element": [1e5, "1e5", [1e5], {"stresses": "1e5"}, {"checks": 1.5}],
 }
 
 
@@ -140,10 +141,11 @@ def _fields(scene: gp.PackScene) -> dict:
 
 
 #: Scene keys the engine reads by attribute (LayerPacker, resolve_scene); the Python
-#: layer runs the trim, the settling at rest, the consolidation stage and the density
-#: target's search.
+#: layer runs the trim, the settling at rest, the consolidation stage, the density
+#: target's search and the element tests.
 PYTHON_KEYS = ("trim", "rest_tol", "consolidate", "target_phi", "target_void_ratio")
 PYTHON_KEYS += ("target_relative_density", "density_tol", "density_method")
+PYTHON_KEYS += ("triaxial", "oedometer", "isotropic")
 ENGINE_KEYS = [k for k in KEYS if k not in PYTHON_KEYS]
 
 

@@ -434,11 +434,29 @@ class ContainerTag:
         return cls(kind, radius, lo, hi, lid)
 
 
+#: The stages that leave a consolidated sample closed by its lid, the walls where they
+#: stopped: the consolidation and the element tests run on it.
+LID_STAGES = ("consolidate", "triaxial", "oedometer", "isotropic")
+
+
+def lid_record(pack) -> dict | None:
+    """The table of the last stage that left a consolidated pack's walls where they are
+    (the consolidation, or an element test run after it: its ``walls`` say where the lid
+    and the side walls stopped, its ``gravity`` whether it ran with gravity); None for a
+    deposit and for what is not a granpack Pack."""
+    if stage_table(pack, "consolidate") is None:
+        return None
+    for rec in reversed(pack.history):
+        if rec.stage in LID_STAGES:
+            table = rec.table()
+            return table if isinstance(table, dict) and "walls" in table else None
+    return None
+
+
 def _consolidation_record(pack) -> dict | None:
-    """The consolidation record of a consolidated pack (its history's "consolidate"
-    table), None for a deposit and for what is not a granpack Pack."""
-    rec = stage_table(pack, "consolidate")
-    return rec if isinstance(rec, dict) and "walls" in rec else None
+    """The walls' record of a consolidated pack (`lid_record`), None for a deposit and
+    for what is not a granpack Pack."""
+    return lid_record(pack)
 
 
 def _number(s: str, name: str, where: str, path: Path) -> float:

@@ -18,8 +18,7 @@ import numpy as np
 
 from .._validate import GranpackError, InvalidParameterError, as_real
 from ..contacts import LID_ID, Contacts
-from ..history import stage_table
-from .container import CONTAINERS, Container, make_container
+from .container import CONTAINERS, Container, lid_record, make_container
 from .inputs import (
     _as_box,
     _as_contacts,
@@ -416,15 +415,18 @@ def _prepare(
 
 def _lid_of(pack, floor: float, given, x: np.ndarray, r: np.ndarray) -> float | None:
     """The height (m) of the lid that closes the sample: `given` (the caller's ``lid=``),
-    else a consolidated Pack's record (its height above the floor at `floor`), else what
-    a file said (``ParticleFile.lid``, the container tag's ``lid=``); None for an open
-    top. A lid that is not a finite height above the floor, or that lies below a
-    particle's centre, is refused."""
-    record = stage_table(pack, "consolidate")
+    else a consolidated Pack's lid as its last stage left it (`lid_record`: its height
+    above the floor at `floor`), else what a file said (``ParticleFile.lid``, the
+    container tag's ``lid=``); None for an open top. A lid that is not a finite height
+    above the floor, or that lies below a particle's centre, is refused."""
+    record = lid_record(pack)
     if given is not None:
         lid = as_real("lid", given, unit="m")
     elif record is not None:
-        return floor + float(record["height"])
+        # where the last stage left the lid: the consolidation, or an element test after it
+        walls = record["walls"]
+        height = record["height"] if "height" in record else walls["lid"] - walls["floor"]
+        return floor + float(height)
     elif pack is not None and getattr(pack, "lid", None) is not None:
         lid = float(pack.lid)
     else:
@@ -483,7 +485,7 @@ def _body_forces(pack, r: np.ndarray, d: int) -> np.ndarray | None:
     scene = getattr(pack, "scene", None) if pack is not None else None
     if scene is None:
         return None
-    record = stage_table(pack, "consolidate")
+    record = lid_record(pack)
     g = 0.0 if record is not None and not record.get("gravity", True) else float(scene.gravity)
     disc = d == 2 and getattr(scene, "inertia_2d", "disc") == "disc"
     vol = np.pi * r * r if disc else 4.0 / 3.0 * np.pi * r**3

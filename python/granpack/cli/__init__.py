@@ -10,6 +10,8 @@
     granpack export DIR/packs/pack_000.npz --format vtk   # vtk | lammps | csv | parquet
     granpack tile DIR/packs/pack_000.npz 4 4 --out big.npz  # a periodic pack, 4 x 4 copies
     granpack consolidate DIR/packs/pack_000.npz --stress 1e5 --mode oedometric
+    granpack triaxial sample.npz -o tri.npz --axial-strain 0.2   # on a consolidated pack
+    granpack oedometer sample.npz --stresses 50e3,100e3,200e3,100e3 -o oed.npz
     granpack generate 4.3 --consolidate 1e5 --target-phi 0.62   # a density target
     granpack limits 4.3 --packs 5 --fast             # the model's e_min and e_max
 
@@ -41,7 +43,18 @@ __all__ = ["main", "build_parser"]
 
 #: The commands, in the order of ``granpack --help``; each is the module of that name in
 #: this package, with HELP, DESCRIPTION, ``add_arguments(parser)`` and ``run(args, console)``.
-COMMANDS = ("generate", "paper", "analyze", "export", "tile", "consolidate", "limits")
+COMMANDS = (
+    "generate",
+    "paper",
+    "analyze",
+    "export",
+    "tile",
+    "consolidate",
+    "triaxial",
+    "oedometer",
+    "isotropic",
+    "limits",
+)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

@@ -2,11 +2,14 @@
 
 `generate` runs the deposit (the layer loop, `granpack.stages.deposit`), then each stage
 the scene lists, in the order of `STAGES`: the settling to rest (``rest_tol``,
-`granpack.stages.rest`) and the consolidation (``[consolidate]``,
-`granpack.stages.consolidate`). The tiling (`granpack.stages.tile`) runs on a finished
-pack (``granpack tile``). A density target (`granpack.density`) is no step of the list:
-it searches over it, running the list again with the deposit's friction (and rolling
-friction) changed.
+`granpack.stages.rest`), the consolidation (``[consolidate]``,
+`granpack.stages.consolidate`) and an element test on the consolidated sample
+(``[triaxial]``, ``[oedometer]`` or ``[isotropic]``: `granpack.stages.triaxial`,
+`granpack.stages.oedometer`, `granpack.stages.isotropic`). The tiling
+(`granpack.stages.tile`) runs on a finished pack (``granpack tile``). A density target
+(`granpack.density`) is no step of the list: it searches over the list up to the
+consolidation, running it again with the deposit's friction (and rolling friction)
+changed; the element test runs on the pack it finds.
 
 Every module holds
 
@@ -29,9 +32,18 @@ from typing import Any
 
 from ..pack import Pack
 from ..scene import PackScene
-from . import consolidate, deposit, rest, tile
+from . import consolidate, deposit, isotropic, oedometer, rest, tile, triaxial
 
-__all__ = ["STAGES", "Step", "plan", "replace_spec", "run", "with_spec"]
+__all__ = [
+    "STAGES",
+    "ELEMENT_STAGES",
+    "Step",
+    "plan",
+    "replace_spec",
+    "run",
+    "run_step",
+    "with_spec",
+]
 
 #: The stages by name, in the order they run after the deposit (which runs first).
 #: The tiling's ``spec_of`` is always None: no scene asks for it.
@@ -39,9 +51,16 @@ STAGES = (
     ("deposit", deposit),
     ("rest", rest),
     ("consolidate", consolidate),
+    ("triaxial", triaxial),
+    ("oedometer", oedometer),
+    ("isotropic", isotropic),
     ("tile", tile),
 )
 _MODULES = dict(STAGES)
+
+#: The element tests: the stages that run on the consolidated sample (a scene asks for
+#: one at most).
+ELEMENT_STAGES = ("triaxial", "oedometer", "isotropic")
 
 
 @dataclass(frozen=True)
@@ -91,8 +110,15 @@ def run(
         raise ValueError(f"a stage list starts with the deposit, not {first.stage!r}")
     pack = deposit.run(scene, first.spec, progress, _stacklevel=_stacklevel + 1)
     for step in others:
-        pack = _MODULES[step.stage].run(pack, step.spec, progress)
+        pack = run_step(pack, step, progress)
     return pack
+
+
+def run_step(pack: Pack, step: Step, progress: bool | Callable[[dict], None] = False) -> Pack:
+    """Runs one stage after the deposit, `step`, on `pack`."""
+    if step.stage == "deposit":
+        raise ValueError("the deposit starts from the scene, not from a pack: use run")
+    return _MODULES[step.stage].run(pack, step.spec, progress)
 
 
 def replace_spec(spec: Any, **changes: Any) -> Any:

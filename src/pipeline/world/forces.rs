@@ -291,7 +291,8 @@ where
                 e_star: self.e_star,
                 g_star: self.g_star,
                 damping: mat.damping,
-                friction: mat.friction,
+                // walls only (the pairs' friction is in `law`)
+                friction: self.wall_friction.unwrap_or(mat.friction),
             },
             law: mat.law,
             roll: law.roll,

@@ -174,6 +174,9 @@ where
     wall_work: Real,
     /// Local non-viscous damping coefficient (-), 0 (off) unless a stage sets it.
     local_damping: Real,
+    /// The walls' Coulomb friction (-) where it differs from the particles' (the
+    /// element tests' smooth platens); None: the material's friction.
+    wall_friction: Option<Real>,
 }
 
 type Ang<const D: usize> = <Dim<D> as Spatial<D>>::Ang;
@@ -218,6 +221,7 @@ where
             wall_travel: 0.0,
             wall_work: 0.0,
             local_damping: 0.0,
+            wall_friction: None,
         })
     }
 
@@ -413,6 +417,17 @@ where
     pub fn set_friction(&mut self, mu: Real) -> Result<()> {
         check_range("friction", mu, 0.0, true, f64::INFINITY, false)?;
         self.cfg.material.friction = mu;
+        Ok(())
+    }
+
+    /// Gives the walls their own Coulomb friction coefficient (-) from the next step
+    /// on (finite, >= 0), or the material's again with None. The particles' friction
+    /// stays; a wall contact's spring keeps its history and slides at the new cap.
+    pub fn set_wall_friction(&mut self, mu: Option<Real>) -> Result<()> {
+        if let Some(m) = mu {
+            check_range("wall_friction", m, 0.0, true, f64::INFINITY, false)?;
+        }
+        self.wall_friction = mu;
         Ok(())
     }
 

@@ -251,6 +251,11 @@ where
         self.wall_rate.iter_mut().for_each(|r| *r = 0.0);
     }
 
+    /// The extra reach of the walls' near-lists while they move (m).
+    pub fn wall_margin(&self) -> Real {
+        self.wall_margin
+    }
+
     /// The extra reach of the walls' near-lists while they move (m, >= 0).
     pub fn set_wall_margin(&mut self, margin: Real) -> Result<()> {
         check_range("wall_margin", margin, 0.0, true, f64::INFINITY, false)?;
