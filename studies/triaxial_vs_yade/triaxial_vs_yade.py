@@ -118,6 +118,7 @@ def run_granpack(pack, args, out: Path):
         checks=args.checks,
         local_damping=args.local_damping,
         dt=args.dt,
+        **({} if args.wall_friction is None else {"wall_friction": args.wall_friction}),
     )
     wall = time.perf_counter() - t0
     table = gp.element_table(res)
@@ -126,14 +127,19 @@ def run_granpack(pack, args, out: Path):
     n = len(res.radii)
     steps = int(table["step"][-1])
     seconds = float(getattr(rec, "seconds", None) or wall)
+    settings = dict(rec.settings or {})
+    # the stage's seconds hold its re-seating too: the cost per step counts both
+    reseat = int(settings.get("reseat_steps") or 0)
     summary = {
         "particles": n,
-        "dt": float(rec.settings.get("dt", float("nan"))) if rec.settings else None,
+        "dt": float(settings.get("dt", float("nan"))),
         "steps": steps,
+        "reseat_steps": reseat,
         "wall_seconds": seconds,
         "python_seconds": wall,
-        "ns_per_particle_step": seconds / steps / n * 1e9 if steps else None,
+        "ns_per_particle_step": seconds / (steps + reseat) / n * 1e9 if steps else None,
         **summary_figures(table),
+        "settings": settings,
     }
     return table, summary
 
@@ -186,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--wall-friction",
         type=float,
-        help="YADE's wall friction coefficient (default: the particles' mu, as granpack's)",
+        help="the walls' friction coefficient in both codes (default: granpack.triaxial's, 0)",
     )
     p.add_argument("--cpu", type=int, help="pin both codes to this CPU")
     p.add_argument("--codes", default="granpack,yade", help="comma-separated")
@@ -218,6 +224,14 @@ def main(argv: list[str] | None = None) -> int:
             print("granpack:", json.dumps(summary, indent=1), flush=True)
     if "yade" in codes:
         work = Path(args.work) / "yade"
+        # the walls' friction of granpack's run (its record), or smooth walls, its default
+        g_settings = summaries.get("granpack", {}).get("settings", {})
+        if args.wall_friction is not None:
+            wall_friction = args.wall_friction
+        elif "wall_friction" in g_settings:
+            wall_friction = g_settings["wall_friction"]  # None: the particles' mu
+        else:
+            wall_friction = 0.0
         # the same dt as granpack's run; without it, the one granpack's stage defaults to
         dt = (
             args.dt
@@ -234,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
             args.axial_strain / args.checks,
             work,
             max_vel=args.max_vel,
-            wall_friction=args.wall_friction,
+            wall_friction=wall_friction,
             cpu=args.cpu,
         )
         table.write_csv(out / "yade_triaxial.csv")
@@ -248,6 +262,9 @@ def main(argv: list[str] | None = None) -> int:
             "ns_per_particle_step": ys["ns_per_particle_step"],
             "lid_speed": ys["lid_speed"],
             "wall_friction": ys["wall_friction"],
+            "reseat_steps": ys["reseat_steps"],
+            "reseat_converged": ys["reseat_converged"],
+            "H0": ys["H0"],
             "sigma_3_max_rel_error": float((table["sigma_3"] / args.confining - 1.0).abs().max()),
             **summary_figures(table),
         }

@@ -109,6 +109,7 @@ walls = {
 }
 ids = {k: O.bodies.append(b) for k, b in walls.items()}
 sigma3 = cfg["confining"]
+reseat = cfg["reseat"]  # None, or the consolidation's targets and tolerances
 triax = TriaxialStressController(
     internalCompaction=False,
     thickness=0.0,  # planes: a wall's face is its position
@@ -120,7 +121,13 @@ triax = TriaxialStressController(
     # deactivated: the controller zeroes their velocity; the lid's is set after it
     wall_bottom_activated=False, wall_top_activated=False,
 )
-lid = TranslationEngine(ids=[ids["top"]], translationAxis=(0, -1, 0), velocity=cfg["lid_speed"])
+lid = TranslationEngine(ids=[ids["top"]], translationAxis=(0, -1, 0), velocity=0.0)
+if reseat:
+    # back to equilibrium at the consolidation's targets first: the lid by stress too
+    triax.stressMask = 7
+    triax.wall_top_activated = True
+    triax.goal1, triax.goal2, triax.goal3 = (-reseat["x"], -reseat["lid"], -reseat["y"])
+    lid.dead = True
 g = cfg["gravity"]
 O.engines = [
     ForceResetter(),
@@ -133,8 +140,8 @@ O.engines = [
     ),
     triax,
     lid,
-    # the check: after this step's forces, before NewtonIntegrator moves anything
-    PyRunner(iterPeriod=cfg["check_every"], initRun=True, command="check()"),
+    # every step, after this step's forces and before NewtonIntegrator moves anything
+    PyRunner(iterPeriod=1, initRun=True, command="tick()"),
     NewtonIntegrator(damping=cfg["newton_damping"], gravity=(0, -g, 0)),
 ]
 O.dt = cfg["dt"]
@@ -142,43 +149,101 @@ n = len(xyzr)
 solid = float(np.sum(4.0 / 3.0 * math.pi * xyzr[:, 3] ** 3))
 rows = []
 spent = [0.0]
+state = {"phase": "reseat" if reseat else "shear", "held": 0, "start": 0, "t0": 0.0,
+         "h0": h0, "reseat_steps": 0, "reseat_converged": None, "reseat_seconds": 0.0}
+wall_ids = set(ids.values())
 
 
-def check():
-    t0 = time.perf_counter()
+def wall_state():
     f = {k: O.forces.f(i) for k, i in ids.items()}
     pos = {k: O.bodies[i].state.pos for k, i in ids.items()}
     h = pos["top"][1] - pos["bottom"][1]
     wx = pos["right"][0] - pos["left"][0]
     wy = pos["front"][2] - pos["back"][2]  # granpack's y
     # the spheres push each wall outwards: compression positive
-    s_lid = f["top"][1] / (wx * wy)
-    s_floor = -f["bottom"][1] / (wx * wy)
-    s_xlo, s_xhi = -f["left"][0] / (wy * h), f["right"][0] / (wy * h)
-    s_ylo, s_yhi = -f["back"][2] / (wx * h), f["front"][2] / (wx * h)
-    vol = wx * wy * h
+    return {
+        "lid_height": h, "width_x": wx, "width_y": wy,
+        "sigma_1": f["top"][1] / (wx * wy), "sigma_floor": -f["bottom"][1] / (wx * wy),
+        "sigma_x_lo": -f["left"][0] / (wy * h), "sigma_x_hi": f["right"][0] / (wy * h),
+        "sigma_y_lo": -f["back"][2] / (wx * h), "sigma_y_hi": f["front"][2] / (wx * h),
+        "volume": wx * wy * h,
+    }
+
+
+def check():
+    t0 = time.perf_counter()
+    row = wall_state()
     contacts = sum(
         1 for I in O.interactions
         if I.isReal and I.id1 not in wall_ids and I.id2 not in wall_ids
     )
-    rows.append({
-        "step": O.iter, "time": O.time, "lid_height": h, "width_x": wx, "width_y": wy,
-        "sigma_1": s_lid, "sigma_floor": s_floor, "sigma_x_lo": s_xlo, "sigma_x_hi": s_xhi,
-        "sigma_y_lo": s_ylo, "sigma_y_hi": s_yhi, "volume": vol, "phi": solid / vol,
-        "unbalanced": utils.unbalancedForce(), "contacts": contacts,
+    row.update({
+        "step": O.iter - state["start"], "time": O.time - state["t0"],
+        "phi": solid / row["volume"], "unbalanced": utils.unbalancedForce(),
+        "contacts": contacts,
     })
-    print(O.iter, (h0 - h) / h0, s_lid, 0.25 * (s_xlo + s_xhi + s_ylo + s_yhi), flush=True)
+    rows.append(row)
+    s3 = 0.25 * (row["sigma_x_lo"] + row["sigma_x_hi"] + row["sigma_y_lo"] + row["sigma_y_hi"])
+    print(row["step"], (state["h0"] - row["lid_height"]) / state["h0"], row["sigma_1"], s3,
+          flush=True)
     spent[0] += time.perf_counter() - t0
 
 
-wall_ids = set(ids.values())
+def start_shear(inside_step=True):
+    # the lid by speed from this step on; H0 and the clock taken here
+    state["phase"] = "shear"
+    state["start"], state["t0"] = O.iter, O.time
+    state["h0"] = O.bodies[ids["top"]].state.pos[1] - O.bodies[ids["bottom"]].state.pos[1]
+    v = cfg["strain_rate"] * state["h0"]
+    triax.stressMask = 5
+    triax.goal1, triax.goal2, triax.goal3 = -sigma3, 0.0, -sigma3
+    triax.wall_top_activated = False
+    lid.velocity = v
+    lid.dead = False
+    if inside_step:
+        # this step's motion too: NewtonIntegrator moves the lid next, by this velocity
+        # (before the first step the lid is at rest: TranslationEngine sets its velocity
+        # after the first contact forces, which see no lid motion)
+        O.bodies[ids["top"]].state.vel = (0.0, -v, 0.0)
+
+
+def tick():
+    if state["phase"] == "reseat":
+        k = O.iter
+        if k % reseat["check_every"] == 0:
+            w = wall_state()
+            err = max(
+                abs(w["sigma_1"] - reseat["lid"]) / reseat["lid"],
+                *(abs(w[c] - reseat["x"]) / reseat["x"] for c in ("sigma_x_lo", "sigma_x_hi")),
+                *(abs(w[c] - reseat["y"]) / reseat["y"] for c in ("sigma_y_lo", "sigma_y_hi")),
+            )
+            ok = err <= reseat["stress_tol"] and utils.unbalancedForce() <= reseat["unbalanced_tol"]
+            state["held"] = state["held"] + 1 if ok else 0
+            done = state["held"] >= reseat["hold"]
+            if done or k >= reseat["max_steps"]:
+                state["reseat_steps"], state["reseat_converged"] = k, done
+                state["reseat_seconds"] = time.perf_counter() - wall0
+                print("reseated" if done else "reseat budget spent", k, err, flush=True)
+                start_shear()
+    if state["phase"] == "shear":
+        k = O.iter - state["start"]
+        if k % cfg["check_every"] == 0:
+            check()
+        if k >= cfg["steps"]:
+            O.pause()  # at the end of this step: the state after `steps` steps was the last row
+
+
+if not reseat:
+    start_shear(inside_step=False)
 wall0 = time.perf_counter()
-# the check at step N (the state after N steps) runs inside step N + 1, before it moves
-O.run(cfg["steps"] + 1, True)
+O.run()
+O.wait()
 loop = time.perf_counter() - wall0
 json.dump({
     "particles": n, "dt": O.dt, "steps": cfg["steps"], "loop_seconds": loop,
-    "check_seconds": spent[0], "rows": rows,
+    "check_seconds": spent[0], "rows": rows, "H0": state["h0"],
+    "reseat_steps": state["reseat_steps"], "reseat_converged": state["reseat_converged"],
+    "reseat_seconds": state["reseat_seconds"],
 }, open(cfg["result"], "w"))
 """
 
@@ -221,7 +286,9 @@ def run_yade_triaxial(
     workdir: str | Path = "yade_triaxial",
     *,
     max_vel: float = 1.0,
-    wall_friction: float | None = None,
+    wall_friction: float | None = 0.0,
+    reseat: bool = True,
+    reseat_max_steps: int = 200_000,
     cpu: int | None = None,
     yade: str | None = None,
     timeout: float | None = None,
@@ -252,8 +319,16 @@ def run_yade_triaxial(
     max_vel : float
         TriaxialStressController.max_vel (m/s), the side walls' speed cap. Default 1 (YADE's).
     wall_friction : float, optional
-        The walls' friction coefficient (-), in [0, mu]. Default: the particles' mu, as
-        granpack's walls; 0 gives frictionless walls (no end-platen friction).
+        The walls' friction coefficient (-), in [0, mu]. Default 0, smooth walls, as
+        `granpack.triaxial`'s default; None gives them the particles' mu.
+    reseat : bool
+        First bring the sample back to equilibrium at the consolidation's targets (the lid
+        and the side walls by YADE's servo, the consolidation's stress and unbalanced
+        tolerances held for its `hold` checks every `check_every` steps), as
+        `granpack.triaxial` does, and take H0 and V0 there. Default True.
+    reseat_max_steps : int
+        The most steps the re-seating may take before the test starts anyway (the summary
+        says whether it converged). Default 200 000.
     cpu : int, optional
         Pins YADE to this CPU with ``taskset`` where available.
     yade : str, optional
@@ -345,6 +420,7 @@ def run_yade_triaxial(
         "poisson": float(m.poisson),
         "friction": float(m.friction),
         "wall_friction": float(m.friction) if wall_friction is None else float(wall_friction),
+        "reseat": _reseat_settings(settings, reseat_max_steps) if reseat else None,
         "damping_ratio": float(m.damping),
         "confining": confining,
         "lid_speed": eps_dot * h0,
@@ -377,9 +453,12 @@ def run_yade_triaxial(
         tail = (work / "yade.log").read_text()[-3000:]
         raise RuntimeError(f"yade failed (exit {proc.returncode}):\n{tail}")
     res = json.loads((work / "result.json").read_text())
+    h0 = float(res["H0"])  # the lid's height where the shear began (after re-seating)
     table = element_table(res["rows"], h0, solid_volume(pack))
     n = int(res["particles"])
-    stepping = float(res["loop_seconds"]) - float(res["check_seconds"])
+    stepping = (
+        float(res["loop_seconds"]) - float(res["check_seconds"]) - float(res["reseat_seconds"])
+    )
     summary = {
         "particles": n,
         "dt": float(res["dt"]),
@@ -394,6 +473,9 @@ def run_yade_triaxial(
         "local_damping": local_damping,
         "max_vel": max_vel,
         "wall_friction": cfg["wall_friction"],
+        "reseat_steps": int(res["reseat_steps"]),
+        "reseat_converged": res["reseat_converged"],
+        "reseat_seconds": float(res["reseat_seconds"]),
         "loop_seconds": float(res["loop_seconds"]),
         "check_seconds": float(res["check_seconds"]),
         "stepping_seconds": stepping,
@@ -404,6 +486,28 @@ def run_yade_triaxial(
     }
     (work / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     return table
+
+
+def _reseat_settings(settings: dict, max_steps: int) -> dict:
+    """The re-seating's targets (Pa; the x and y pairs' means) and the consolidation's
+    tolerances, for the YADE script."""
+    t = settings["targets"]
+    if not all(k in t for k in ("lid", "x_lo", "x_hi", "y_lo", "y_hi")):
+        raise InvalidParameterError(
+            "invalid reseat = True: the consolidation held no side-wall targets (an "
+            "oedometric one) to re-seat the sample at; give reseat=False",
+            parameter="reseat",
+        )
+    return {
+        "lid": float(t["lid"]),
+        "x": 0.5 * (float(t["x_lo"]) + float(t["x_hi"])),
+        "y": 0.5 * (float(t["y_lo"]) + float(t["y_hi"])),
+        "stress_tol": float(settings["stress_tol"]),
+        "unbalanced_tol": float(settings["unbalanced_tol"]),
+        "hold": int(settings["hold"]),
+        "check_every": int(settings["check_every"]),
+        "max_steps": min(int(settings["max_steps"]), int(max_steps)),
+    }
 
 
 def solid_volume(pack) -> float:
