@@ -123,6 +123,7 @@ def run_granpack(pack, args, out: Path):
     wall = time.perf_counter() - t0
     table = gp.element_table(res)
     rec = res.record("triaxial")
+    assert rec is not None  # the stage records itself
     table.write_csv(out / "granpack_triaxial.csv")
     n = len(res.radii)
     steps = int(table["step"][-1])
