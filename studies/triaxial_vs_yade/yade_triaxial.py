@@ -11,10 +11,16 @@ box [0, base_x] x [0, base_y] x [0, H] of the consolidation's record (floor at z
 the record's height). The material is the scene's, under YADE's Hertz-Mindlin law
 (``Ip2_FrictMat_FrictMat_MindlinPhys`` with ``betan = betas`` = granpack's damping ratio,
 ``Law2_ScGeom_MindlinPhys_Mindlin``); a plane's contact takes R* = r, as granpack's
-(``Ig2_Wall_Sphere_ScGeom(hertzian=True)``); walls carry the particles' friction.
+(``Ig2_Wall_Sphere_ScGeom(hertzian=True)``). The walls are smooth by default, as
+`granpack.triaxial`'s (``wall_friction``; None gives them the particles' mu).
 
 Loading:
 
+- re-seating first (``reseat``, as `granpack.triaxial`): the tangential springs start at
+  zero, so the friction that held the consolidated sample is gone; the lid and the side
+  walls go back to the consolidation's targets under YADE's servo (``stressMask = 7``, the
+  floor fixed) until the consolidation's stress and unbalanced tolerances hold for its
+  ``hold`` checks, and H0, V0, the step count and the clock start there;
 - the lid moves down at the constant speed v = eps_dot H0 (H0 the lid's height at the start;
   engineering strain rate) by YADE's kinematic ``TranslationEngine``, which sets the lid's
   velocity every step, after the stress controller (which zeroes a deactivated wall's
@@ -34,9 +40,9 @@ YADE's vertical axis is y (``TriaxialStressController``'s "height" is y): granpa
 
 Each check reads the walls' forces and positions in the same state: the check runs after the
 contact forces of the step and before ``NewtonIntegrator`` moves anything, so the row at
-``step`` k is the state after k steps (row 0 is the start). The tangential springs start at
-zero: YADE cannot take granpack's contact history; the normal forces are those of the
-overlaps, the same in both codes.
+``step`` k is the state after k steps of the shear (row 0 is its start). YADE cannot take
+granpack's contact history; the normal forces are those of the overlaps, the same in both
+codes (without re-seating, row 0 gives the consolidated walls' stresses).
 """
 
 from __future__ import annotations
