@@ -24,11 +24,15 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import polars as pl
 
 from .._validate import as_int, as_real
 from ..errors import InvalidParameterError
+
+if TYPE_CHECKING:  # polars is imported on first use: a stage list that runs no test
+    import polars as pl  # (generate) does not pay for it
 
 __all__ = [
     "CS_SHARE",
@@ -65,6 +69,8 @@ def _number(x: float) -> float | None:
 
 def _frame(table: object) -> pl.DataFrame:
     """`table`, checked to be a polars DataFrame."""
+    import polars as pl
+
     if not isinstance(table, pl.DataFrame):
         raise InvalidParameterError(
             f"invalid table: a polars.DataFrame expected (granpack.element_table), "
@@ -92,6 +98,8 @@ def _columns(table: object, names: Sequence[str], *, what: str) -> dict[str, np.
             parameter="table",
             expected="at least 2 rows",
         )
+    import polars as pl
+
     out = {}
     for c in names:
         try:
