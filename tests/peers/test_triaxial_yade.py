@@ -34,7 +34,7 @@ AXIAL = 0.20
 
 def consolidated(base: float, height: float) -> gp.Pack:
     scene = gp.PackScene.preset("4.3").replace(base=(base, base), height=height, seed=1)
-    return gp.consolidate(gp.generate(scene.fast()), CONFINING, mode="isotropic")
+    return gp.consolidate(gp.generate(scene.fast()), CONFINING, mode="isotropic", wall_friction=0.0)
 
 
 @pytest.fixture(scope="module")

@@ -67,6 +67,7 @@ class StartMovedWarning(UserWarning):
     walls compacts by 0.014 in e when the test's walls are smooth). The test runs on the
     moved sample; its settings record by how much (``reseat_void_ratio_change``)."""
 
+
 _C = _core.DEFAULT_CONSOLIDATE
 
 #: The largest inertial number a test may run at: above 0.1 the flow is dense but no
