@@ -664,7 +664,14 @@ impl Simulation {
             local_damping,
         };
         let inner = &mut self.inner;
-        py.detach(|| with_world!(inner, w, _D, shear(w, &cfg, steps)))?;
+        let mut raised = None;
+        py.detach(|| {
+            let mut poll = signal_poll(&mut raised);
+            with_world!(inner, w, _D, shear(w, &cfg, steps, &mut poll))
+        })?;
+        if let Some(e) = raised {
+            return Err(e);
+        }
         Ok(())
     }
 

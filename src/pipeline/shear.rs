@@ -103,9 +103,18 @@ impl ShearConfig {
     }
 }
 
+/// How often a long drive runs `poll` (Python's signal handlers: Ctrl-C).
+const POLL_EVERY: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// Runs `steps` steps of the drive on `world`. The walls keep their speeds when it
-/// returns, so that consecutive calls make one continuous test.
-pub fn shear<const D: usize>(world: &mut World<D>, cfg: &ShearConfig, steps: u64) -> Result<()>
+/// returns, so that consecutive calls make one continuous test. `poll` runs about every
+/// 0.1 s of stepping; returning false stops the drive there (the result: false).
+pub fn shear<const D: usize>(
+    world: &mut World<D>,
+    cfg: &ShearConfig,
+    steps: u64,
+    poll: &mut dyn FnMut() -> bool,
+) -> Result<bool>
 where
     Dim<D>: Spatial<D>,
 {
@@ -142,8 +151,23 @@ where
         w.move_walls(&rates, &loads)?;
         Ok(true)
     };
-    world.step_n_with(steps, &mut drive)?;
-    Ok(())
+    // In chunks of about POLL_EVERY, polling between them on the caller's thread (the
+    // step's team may run the drive elsewhere, where Python sees no signal); the first
+    // short chunk measures the step's cost. The chunks change no bit: the drive runs
+    // before every step either way.
+    let (mut left, mut chunk) = (steps, 16u64);
+    while left > 0 {
+        let k = chunk.min(left);
+        let start = std::time::Instant::now();
+        world.step_n_with(k, &mut drive)?;
+        left -= k;
+        if left > 0 && !poll() {
+            return Ok(false);
+        }
+        let took = start.elapsed().as_secs_f64().max(1e-9);
+        chunk = (k as f64 * POLL_EVERY.as_secs_f64() / took).clamp(1.0, 4.0 * k as f64) as u64;
+    }
+    Ok(true)
 }
 
 #[cfg(test)]
@@ -207,9 +231,9 @@ mod tests {
         let lid = a.wall_count() - 1;
         let cfg = config(lid, 0.01, Lateral::Stress(1e3));
         let dt = a.config().dt;
-        shear(&mut a, &cfg, 600).unwrap();
-        shear(&mut b, &cfg, 300).unwrap();
-        shear(&mut b, &cfg, 300).unwrap();
+        shear(&mut a, &cfg, 600, &mut || true).unwrap();
+        shear(&mut b, &cfg, 300, &mut || true).unwrap();
+        shear(&mut b, &cfg, 300, &mut || true).unwrap();
         let travel = 8.0 * r - a.wall_position(lid);
         assert!((travel - 600.0 * 0.01 * dt).abs() < 1e-12, "{travel}");
         assert_eq!(
@@ -232,7 +256,13 @@ mod tests {
         let mut w = lattice(2, 2, r);
         let lid = w.add_lid(4.0 * r).unwrap();
         // a small push: the lid compresses, the sides carry a little
-        shear(&mut w, &config(lid, 0.01, Lateral::Stress(10.0)), 200).unwrap();
+        shear(
+            &mut w,
+            &config(lid, 0.01, Lateral::Stress(10.0)),
+            200,
+            &mut || true,
+        )
+        .unwrap();
         let loads = w.wall_loads();
         let s1 = loads[lid].force / w.wall_area(lid).unwrap();
         assert!(s1 > 0.0, "the lid carries no load: {s1}");
@@ -242,7 +272,7 @@ mod tests {
             axial_speed: 1e-9,
             ..config(lid, 0.01, Lateral::MeanStress(s1 / 3.0))
         };
-        shear(&mut w, &cfg, 1).unwrap();
+        shear(&mut w, &cfg, 1, &mut || true).unwrap();
         let after = w.wall_position(2);
         assert!(after > before, "x_hi moved in: {before} -> {after}");
     }
@@ -275,7 +305,9 @@ mod tests {
     fn bad_settings_name_their_field() {
         let mut w = lattice(2, 2, 0.01);
         let cfg = config(5, 0.01, Lateral::Stress(1e3));
-        let e = shear(&mut w, &cfg, 1).unwrap_err().to_string();
+        let e = shear(&mut w, &cfg, 1, &mut || true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("axial"), "{e}");
         let lid = w.add_lid(0.04).unwrap();
         for (cfg, key) in [
@@ -293,7 +325,9 @@ mod tests {
                 "lateral",
             ),
         ] {
-            let e = shear(&mut w, &cfg, 1).unwrap_err().to_string();
+            let e = shear(&mut w, &cfg, 1, &mut || true)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(key), "{key}: {e}");
         }
     }

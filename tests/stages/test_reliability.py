@@ -138,6 +138,10 @@ if what == "simulation":
 elif what == "generate":
     scene = gp.PackScene.preset("4.1").replace(base=(0.2,), height=0.06, settle_time=1e3)
     job = lambda: gp.generate(scene)
+elif what == "triaxial":  # a triaxial test at I = 1e-7, in one call of the drive (hours)
+    scene = gp.PackScene.preset("4.3").replace(seed=3, base=(0.3, 0.3), height=0.2).fast()
+    sample = gp.consolidate(gp.generate(scene), 1e5, "isotropic", gravity=False, wall_friction=0)
+    job = lambda: gp.triaxial(sample, inertial_number=1e-7, checks=2)
 else:  # a layer past RSA saturation in a narrow box, allowed a billion attempts (minutes)
     scene = gp.PackScene.preset("4.1").replace(
         base=(0.1,), phi_layer=0.54, max_attempts=10**9, settle_time=0.0
@@ -152,10 +156,10 @@ except KeyboardInterrupt:
 """
 
 
-@pytest.mark.parametrize("what", ["simulation", "generate", "rsa"])
+@pytest.mark.parametrize("what", ["simulation", "generate", "rsa", "triaxial"])
 def test_ctrl_c_stops_a_long_native_call(what):
-    """Simulation.run, a pack's jamming run and its random sequential addition check
-    for signals: Ctrl-C stops a call that would run for hours within a fraction of a
+    """Simulation.run, a pack's jamming run, its random sequential addition and the
+    triaxial test's drive check for signals: Ctrl-C stops a call that would run for hours within a fraction of a
     second."""
     p = subprocess.Popen(
         [sys.executable, "-c", _INTERRUPTIBLE, what], stdout=subprocess.PIPE, text=True
