@@ -159,8 +159,8 @@ except KeyboardInterrupt:
 @pytest.mark.parametrize("what", ["simulation", "generate", "rsa", "triaxial"])
 def test_ctrl_c_stops_a_long_native_call(what):
     """Simulation.run, a pack's jamming run, its random sequential addition and the
-    triaxial test's drive check for signals: Ctrl-C stops a call that would run for hours within a fraction of a
-    second."""
+    triaxial test's drive check for signals: Ctrl-C stops a call that would run for hours
+    within a fraction of a second."""
     p = subprocess.Popen(
         [sys.executable, "-c", _INTERRUPTIBLE, what], stdout=subprocess.PIPE, text=True
     )
