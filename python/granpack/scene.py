@@ -399,7 +399,7 @@ class PackScene:
             # the element tests' own checks of their settings (granpack.element.run),
             # now rather than after the deposit and the consolidation; the engine's
             # scene does not carry these tables
-            from .stages._element import check_scene_tables
+            from .element_settings import check_scene_tables
 
             for key, table in check_scene_tables(self).items():
                 s(self, key, table)
@@ -451,7 +451,7 @@ class PackScene:
                 pass  # a table of the stage's settings: the engine types and checks it
             elif kind == "element?":
                 # a table of an element test's settings: its keys and values are checked
-                # once the scene is resolved (`granpack.stages._element`)
+                # once the scene is resolved (`granpack.element_settings`)
                 if not isinstance(value, Mapping):
                     raise InvalidParameterError(
                         f"invalid {key} = {short_repr(value)}: expected a table of the "

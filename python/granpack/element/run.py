@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from .._validate import short_repr
 from ..analysis.stress import contact_forces, love_weber
 from ..consolidation import (
     INERTIAL_NUMBER,
@@ -44,6 +43,14 @@ from ..consolidation import (
     stage_time_step,
 )
 from ..contacts import LID_ID, Contacts
+from ..element_settings import (
+    DEFAULT_INERTIAL_NUMBER,
+    MAX_INERTIAL_NUMBER,
+    _fail,
+    _path_values,
+    _real,
+    _triaxial_values,
+)
 from ..errors import InvalidParameterError
 from ..history import StageRecord
 from ..pack import Pack
@@ -70,14 +77,6 @@ class StartMovedWarning(UserWarning):
 
 _C = _core.DEFAULT_CONSOLIDATE
 
-#: The largest inertial number a test may run at: above 0.1 the flow is dense but no
-#: longer quasi-static (GDR MiDi 2004), and a lab quantity measured there is the rate's.
-MAX_INERTIAL_NUMBER = 0.1
-
-#: The triaxial's default inertial number: the quasi-static limit of GDR MiDi (2004).
-#: docs/element_tests.md gives what a tenth of it changes.
-DEFAULT_INERTIAL_NUMBER = 1e-3
-
 #: The triaxial's time step is `stage_time_step` at this many times sigma_3: the axial
 #: stress of a dense sample peaks at 3 to 5 sigma_3 (phi_p of 30 to 45 degrees), and the
 #: stiffest contacts must stay resolved there.
@@ -86,38 +85,6 @@ PEAK_STRESS_RATIO = 5.0
 #: The side walls' servo may move them this many times faster than the axial strain rate
 #: would move a wall across the sample's width: room for the dilatancy of a dense sample.
 LATERAL_SPEED_FACTOR = 2.0
-
-#: Most rows (checks) a test records.
-MAX_CHECKS = 100_000
-
-
-def _fail(key: str, value: Any, expected: str, why: str = "") -> InvalidParameterError:
-    return InvalidParameterError(
-        f"invalid {key} = {short_repr(value)}: must be {expected}{why}",
-        parameter=key,
-        value=value,
-        expected=expected,
-    )
-
-
-def _real(key: str, value: Any, lo: float, hi: float, lo_open=True, hi_open=False) -> float:
-    """`value` as a float within (lo, hi] (the brackets as given), or a typed error."""
-    lo_b, hi_b = "(" if lo_open else "[", ")" if hi_open else "]"
-    expected = f"a number in {lo_b}{lo:g}, {hi:g}{hi_b}"
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise _fail(key, value, expected)
-    v = float(value)
-    if not math.isfinite(v):
-        raise _fail(key, value, expected)
-    if (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi):
-        raise _fail(key, value, expected)
-    return v
-
-
-def _count(key: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise _fail(key, value, f"an integer in [{lo}, {hi}]")
-    return int(value)
 
 
 def _consolidated(pack: Any, test: str) -> StageRecord:
@@ -351,54 +318,12 @@ def _table(rows: list[dict]) -> dict[str, list]:
     return cols
 
 
-def _wall_friction(value: Any) -> float | None:
-    if value is None:
-        return None
-    return _real("wall_friction", value, 0.0, math.inf, lo_open=False, hi_open=True)
-
-
 def _gravity(gravity: Any, rec: StageRecord) -> bool:
     if gravity is None:
         return bool(rec.settings.get("gravity", False))
     if not isinstance(gravity, bool):
         raise _fail("gravity", gravity, "True, False or None (the consolidation's)")
     return gravity
-
-
-def _triaxial_values(
-    *,
-    confining: Any,
-    axial_strain: Any,
-    inertial_number: Any,
-    constant_p: Any,
-    checks: Any,
-    local_damping: Any,
-    gain: Any,
-    wall_friction: Any,
-) -> dict[str, Any]:
-    """`triaxial`'s checks of the settings that do not depend on the pack, each value
-    typed (`confining` None stays None: the pack's consolidation gives it); a bad one is
-    an InvalidParameterError naming its key."""
-    return {
-        "confining": None
-        if confining is None
-        else _real("confining", confining, 0.0, _core.MAX_STRESS),
-        "axial_strain": _real("axial_strain", axial_strain, 0.0, 1.0, hi_open=True),
-        "inertial_number": _real("inertial_number", inertial_number, 0.0, MAX_INERTIAL_NUMBER),
-        "constant_p": _flag("constant_p", constant_p),
-        "checks": _count("checks", checks, 2, MAX_CHECKS),
-        "local_damping": _real(
-            "local_damping", local_damping, 0.0, 1.0, lo_open=False, hi_open=True
-        ),
-        "gain": _real("gain", gain, 0.0, 1.0),
-        "wall_friction": _wall_friction(wall_friction),
-    }
-
-
-def _flag(key: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise _fail(key, value, "True or False")
-    return value
 
 
 def triaxial(
@@ -574,59 +499,6 @@ def triaxial(
         "lab": lab.triaxial_report(_frame(table), rig.dim),
     }
     return rig.final_pack("triaxial", settings, report, seconds, total)
-
-
-def _stresses(stresses: Any) -> list[float]:
-    if isinstance(stresses, (str, bytes)) or not isinstance(stresses, Sequence | np.ndarray):
-        raise _fail("stresses", stresses, "a list of stresses in (0, 1e12] Pa")
-    if len(stresses) == 0:
-        raise InvalidParameterError(
-            "invalid stresses = []: give at least one stress (Pa) to load the sample to",
-            parameter="stresses",
-            value=[],
-            expected="a non-empty list of stresses in (0, 1e12] Pa",
-        )
-    return [_real(f"stresses[{k}]", s, 0.0, _core.MAX_STRESS) for k, s in enumerate(stresses)]
-
-
-def _path_values(
-    scene: Any,
-    *,
-    stresses: Any,
-    stress_tol: Any,
-    unbalanced_tol: Any,
-    hold: Any,
-    check_every: Any,
-    max_steps: Any,
-    gain: Any,
-    local_damping: Any,
-    wall_friction: Any,
-) -> dict[str, Any]:
-    """`oedometer`'s and `isotropic_compression`'s checks of the settings that do not
-    depend on the pack, each value typed; a bad one is an InvalidParameterError naming
-    its key. `scene`: the pack's (its dim and container)."""
-    stresses = _stresses(stresses)
-    # the consolidation's checks of its own settings, by the same names
-    checked = dict(
-        _core.resolve_stage(
-            "rest",
-            scene,
-            {
-                "unbalanced_tol": unbalanced_tol,
-                "hold": hold,
-                "check_every": check_every,
-                "max_steps": max_steps,
-                "local_damping": local_damping,
-            },
-        )
-    )
-    return {
-        "stresses": stresses,
-        "stress_tol": _real("stress_tol", stress_tol, 1e-9, 1.0, lo_open=False, hi_open=True),
-        **checked,
-        "gain": _real("gain", gain, 0.0, 1.0),
-        "wall_friction": _wall_friction(wall_friction),
-    }
 
 
 def _stress_path(
