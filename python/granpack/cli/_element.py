@@ -171,3 +171,60 @@ def summary(test: str, rec: Any, table: Any) -> str:
         f"{indices}; "
         f"e {table['e'][0]:.4f} -> {last['e']:.4f}"
     )
+
+
+#: The stress-path commands' arguments and the options that give them, for the errors.
+PATH_OPTIONS = {
+    "stresses": "--stresses",
+    "stress_tol": "--stress-tol",
+    "unbalanced_tol": "--unbalanced-tol",
+    "max_steps": "--max-steps",
+    "wall_friction": "--wall-friction",
+}
+
+
+def add_path_arguments(parser: argparse.ArgumentParser, test: str) -> None:
+    """The options of ``granpack oedometer`` and ``granpack isotropic`` (`test`:
+    "oedometer" or "isotropic"), their defaults the functions'."""
+    from .. import _core
+    from ..element_settings import PATH_DEFAULTS
+
+    c = _core.DEFAULT_CONSOLIDATE
+    add_common(parser, test, wall_friction=PATH_DEFAULTS["wall_friction"])
+    parser.add_argument(
+        "--stresses",
+        type=stresses,
+        required=True,
+        metavar="LIST",
+        help="the stresses (Pa; N/m in 2D) to hold in turn, separated by commas, e.g. "
+        "25e3,50e3,100e3,200e3,100e3,50e3",
+    )
+    for option, key, kind in (
+        ("--stress-tol", "stress_tol", float),
+        ("--unbalanced-tol", "unbalanced_tol", float),
+        ("--max-steps", "max_steps", int),
+    ):
+        parser.add_argument(
+            option, type=kind, default=c[key], help=f"per stress; default: {c[key]:g}"
+        )
+
+
+def run_path(args: argparse.Namespace, console: Console, test: str) -> int:
+    """``granpack oedometer`` or ``granpack isotropic`` on the parsed `args`."""
+    from ..element import isotropic_compression, oedometer
+
+    function = oedometer if test == "oedometer" else isotropic_compression
+    return run_test(
+        args,
+        console,
+        test,
+        lambda pack: function(
+            pack,
+            args.stresses,
+            stress_tol=args.stress_tol,
+            unbalanced_tol=args.unbalanced_tol,
+            max_steps=args.max_steps,
+            wall_friction=args.wall_friction,
+        ),
+        PATH_OPTIONS,
+    )
