@@ -32,7 +32,9 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from ..analysis.coordination import degrees
 from ..analysis.stress import contact_forces, love_weber
+from ..analysis.tensors import fabric_tensor
 from ..consolidation import (
     INERTIAL_NUMBER,
     OVERRUN_FRACTION,
@@ -40,6 +42,7 @@ from ..consolidation import (
     _sample_volume,
     _simulation,
     _volumes,
+    _wall_shift,
     stage_time_step,
 )
 from ..contacts import LID_ID, Contacts
@@ -198,12 +201,11 @@ class _Rig:
         lw_p, lw_q = _p_q(lw1, lw3, self.dim)
         pp = c.particle_pairs()
         n = len(self.pack)
-        degree = np.bincount(pp.i, minlength=n) + np.bincount(pp.j, minlength=n)
+        degree = degrees(pp.i, pp.j, n)
         n1 = int(np.sum(degree == 1))
         active = n - int(np.sum(degree == 0)) - n1
         if len(pp) > 0:
-            nrm = pp.normal
-            fabric = nrm.T @ nrm / len(pp)
+            fabric = fabric_tensor(pp.normal)
             f_zz = float(fabric[-1, -1])
             f_dev = f_zz - float(np.trace(fabric[:-1, :-1]) / (self.dim - 1))
         else:
@@ -267,12 +269,7 @@ class _Rig:
             "height": pos["lid"] - pos["floor"],
             "wall_stress": stress,
             "targets": held,
-            "walls": {
-                n: v
-                + (float(shift[0]) if n.startswith("x_") else 0.0)
-                + (float(shift[1]) if n.startswith("y_") else 0.0)
-                for n, v in pos.items()
-            },
+            "walls": {n: v + _wall_shift(n, shift) for n, v in pos.items()},
         }
         record = StageRecord(
             stage=stage, settings=settings, report=report, seconds=seconds, steps=steps
