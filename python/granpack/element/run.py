@@ -468,8 +468,6 @@ def triaxial(
         done = int(stop)
         rows.append(rig.row(done, done * step, eps_dot))
     seconds = time.perf_counter() - start
-    for r in rows:
-        r["time"] = r["step"] * step
     table = _table(rows)
     settings = {
         "confining": confining,
@@ -585,8 +583,6 @@ def _stress_path(
         rows.append(row)
         previous = target
     seconds = time.perf_counter() - start
-    for r in rows:
-        r["time"] = r["step"] * step
     table = _table(rows)
     settings = {
         "stresses": targets,
