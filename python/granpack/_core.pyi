@@ -41,6 +41,7 @@ __all__ = [
     "cpu_levels",
     "Simulation",
     "LayerPacker",
+    "LayerPlacer",
     "find_contacts",
     "rayleigh_time_step",
     "critical_time_step",
@@ -431,6 +432,23 @@ class Simulation:
         confining (Pa) or at the mean stress; `steps` steps, GIL released."""
     def clone(self) -> Simulation:
         """A copy of the engine's whole state: stepping it gives the original's bits."""
+
+@final
+class LayerPlacer:
+    """The layer loop's placement alone (RSA of one loose layer), seeded as LayerPacker
+    is, for an engine outside granpack that jams each layer (`granpack.mpi`)."""
+
+    def __new__(cls, scene: SceneFields) -> Self: ...
+    @property
+    def layers(self) -> int: ...
+    def place(
+        self,
+        positions: npt.NDArray[np.float64],
+        radii: npt.NDArray[np.float64],
+        height: float,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """The next layer on the particles beneath (height max(z + r), m): its
+        positions (M, D) and radii (M,), in Morton order."""
 
 @final
 class LayerPacker:

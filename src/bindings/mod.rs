@@ -8,7 +8,7 @@
 use crate::error::Error;
 use crate::math::{AngOps, Dim, Real, Spatial, Vector};
 use crate::pipeline::world::{geometric_contacts, Contacts};
-use crate::pipeline::{LayerReport, Packer, RadiusLaw, World};
+use crate::pipeline::{LayerPlacer, LayerReport, Packer, RadiusLaw, World};
 use crate::scene::{fills_box, Container, Inertia2D, SimConfig};
 use crate::scene::{LawSpec, SceneSpec};
 use crate::Material;
@@ -1043,6 +1043,75 @@ fn sample_radii<'py>(
     Ok(Array1::from_vec(r).into_pyarray(py).into_any())
 }
 
+enum PlacerInner {
+    D2(LayerPlacer<2>),
+    D3(LayerPlacer<3>),
+}
+
+/// The layer loop's placement alone (random sequential addition of one loose layer),
+/// for an engine outside granpack that jams each layer (`granpack.mpi`). Seeded as
+/// `LayerPacker` is: on the same particles beneath, each layer is the one the native
+/// layer loop places, in the same order.
+#[pyclass(module = "granpack._core", name = "LayerPlacer")]
+struct PyLayerPlacer {
+    inner: PlacerInner,
+}
+
+#[pymethods]
+impl PyLayerPlacer {
+    /// The placement of `scene` (a `granpack.PackScene`, read by attribute and
+    /// validated as `LayerPacker(scene)` validates it).
+    #[new]
+    fn new(scene: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (spec, _) = scene_spec(scene)?;
+        let inner = match spec.dim {
+            2 => PlacerInner::D2(LayerPlacer::new(spec.checked_config::<2>()?)?),
+            3 => PlacerInner::D3(LayerPlacer::new(spec.checked_config::<3>()?)?),
+            other => return Err(bad("dim", format!("{other}, expected 2 or 3"))),
+        };
+        Ok(PyLayerPlacer { inner })
+    }
+
+    /// Layers placed so far.
+    #[getter]
+    fn layers(&self) -> usize {
+        dispatch!(PlacerInner, &self.inner, p, _D, p.layers())
+    }
+
+    /// The next layer on top of the particles `positions` (N, D) and `radii` (N,) (m),
+    /// whose height max(z + r) is `height` (m): (positions (M, D), radii (M,)) of the
+    /// new layer, in Morton order (GIL released; Ctrl-C raises KeyboardInterrupt and
+    /// the placer is then spent). Only the particles whose top lies above `height` -
+    /// 2 r_max can touch the new slab: any subset that holds them gives the same layer.
+    fn place<'py>(
+        &mut self,
+        py: Python<'py>,
+        positions: PyReadonlyArray2<'py, f64>,
+        radii: PyReadonlyArray1<'py, f64>,
+        height: f64,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let r: Vec<f64> = radii.as_array().to_vec();
+        let inner = &mut self.inner;
+        let mut raised = None;
+        let out = dispatch!(PlacerInner, inner, p, D, {
+            let x = vectors::<D>("positions", &positions)?;
+            let placed = py.detach(|| {
+                let mut poll = signal_poll(&mut raised);
+                p.place_polled((&x, &r), height, &mut poll)
+            })?;
+            match (placed, raised) {
+                (_, Some(e)) => Err(e),
+                (Some((x, r)), None) => Ok((
+                    vec_to_py(py, &x),
+                    Array1::from_vec(r).into_pyarray(py).into_any(),
+                )),
+                (None, None) => Err(PyRuntimeError::new_err("the placement was stopped midway")),
+            }
+        });
+        out
+    }
+}
+
 /// The layer packer's state as `LayerPacker.state` and `finish` give it: positions,
 /// velocities, spins, radii, layer, time.
 fn packer_state_to_py<'py, const D: usize, A: AngOps>(
@@ -1454,6 +1523,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_STEPS_PER_LAYER", crate::scene::MAX_STEPS_PER_LAYER)?;
     m.add_class::<Simulation>()?;
     m.add_class::<LayerPacker>()?;
+    m.add_class::<PyLayerPlacer>()?;
     m.add_function(wrap_pyfunction!(find_contacts, m)?)?;
     m.add_function(wrap_pyfunction!(rayleigh_time_step, m)?)?;
     m.add_function(wrap_pyfunction!(critical_time_step, m)?)?;

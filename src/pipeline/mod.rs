@@ -10,5 +10,5 @@ pub mod world;
 
 pub use crate::scene::{DiscreteLaw, FractionsBy, SieveLaw};
 pub use consolidate::{consolidate, ConsolidateConfig, ConsolidateReport, ServoCheck, ServoTarget};
-pub use pack::{LayerReport, PackConfig, Packer, RadiusLaw};
+pub use pack::{LayerPlacer, LayerReport, PackConfig, Packer, RadiusLaw};
 pub use world::{Contacts, FreezeConfig, World};

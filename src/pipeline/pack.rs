@@ -197,24 +197,14 @@ where
                 ),
             ));
         }
-        let v = <Dim<D> as Spatial<D>>::VERTICAL;
-        let mut hi = self.cfg.base;
-        hi[v] = Real::INFINITY;
         // in a periodic cell the placement needs the positions wrapped into the cell
         let existing = self.world.positions_in_cell();
-        let spec = LayerSpec {
-            container: self.cfg.sim.container,
-            lo: Vector::<D>::zeros(),
-            hi,
-            vertical: v,
-            height: self.height,
-            h_layer: self.cfg.h_layer,
-            phi_layer: self.cfg.phi_layer,
-            radii: self.cfg.radii.clone(),
-            max_attempts: self.cfg.max_attempts,
-            existing: (&existing, self.world.radii()),
+        let spec = layer_spec(
+            &self.cfg,
+            (&existing, self.world.radii()),
+            self.height,
             layer,
-        };
+        );
         // The placement polls on every few thousand failed attempts; Python is asked
         // only every POLL_EVERY of wall time.
         let mut last = Instant::now();
@@ -231,9 +221,7 @@ where
         // Store the layer in Morton order: neighbours in space become neighbours in
         // memory, which keeps the pair loop in cache. Particle ids follow this order
         // (and, from RESORT_MIN_LAYER particles a layer, the whole pack's below).
-        let order = morton_order(&x, 2.0 * self.cfg.radii.r_max());
-        let x: Vec<Vector<D>> = order.iter().map(|&k| x[k]).collect();
-        let r: Vec<Real> = order.iter().map(|&k| r[k]).collect();
+        let (x, r) = in_morton_order(x, r, self.cfg.radii.r_max());
         let added = x.len();
         let vol: Real = r
             .iter()
@@ -469,6 +457,161 @@ where
             progress(&rep);
         }
         Ok(())
+    }
+}
+
+/// The RSA inputs of layer `layer` on top of `existing` (positions wrapped into a
+/// periodic cell, radii), whose height is `height` (m): the layer loop's, for either
+/// engine.
+fn layer_spec<'a, const D: usize>(
+    cfg: &PackConfig<D>,
+    existing: (&'a [Vector<D>], &'a [Real]),
+    height: Real,
+    layer: usize,
+) -> LayerSpec<'a, D>
+where
+    Dim<D>: Spatial<D>,
+{
+    let v = <Dim<D> as Spatial<D>>::VERTICAL;
+    let mut hi = cfg.base;
+    hi[v] = Real::INFINITY;
+    LayerSpec {
+        container: cfg.sim.container,
+        lo: Vector::<D>::zeros(),
+        hi,
+        vertical: v,
+        height,
+        h_layer: cfg.h_layer,
+        phi_layer: cfg.phi_layer,
+        radii: cfg.radii.clone(),
+        max_attempts: cfg.max_attempts,
+        existing,
+        layer,
+    }
+}
+
+/// A layer's centres and radii in Morton order (cells of one diameter 2 `r_max`).
+fn in_morton_order<const D: usize>(
+    x: Vec<Vector<D>>,
+    r: Vec<Real>,
+    r_max: Real,
+) -> (Vec<Vector<D>>, Vec<Real>) {
+    let order = morton_order(&x, 2.0 * r_max);
+    (
+        order.iter().map(|&k| x[k]).collect(),
+        order.iter().map(|&k| r[k]).collect(),
+    )
+}
+
+/// The layer loop's placement without its DEM: for another engine that jams each layer
+/// itself (granpack's LAMMPS path). Seeded as [`Packer`] is, it draws the same random
+/// numbers: given the same particles beneath, each layer is the one [`Packer`] places,
+/// in the same order.
+pub struct LayerPlacer<const D: usize>
+where
+    Dim<D>: Spatial<D>,
+{
+    cfg: PackConfig<D>,
+    rng: ChaCha8Rng,
+    layer: usize,
+    /// A placement was stopped midway by the poll.
+    stopped: bool,
+}
+
+impl<const D: usize> LayerPlacer<D>
+where
+    Dim<D>: Spatial<D>,
+{
+    /// Validates the scene as [`Packer::new`] does and seeds the generator as it does.
+    pub fn new(cfg: PackConfig<D>) -> Result<Self> {
+        cfg.validate()?;
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        rng.set_stream(cfg.stream);
+        Ok(LayerPlacer {
+            cfg,
+            rng,
+            layer: 0,
+            stopped: false,
+        })
+    }
+
+    /// The scene.
+    pub fn config(&self) -> &PackConfig<D> {
+        &self.cfg
+    }
+
+    /// Layers placed so far.
+    pub fn layers(&self) -> usize {
+        self.layer
+    }
+
+    /// Places the next layer on top of `existing` (positions, radii; positions outside a
+    /// periodic cell are wrapped into it), whose height max(z + r) is `height` (m).
+    /// Returns the new centres and radii in Morton order, or None when `poll` stopped
+    /// the placement (the placer then refuses further layers). Refused once
+    /// `max_layers` layers were placed.
+    pub fn place_polled(
+        &mut self,
+        existing: (&[Vector<D>], &[Real]),
+        height: Real,
+        poll: &mut dyn FnMut() -> bool,
+    ) -> Result<Option<(Vec<Vector<D>>, Vec<Real>)>> {
+        if self.stopped {
+            return Err(Error::invalid(
+                "placer",
+                "stopped",
+                "a placement was interrupted midway; start a new pack",
+            ));
+        }
+        if self.layer >= self.cfg.max_layers {
+            return Err(Error::invalid(
+                "max_layers",
+                self.cfg.max_layers,
+                &format!(
+                    "reached before the pack grew to height = {} m (now {:.4} m)",
+                    self.cfg.height, height
+                ),
+            ));
+        }
+        if existing.0.len() != existing.1.len() {
+            return Err(Error::invalid(
+                "radii",
+                existing.1.len(),
+                &format!("must have one radius per position ({})", existing.0.len()),
+            ));
+        }
+        if !height.is_finite() || height < 0.0 {
+            return Err(Error::invalid(
+                "height",
+                height,
+                "must be finite and >= 0 (m)",
+            ));
+        }
+        let wrapped: Vec<Vector<D>>;
+        let positions = match self.cfg.sim.container {
+            crate::scene::Container::Periodic => {
+                let (lo, hi) = self.cfg.corners();
+                let per = crate::geometry::Period::lateral(&lo, &hi);
+                wrapped = existing.0.iter().map(|x| per.wrap(*x)).collect();
+                &wrapped[..]
+            }
+            _ => existing.0,
+        };
+        let spec = layer_spec(&self.cfg, (positions, existing.1), height, self.layer);
+        let mut last = Instant::now();
+        let mut gated = || {
+            if last.elapsed() < POLL_EVERY {
+                return true;
+            }
+            last = Instant::now();
+            poll()
+        };
+        let Some((x, r)) = place_layer_polled(&spec, &mut self.rng, &mut gated)? else {
+            self.stopped = true;
+            return Ok(None);
+        };
+        self.layer += 1;
+        Ok(Some(in_morton_order(x, r, self.cfg.radii.r_max())))
     }
 }
 
