@@ -103,6 +103,10 @@ class Pack:
         ("consolidate"), the density target ("density"), the tiling ("tile"). Each
         holds the settings the stage ran with, what it measured, its seconds and its
         time steps; `record` finds one by its stage. Empty for a plain deposit.
+    engine : dict or None
+        The engine that ran the deposit's DEM where it was not granpack's own: ``name``
+        ("lammps"), ``version`` (LAMMPS' date, e.g. 20250722) and ``ranks`` (MPI
+        ranks); None (default) for granpack's engine (`granpack.mpi`).
     """
 
     scene: PackScene
@@ -116,6 +120,7 @@ class Pack:
     layers: list[dict] = field(default_factory=list)
     wall_time: float = 0.0
     history: tuple[StageRecord, ...] = ()
+    engine: dict | None = None
 
     def record(self, stage: str) -> StageRecord | None:
         """The last record of `stage` ("trim", "rest", "consolidate", "density",

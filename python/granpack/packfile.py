@@ -56,7 +56,8 @@ NEWER_FORMAT = "upgrade granpack to read it"
 def write(f: BinaryIO, pack: Any) -> None:
     """Writes `pack` (a `granpack.Pack`) to the open binary file `f` in this version's
     format: its arrays, ``contacts.*``, ``scene.toml`` and the record ``meta.json``
-    (height, layer reports, wall time and the stages' history)."""
+    (height, layer reports, wall time, the stages' history and, for a pack another
+    engine made, that engine's record)."""
     arrays = {
         "positions": pack.positions,
         "radii": pack.radii,
@@ -74,6 +75,8 @@ def write(f: BinaryIO, pack: Any) -> None:
     }
     if pack.history:
         meta["history"] = [rec.to_json() for rec in pack.history]
+    if pack.engine is not None:
+        meta["engine"] = pack.engine
     arrays["meta.json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
     arrays["scene.toml"] = np.frombuffer(pack.scene.to_toml().encode(), dtype=np.uint8)
     # Stored, not deflated: float64 positions and forces barely compress (a 1e6-sphere
@@ -223,6 +226,7 @@ def read(path: str | Path) -> dict[str, Any]:
             layers=list(meta["layers"]),
             wall_time=float(meta["wall_time"]),
             history=_history(meta, version, scene.dim, len(data["radii"])),
+            engine=_engine(meta),
         )
     except (
         KeyError,
@@ -236,6 +240,21 @@ def read(path: str | Path) -> dict[str, Any]:
         raise FileFormatError(
             f"cannot read pack {path}: {reason}", path=path, reason=reason
         ) from None
+
+
+def _engine(meta: dict) -> dict | None:
+    """The record of the engine that made the pack (``name``, ``version``, ``ranks``),
+    None for granpack's own (files without it)."""
+    value = meta.get("engine")
+    if value is None:
+        return None
+    if not (
+        isinstance(value, dict)
+        and isinstance(value.get("name"), str)
+        and all(isinstance(value.get(k), int) for k in ("version", "ranks"))
+    ):
+        raise ValueError(f"engine record {short_repr(value)}")
+    return {"name": value["name"], "version": value["version"], "ranks": value["ranks"]}
 
 
 def _finite_field(meta: dict, key: str) -> float:
