@@ -13,12 +13,20 @@ from .errors import InvalidParameterError
 from .pack import Pack
 from .scene import PackScene
 
-__all__ = ["generate"]
+__all__ = ["generate", "ENGINES"]
+
+
+#: The DEM engines the layer loop can run on (`generate`'s `engine`).
+ENGINES = ("granpack", "lammps")
 
 
 def generate(
     scene: PackScene,
     progress: bool | Callable[[dict], None] = False,
+    *,
+    engine: str = "granpack",
+    ranks: int = 1,
+    mpiexec: str | None = None,
 ) -> Pack:
     """Builds one pack: the deposit, layer by layer (RSA layer, DEM jamming run, new
     height) until the height reaches `scene.height`, with the flat top (`trim`) where
@@ -39,6 +47,15 @@ def generate(
         False (default): silent. True: a tqdm bar per layer on stderr. A callable gets
         each layer's report dict (layer, added, total, phi_rsa, height, steps,
         kinetic_energy, wall_seconds, frozen, and memory: the engine's bytes by group).
+    engine : {"granpack", "lammps"}
+        The DEM of the layer loop: granpack's own (default), or LAMMPS over MPI
+        (`granpack.mpi`, ``pip install 'granpack[mpi]'``), which keeps the statistics
+        of granpack's engine but not its bits; the stages after the deposit run on
+        granpack's engine either way. The pack records the engine (`Pack.engine`).
+    ranks : int
+        MPI ranks of the LAMMPS engine (default 1); only 1 with granpack's.
+    mpiexec : str, optional
+        The MPI launcher of the LAMMPS engine (default: `granpack.mpi.launch`'s choice).
 
     Raises
     ------
@@ -55,7 +72,24 @@ def generate(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
+    if engine not in ENGINES:
+        raise InvalidParameterError(
+            f"invalid engine = {engine!r}: expected one of {', '.join(ENGINES)}",
+            parameter="engine",
+        )
+    if engine == "granpack" and (ranks != 1 or mpiexec is not None):
+        raise InvalidParameterError(
+            f"invalid ranks = {ranks!r}: granpack's engine runs on one process (its "
+            "threads); ranks and mpiexec are the LAMMPS engine's (engine = 'lammps')",
+            parameter="ranks",
+        )
     target = density.spec_of(scene)
+    if target is not None and engine != "granpack":
+        raise InvalidParameterError(
+            f"invalid engine = {engine!r} for a scene with a density target: the target's "
+            "search runs granpack's engine (engine = 'granpack')",
+            parameter="engine",
+        )
     t0 = time.perf_counter()
     if target is not None:
         pack = density.run(scene, target, progress)
@@ -67,6 +101,9 @@ def generate(
             pack = stages.run_step(pack, step, progress)
         return dataclasses.replace(pack, wall_time=time.perf_counter() - t0)
     steps = stages.plan(scene)
+    if engine != "granpack":
+        spec = dataclasses.replace(steps[0].spec, engine=engine, ranks=ranks, mpiexec=mpiexec)
+        steps = stages.with_spec(steps, "deposit", spec)
     pack = stages.run(scene, steps, progress, _stacklevel=3)
     if len(steps) > 1:
         # the time of every stage, not the layer loop's alone

@@ -5,6 +5,7 @@ and recorded in the history as the "trim" stage)."""
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -31,10 +32,22 @@ class Spec:
         rolling knob, docs/contact_models.md); the pack keeps the scene's material. 0:
         no rolling resistance (``rolling = "none"``) during the layers; None: the
         material's rolling model unchanged, as a `friction` alone leaves it.
+    engine : str
+        The DEM of the layers: ``"granpack"`` (default), granpack's own engine, or
+        ``"lammps"``, LAMMPS over MPI (`granpack.mpi`; same statistics, not the same
+        bits).
+    ranks : int
+        MPI ranks of the LAMMPS engine (default 1); 1 for granpack's.
+    mpiexec : str or None
+        The MPI launcher of the LAMMPS engine (`granpack.mpi.launch.mpiexec_command`);
+        None: found as that function says.
     """
 
     friction: float | None = None
     rolling_friction: float | None = None
+    engine: str = "granpack"
+    ranks: int = 1
+    mpiexec: str | None = None
 
 
 def spec_of(scene: PackScene) -> Spec:
@@ -56,5 +69,13 @@ def run(
     mat = scene.material
     jam_mat = phase_material(mat, spec.friction, spec.rolling_friction)
     jam = scene if jam_mat is mat else scene.replace(material=jam_mat)
-    pack = _pack.deposit(jam, progress, _stacklevel=_stacklevel + 1)
+    if spec.engine == "lammps":
+        from ..mpi import launch
+
+        pack = launch.deposit(jam, spec.ranks, progress, mpiexec=spec.mpiexec)
+        issue = _pack.settling_issue(pack)
+        if issue is not None:
+            warnings.warn(issue, _pack.UnsettledPackWarning, stacklevel=_stacklevel + 1)
+    else:
+        pack = _pack.deposit(jam, progress, _stacklevel=_stacklevel + 1)
     return pack if jam is scene else dataclasses.replace(pack, scene=scene)
