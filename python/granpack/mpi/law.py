@@ -40,7 +40,8 @@ radii differ by about (r/R)^2 / 16 in force (6e-4 at r = R/10). The rolling law
 against the cylinder keeps LAMMPS' R*.
 
 What LAMMPS does differently, and no parameter changes (of order d / r, the overlap
-over the radius: 1e-3 to 1e-2 in a deposit): the relative tangential velocity of a
+over the radius: mean 5e-4 in a 3D deposit of the paper's material, 4e-3 in a 2D one
+of discs): the relative tangential velocity of a
 pair takes the spins times the radii (granpack: r - d/2, the contact point), and a
 wall contact's torque arm is r (granpack: r - d/2). Head-on contacts are exact; the
 tests (tests/mpi/test_lammps_law.py) measure the rest.
