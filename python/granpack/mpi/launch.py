@@ -228,8 +228,10 @@ def job_main(argv: Sequence[str]) -> int:
             assert pack is not None
             pack.save(argv[1])
     except GranpackError as exc:
-        print(MESSAGE + json.dumps({"error": base64.b64encode(pickle.dumps(exc)).decode()}),
-              flush=True)
+        print(
+            MESSAGE + json.dumps({"error": base64.b64encode(pickle.dumps(exc)).decode()}),
+            flush=True,
+        )
         print(f"granpack: {exc}", file=sys.stderr, flush=True)
         if comm.Get_size() > 1:
             comm.Abort(1)
