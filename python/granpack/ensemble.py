@@ -7,7 +7,8 @@ ensemble does not depend on where (or in what order) its packs ran, and pack k i
 same whatever the ensemble size (a 2-pack run is the start of the 10-pack run).
 
 Resuming. Every finished pack is written atomically (`Pack.save`) by the calling
-process, so an interrupted run loses only the packs still in progress. A task whose file
+process (or, with ``write_on_workers``, by the Dask worker that made it), so an
+interrupted run loses only the packs still in progress. A task whose file
 already exists and was made from the same scene is skipped; a file made from another
 scene is an error (choose another output folder), never silently overwritten.
 

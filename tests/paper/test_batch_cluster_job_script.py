@@ -18,8 +18,9 @@ from granpack.cluster import (
 
 pytest.importorskip("dask_jobqueue")
 
-#: No dashboard: the cluster's scheduler starts in this process; no port for a web page.
-QUIET = {"scheduler_options": {"dashboard_address": None}}
+#: The cluster's scheduler starts in this process: its web server on a free port, so that
+#: it never meets another one on the default 8787.
+QUIET = {"scheduler_options": {"dashboard_address": ":0"}}
 
 
 def _script(system: str, **kw) -> str:

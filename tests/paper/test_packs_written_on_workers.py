@@ -5,6 +5,7 @@ numbers sent back, reruns that skip them, and errors that name the pack."""
 from __future__ import annotations
 
 import os
+import types
 
 import numpy as np
 import pytest
@@ -40,7 +41,7 @@ def reference(scene, tmp_path_factory) -> list[gp.Pack]:
 def cluster():
     """Two worker processes (as a batch cluster's jobs would be), one thread each."""
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as c:
         yield c
 
@@ -171,6 +172,9 @@ def test_write_on_workers_needs_a_scheduler(scene, tmp_path, capsys):
     argv = ["generate", "4.1", "--out", str(tmp_path / "b"), "--write-on-workers"]
     assert main(argv) == 2
     assert "--scheduler" in capsys.readouterr().err
+    argv = ["paper", "--quick", "--out", str(tmp_path / "c"), "--write-on-workers"]
+    assert main(argv) == 2
+    assert "invalid write_on_workers = True without a scheduler" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
 
 
@@ -186,3 +190,27 @@ def test_generate_command_with_write_on_workers(scene, reference, cluster, tmp_p
         np.testing.assert_array_equal(got.positions, reference[k].positions)
     assert (out / "report.md").exists()
     assert capsys.readouterr() == ("", "")
+
+
+def test_a_pack_whose_workers_died_is_named(scene, tmp_path, monkeypatch):
+    # Dask gives up on a task once the workers that ran it died (the batch job's walltime,
+    # the out-of-memory killer): KilledWorker, as the task's result here.
+    def killed(scene, path):
+        last = types.SimpleNamespace(address="tcp://node17:40000")
+        raise distributed.KilledWorker("task", last, 3)
+
+    monkeypatch.setattr(ensemble, "_build_and_save", killed)
+    with distributed.LocalCluster(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
+    ) as local:
+        with pytest.raises(gp.GranpackError, match=r"^#0: the Dask workers that ran it died"):
+            run_ensemble(
+                scene,
+                1,
+                SEED,
+                tmp_path,
+                scheduler=local.scheduler_address,
+                write_on_workers=True,
+                progress=False,
+            )
+    assert not list(tmp_path.iterdir())
