@@ -7,7 +7,8 @@ ensemble does not depend on where (or in what order) its packs ran, and pack k i
 same whatever the ensemble size (a 2-pack run is the start of the 10-pack run).
 
 Resuming. Every finished pack is written atomically (`Pack.save`) by the calling
-process, so an interrupted run loses only the packs still in progress. A task whose file
+process (or, with ``write_on_workers``, by the Dask worker that made it), so an
+interrupted run loses only the packs still in progress. A task whose file
 already exists and was made from the same scene is skipped; a file made from another
 scene is an error (choose another output folder), never silently overwritten.
 
@@ -21,6 +22,11 @@ Where packs run
       cluster (``pip install "granpack[dask]"``; the workers need granpack installed).
       Results travel back to this process, which writes them, so the workers need no
       shared file system. Progress is then reported per pack (no layer reports).
+    * ``scheduler=..., write_on_workers=True``: each Dask worker saves its pack itself,
+      atomically, at the task's path, and sends back only a `PackSummary` (a few
+      numbers). For a batch cluster whose workers and this process share a file system
+      (`granpack.cluster` builds one): the packs do not cross the network and this
+      process holds none of them.
 """
 
 from __future__ import annotations
@@ -50,6 +56,7 @@ from .scene import PackScene
 
 __all__ = [
     "PackTask",
+    "PackSummary",
     "ensemble_tasks",
     "run_tasks",
     "run_ensemble",
@@ -77,6 +84,51 @@ class PackTask:
     scene: PackScene
     path: Path
     label: str
+
+
+@dataclass(frozen=True)
+class PackSummary:
+    """What a worker that saved a pack itself sends back (``write_on_workers=True``):
+    the file and a few numbers, not the pack.
+
+    Attributes
+    ----------
+    path : str
+        The pack file the worker wrote (the task's path).
+    n : int
+        Particles in the pack.
+    phi : float
+        Its solid fraction up to its height (-), `Pack.phi`.
+    height : float
+        Its height H_top (m), `Pack.height`.
+    wall_time : float
+        Seconds the generation took on the worker, `Pack.wall_time`.
+    issue : str or None
+        Why the pack has not come to rest (`granpack.pack.settling_issue`), or None.
+    host : str
+        The worker's host name (named when this process cannot see the file).
+    """
+
+    path: str
+    n: int
+    phi: float
+    height: float
+    wall_time: float
+    issue: str | None = None
+    host: str = ""
+
+    @classmethod
+    def of(cls, pack: Pack, path: str | Path) -> PackSummary:
+        """The summary of `pack`, saved at `path`."""
+        return cls(
+            path=str(path),
+            n=len(pack),
+            phi=pack.phi,
+            height=pack.height,
+            wall_time=pack.wall_time,
+            issue=settling_issue(pack),
+            host=socket.gethostname(),
+        )
 
 
 def pack_path(out_dir: str | Path, k: int) -> Path:
@@ -107,6 +159,7 @@ def run_ensemble(
     scheduler=None,
     workers: int | None = None,
     progress: bool | str | Callable[[dict], None] = "auto",
+    write_on_workers: bool = False,
 ) -> list[Path]:
     """Makes packs 0..n_packs-1 of an ensemble into `out_dir` (skipping those already
     there) and returns their paths in pack order.
@@ -127,9 +180,21 @@ def run_ensemble(
     progress : bool, "auto", "bar", "lines" or callable
         "auto"/True: a tqdm bar on a terminal, plain lines otherwise (stderr);
         False: silent; a callable gets event dicts (see `Progress`).
+    write_on_workers : bool
+        Only with `scheduler`. Default False: the packs travel back and this process
+        saves them. True: each Dask worker saves its pack at its path (atomically) and
+        sends back a `PackSummary`; `out_dir` must then be on a file system that the
+        workers and this process share (as on a batch cluster), which is checked at the
+        end of the run.
     """
     tasks = ensemble_tasks(scene, n_packs, out_dir, seed)
-    return run_tasks(tasks, scheduler=scheduler, workers=workers, progress=progress)
+    return run_tasks(
+        tasks,
+        scheduler=scheduler,
+        workers=workers,
+        progress=progress,
+        write_on_workers=write_on_workers,
+    )
 
 
 # -- progress --------------------------------------------------------------------------------
@@ -214,14 +279,19 @@ class Progress:
                 f"H={rep['height']:.4f} m ({rep['wall_seconds']:.1f} s)"
             )
 
-    def pack(self, task: PackTask, pack: Pack) -> None:
+    def pack(self, task: PackTask, pack: Pack | PackSummary) -> None:
+        """A finished pack, from the pack itself or from a worker's `PackSummary`."""
+        if isinstance(pack, Pack):
+            n = len(pack)
+        else:
+            n = pack.n
         self.done += 1
         self.finished.add(task.label)
         self.running.pop(task.label, None)
         info = {
             "label": task.label,
             "path": str(task.path),
-            "n": len(pack),
+            "n": n,
             "phi": pack.phi,
             "height": pack.height,
             "wall_time": pack.wall_time,
@@ -230,12 +300,12 @@ class Progress:
         }
         self._emit({"event": "pack", **info})
         if self.mode == "bar" and self.bar is not None:
-            self.last = f"{task.label} done: N={len(pack)}, phi={pack.phi:.3f}"
+            self.last = f"{task.label} done: N={n}, phi={pack.phi:.3f}"
             self._refresh()
         elif self.mode == "lines":
             width = len(str(self.total))
             self._line(
-                f"[{self.done:>{width}}/{self.total}] {task.label} done: N={len(pack)} "
+                f"[{self.done:>{width}}/{self.total}] {task.label} done: N={n} "
                 f"phi={pack.phi:.4f} H={pack.height:.4f} m in {pack.wall_time:.1f} s "
                 f"-> {task.path}"
             )
@@ -327,6 +397,23 @@ def _build_plain(scene: PackScene) -> Pack:
     return _generate_quietly(scene)
 
 
+def _build_and_save(scene: PackScene, path: str) -> PackSummary:
+    """The Dask task with ``write_on_workers``: the pack made and saved (atomically) at
+    `path` on the worker; only its summary travels back."""
+    pack = _generate_quietly(scene)
+    if len(pack) == 0:  # never saved: every later step would fail on it
+        raise GranpackError("the pack holds no particle; nothing was saved")
+    try:
+        pack.save(path)
+    except OSError as exc:
+        # an OSError's fields do not all survive the trip back; the client prefixes
+        # the task's label to this one line
+        raise GranpackError(
+            f"the worker on {socket.gethostname()} cannot write the pack: {exc}"
+        ) from None
+    return PackSummary.of(pack, path)
+
+
 def _existing(task: PackTask) -> bool:
     """True if the task's file holds a whole pack of the same scene; raises if it holds
     another scene, or a pack of a newer format; False if missing or damaged (then it is
@@ -369,18 +456,37 @@ def _existing(task: PackTask) -> bool:
     return True
 
 
+def check_write_on_workers(write_on_workers, scheduler) -> None:
+    """Refuses a `write_on_workers` that is not a bool, or True without a scheduler
+    (only Dask workers write packs themselves), before any work."""
+    if not isinstance(write_on_workers, bool):
+        raise InvalidParameterError(
+            f"invalid write_on_workers = {write_on_workers!r}: must be True or False",
+            parameter="write_on_workers",
+        )
+    if write_on_workers and scheduler is None:
+        raise InvalidParameterError(
+            "invalid write_on_workers = True without a scheduler: the Dask workers write "
+            "the packs, so give a scheduler (--scheduler ADDRESS), or leave "
+            "write_on_workers (--write-on-workers) off",
+            parameter="write_on_workers",
+        )
+
+
 def run_tasks(
     tasks: Sequence[PackTask],
     *,
     scheduler=None,
     workers: int | None = None,
     progress: bool | str | Callable[[dict], None] | Progress = "auto",
+    write_on_workers: bool = False,
 ) -> list[Path]:
     """Makes every task's pack that is not on disk yet; returns all tasks' paths (in
     task order). Parameters as in `run_ensemble`."""
     tasks = list(tasks)
     if workers is not None:
         workers = as_int("workers", workers, 1, max_workers())
+    check_write_on_workers(write_on_workers, scheduler)
     prog = progress if isinstance(progress, Progress) else Progress(progress)
     pending = []
     for t in tasks:
@@ -395,7 +501,7 @@ def run_tasks(
         if not pending:
             pass
         elif scheduler is not None:
-            _run_dask(pending, scheduler, prog)
+            _run_dask(pending, scheduler, prog, write_on_workers)
         else:
             cores = os.cpu_count() or 1
             n_workers = min(workers or cores, len(pending))
@@ -416,6 +522,43 @@ def _finish(task: PackTask, pack: Pack, prog: Progress) -> None:
     if issue is not None:
         warnings.warn(f"{task.label}: {issue}", UnsettledPackWarning, stacklevel=2)
     prog.pack(task, pack)
+
+
+def _finish_summary(task: PackTask, summary: PackSummary, prog: Progress) -> None:
+    """`_finish` for a pack its worker saved: the warning and the progress from its
+    summary, the pack itself not read."""
+    if summary.issue is not None:
+        warnings.warn(f"{task.label}: {summary.issue}", UnsettledPackWarning, stacklevel=2)
+    prog.pack(task, summary)
+
+
+#: Seconds this process waits for the packs its Dask workers wrote to appear: a network
+#: file system may show another host's new file only once its cached view of the
+#: folder expires (NFS caches a folder's attributes for up to 60 s by default).
+SHARED_FS_WAIT = 90.0
+
+
+def _check_written(
+    written: list[tuple[PackTask, PackSummary]], wait: float = SHARED_FS_WAIT
+) -> None:
+    """Raises unless every pack the workers wrote is a file this process sees (after
+    waiting up to `wait` seconds): with ``write_on_workers`` the folder must be on a
+    file system that they share."""
+    missing = [(t, s) for t, s in written if not t.path.is_file()]
+    deadline = time.monotonic() + wait
+    while missing and time.monotonic() < deadline:
+        time.sleep(min(2.0, max(0.0, deadline - time.monotonic())))
+        missing = [(t, s) for t, s in missing if not t.path.is_file()]
+    if missing:
+        hosts = sorted({s.host for _, s in missing if s.host})
+        shown = ", ".join(f"{t.label} ({s.path})" for t, s in missing[:3])
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        raise GranpackError(
+            f"{len(missing)} pack(s) the Dask workers wrote are not visible here after "
+            f"{wait:g} s: {shown}{more}, written on {', '.join(hosts) or 'the workers'}; "
+            "write_on_workers (--write-on-workers) needs an output folder on a file system "
+            "that the workers and this process share"
+        )
 
 
 def _run_here(pending: list[PackTask], prog: Progress) -> None:
@@ -488,9 +631,11 @@ def _drain(layer_queue, by_label: dict, prog: Progress) -> None:
             prog.layer(label, t.scene.height, rep)
 
 
-def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
+def _run_dask(
+    pending: list[PackTask], scheduler, prog: Progress, write_on_workers: bool = False
+) -> None:
     try:
-        from distributed import Client, as_completed
+        from distributed import Client, KilledWorker, as_completed
     except ImportError:
         raise GranpackError(
             "--scheduler needs dask.distributed: pip install 'granpack[dask]'"
@@ -506,21 +651,38 @@ def _run_dask(pending: list[PackTask], scheduler, prog: Progress) -> None:
             ) from None
     else:
         client = scheduler
-    futures = []
+    futures: list[Any] = []  # Dask futures of Packs, or of PackSummaries
     try:
         by_key = {}
         for t in pending:
-            f = client.submit(_build_plain, t.scene, pure=False)
+            if write_on_workers:
+                # absolute: a worker's working folder is not this process's
+                f: Any = client.submit(
+                    _build_and_save, t.scene, os.path.abspath(t.path), pure=False
+                )
+            else:
+                f = client.submit(_build_plain, t.scene, pure=False)
             futures.append(f)
             by_key[f.key] = t
+        written: list[tuple[PackTask, PackSummary]] = []
         for f in as_completed(futures, loop=client.loop):
             t = by_key[f.key]
             try:
-                pack = f.result()
+                result = f.result()
             except GranpackError as exc:
                 raise exc.with_prefix(f"{t.label}: ") from None
-            _finish(t, pack, prog)
+            except KilledWorker:
+                raise GranpackError(
+                    f"{t.label}: the Dask workers that ran it died (out of memory, or the "
+                    "batch job's walltime?); finished packs are on disk, rerun to continue"
+                ) from None
+            if write_on_workers:
+                _finish_summary(t, result, prog)
+                written.append((t, result))
+            else:
+                _finish(t, result, prog)
             f.release()
+        _check_written(written)
     finally:
         if futures:
             client.cancel([f for f in futures if not f.done()])

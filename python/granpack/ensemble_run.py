@@ -26,7 +26,8 @@ def generate_ensemble(
     name: str | None = None,
     figures: bool = True,
     workers: int | None = None,
-    scheduler: str | None = None,
+    scheduler=None,
+    write_on_workers: bool = False,
     dev_note: dict | None = None,
     quiet: bool = False,
 ) -> Path:
@@ -57,8 +58,13 @@ def generate_ensemble(
         Default True. False skips the pictures.
     workers : int or None
         Local worker processes; default None: one per core.
-    scheduler : str or None
-        Address of a Dask distributed scheduler (``tcp://host:8786``); default None.
+    scheduler : str, distributed.Client or None
+        Address of a Dask distributed scheduler (``tcp://host:8786``), or a client of
+        one (such as `granpack.cluster.batch_cluster`'s); default None.
+    write_on_workers : bool
+        Only with `scheduler`. Default False: the packs travel back and this process
+        saves them. True: each Dask worker saves its pack under ``out/packs`` itself and
+        sends back a few numbers; `out` must be on a file system the workers share.
     dev_note : dict or None
         The development options that changed the scene, as the report flags them
         (option: what it did). Default None: none.
@@ -71,7 +77,7 @@ def generate_ensemble(
     Path
         ``out/report.md``.
     """
-    from .ensemble import MAX_PACKS
+    from .ensemble import MAX_PACKS, check_write_on_workers
 
     if not isinstance(scene, PackScene):
         raise InvalidParameterError(
@@ -81,6 +87,7 @@ def generate_ensemble(
     packs = as_int("packs", packs, 1, MAX_PACKS)
     seed = scene.seed if seed is None else as_int("seed", seed, 0, 2**64 - 1)
     name = out.name if name is None else name
+    check_write_on_workers(write_on_workers, scheduler)
     console = Console(quiet)
     if scene.stream != 0:
         # An ensemble numbers its packs' streams itself: the scene's is replaced, said.
@@ -94,7 +101,17 @@ def generate_ensemble(
     with locked(out):
         sweep_temporaries(out, console)
         return _generate_into(
-            console, scene, name, seed, out, packs, figures, workers, scheduler, dev_note
+            console,
+            scene,
+            name,
+            seed,
+            out,
+            packs,
+            figures,
+            workers,
+            scheduler,
+            write_on_workers,
+            dev_note,
         )
 
 
@@ -107,7 +124,8 @@ def _generate_into(
     packs: int,
     figures: bool,
     workers: int | None,
-    scheduler: str | None,
+    scheduler,
+    write_on_workers: bool,
     dev_note: dict | None,
 ) -> Path:
     from . import plot, report, tables
@@ -121,7 +139,11 @@ def _generate_into(
     console.say(f"granpack generate: {packs} pack(s) of {name} -> {out}")
     with unsettled_as_notes(console):
         paths = run_tasks(
-            tasks, scheduler=scheduler, workers=workers, progress=console.progress_mode()
+            tasks,
+            scheduler=scheduler,
+            workers=workers,
+            progress=console.progress_mode(),
+            write_on_workers=write_on_workers,
         )
     # Written once the packs are there: a refused run (another scene's packs in the
     # folder) leaves the folder's scene.toml as it was.

@@ -22,6 +22,7 @@ EXPECTED = {
     "first_pack.py": r"^phi = 0\.\d+ +phi_core = 0\.\d+ +Z = \d\.\d+$",
     "sieve_curve.py": r"^passing +50 mm: +\d+\.\d %$",
     "liggghts_round_trip.py": r"^step 0: \d+ spheres, positions and radii identical: True$",
+    "batch_cluster.py": r"^3 packs written by the workers, phi = 0\.\d+ ± 0\.\d+$",
 }
 #: The fixture (tests/conftest.py) of the peer program a script runs.
 PEERS = {"liggghts_round_trip.py": "liggghts"}

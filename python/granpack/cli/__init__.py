@@ -16,8 +16,9 @@
     granpack limits 4.3 --packs 5 --fast             # the model's e_min and e_max
 
 Packs run in local worker processes (all cores) or, with ``--scheduler ADDRESS``, on a
-Dask cluster; the results are the same for the same master seed. Every finished pack is
-on disk at once, and running the same command again skips what is there.
+Dask cluster (``--write-on-workers``: its workers save the packs themselves, on a batch
+cluster's shared file system); the results are the same for the same master seed. Every
+finished pack is on disk at once, and running the same command again skips what is there.
 
 Bad input gives one line on stderr and exit status 2; an interrupted run exits with 130
 (Ctrl-C) or 143 (SIGTERM), after the same clean stop: the packs in progress are

@@ -116,6 +116,13 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
         help="run the packs on this Dask distributed scheduler (e.g. tcp://host:8786) "
         "instead of local processes; needs granpack[dask]",
     )
+    p.add_argument(
+        "--write-on-workers",
+        action="store_true",
+        help="with --scheduler: each Dask worker saves its packs itself (the output folder "
+        "must be on a file system the workers share, as on a batch cluster) and sends "
+        "back only their numbers",
+    )
     add_quiet(p)
     p.add_argument(
         "--fast",

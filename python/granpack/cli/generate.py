@@ -173,6 +173,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         figures=not args.no_figures,
         workers=args.workers,
         scheduler=args.scheduler,
+        write_on_workers=args.write_on_workers,
         dev_note=dev_note(args.settle_time, args.scale),
         quiet=console.quiet,
     )

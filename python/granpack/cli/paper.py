@@ -61,6 +61,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         seed=args.seed,
         workers=args.workers,
         scheduler=args.scheduler,
+        write_on_workers=args.write_on_workers,
         fast=args.fast,
         settle_time=args.settle_time,
         scale=args.scale,

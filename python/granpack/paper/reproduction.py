@@ -41,6 +41,7 @@ def reproduce(
     seed: int = 0,
     workers: int | None = None,
     scheduler: str | None = None,
+    write_on_workers: bool = False,
     fast: bool = False,
     settle_time: float | None = None,
     scale: float | None = None,
@@ -74,6 +75,10 @@ def reproduce(
     scheduler : str or None
         Address of a Dask distributed scheduler (``tcp://host:8786``) to run the packs
         on instead of local processes (needs ``granpack[dask]``); default None.
+    write_on_workers : bool
+        Only with `scheduler`. Default False: the packs travel back and this process
+        saves them. True: each Dask worker saves its pack under ``out/packs`` itself;
+        `out` must be on a file system the workers share.
     fast : bool
         Default False. Runs ``PackScene.fast()`` of each scene (docs/performance.md, "The fast
         settings").
@@ -111,6 +116,9 @@ def reproduce(
     if scale is not None:
         scale = as_real("scale", scale, 0.0, lo_open=True)
     n_packs = packs if packs is not None else (QUICK_PACKS if quick else PAPER_PACKS)
+    from ..ensemble import check_write_on_workers
+
+    check_write_on_workers(write_on_workers, scheduler)
     examples = sorted(set(examples), key=list(PAPER_EXAMPLES).index)
     console = Console(quiet)
     check_outputs([out / f for f in RUN_FILES], [], "--out")  # a folder it cannot write
@@ -125,6 +133,7 @@ def reproduce(
             seed=seed,
             workers=workers,
             scheduler=scheduler,
+            write_on_workers=write_on_workers,
             fast=fast,
             settle_time=settle_time,
             scale=scale,
@@ -145,6 +154,7 @@ def _reproduce_into(
     seed: int,
     workers: int | None,
     scheduler: str | None,
+    write_on_workers: bool,
     fast: bool,
     settle_time: float | None,
     scale: float | None,
@@ -186,6 +196,7 @@ def _reproduce_into(
             scheduler=scheduler,
             workers=workers,
             progress=console.progress_mode(),
+            write_on_workers=write_on_workers,
         )
     t_packs = time.perf_counter() - t0
 
