@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -85,7 +86,6 @@ def deposit(
     progress: bool | Callable[[dict], None] = False,
     *,
     mpiexec: str | Sequence[str] | None = None,
-    timeout: float | None = None,
 ) -> Pack:
     """The layer loop of `scene` on LAMMPS, in an MPI job of `ranks` ranks
     (`granpack.mpi.engine.deposit`); returns the pack.
@@ -100,8 +100,6 @@ def deposit(
         line a layer.
     mpiexec : str or list of str, optional
         The MPI launcher (`mpiexec_command`).
-    timeout : float, optional
-        Seconds after which the job is stopped (LammpsRunError); default none.
 
     Raises
     ------
@@ -110,7 +108,7 @@ def deposit(
     LammpsMappingError, InvalidParameterError, SaturationError
         As the job raised them.
     LammpsRunError
-        LAMMPS stopped the job, a rank died, or the timeout passed; names the layer.
+        LAMMPS stopped the job or a rank died; names the layer.
     """
     from . import law
 
@@ -132,53 +130,32 @@ def deposit(
         # otherwise take every core once per rank
         env.setdefault("RAYON_NUM_THREADS", "1")
         env.setdefault("OMP_NUM_THREADS", "1")
-        proc = subprocess.Popen(
-            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
-        )
         stderr: list[str] = []
-        try:
-            import threading
-
-            def drain() -> None:
-                assert proc.stderr is not None
-                for line in proc.stderr:
-                    stderr.append(line)
-                    del stderr[:-40]
-
-            reader = threading.Thread(target=drain, daemon=True)
+        with subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+        ) as proc:
+            reader = threading.Thread(target=_keep_tail, args=(proc, stderr), daemon=True)
             reader.start()
-            assert proc.stdout is not None
-            for line in proc.stdout:
-                if not line.startswith(MESSAGE):
-                    continue
-                msg = json.loads(line[len(MESSAGE) :])
-                if "layer" in msg:
-                    rep = msg["layer"]
-                    last_layer = int(rep["layer"])
-                    if callable(progress):
-                        progress(dict(rep))
-                    elif progress:
-                        print(
-                            f"layer {rep['layer']}: N = {rep['total']}, height = "
-                            f"{rep['height']:.4f} m, {rep['wall_seconds']:.1f} s",
-                            file=sys.stderr,
-                        )
-                elif "error" in msg:
-                    error = pickle.loads(base64.b64decode(msg["error"]))
-            code = proc.wait(timeout=timeout)
-            reader.join(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-            raise _run_error(
-                f"the MPI job passed its timeout of {timeout} s", last_layer, stderr
-            ) from None
-        except BaseException:
-            # Ctrl-C or a progress callback that raised: the job stops with the caller
-            proc.kill()
-            with contextlib.suppress(Exception):
-                proc.wait(timeout=10)
-            raise
+            try:
+                assert proc.stdout is not None
+                for line in proc.stdout:
+                    if not line.startswith(MESSAGE):
+                        continue
+                    msg = json.loads(line[len(MESSAGE) :])
+                    if "layer" in msg:
+                        rep = msg["layer"]
+                        last_layer = int(rep["layer"])
+                        _report(progress, rep)
+                    elif "error" in msg:
+                        error = pickle.loads(base64.b64decode(msg["error"]))
+                code = proc.wait()
+                reader.join(timeout=5)
+            except BaseException:
+                # Ctrl-C or a progress callback that raised: the job stops with the caller
+                proc.kill()
+                with contextlib.suppress(Exception):
+                    proc.wait(timeout=10)
+                raise
         if error is not None:
             raise error
         if code != 0 or not out.exists():
@@ -189,6 +166,25 @@ def deposit(
             )
         pack = load_pack(out)
     return pack
+
+
+def _keep_tail(proc: subprocess.Popen, tail: list[str]) -> None:
+    """Reads the job's standard error to its end, keeping the last 40 lines."""
+    assert proc.stderr is not None
+    for line in proc.stderr:
+        tail.append(line)
+        del tail[:-40]
+
+
+def _report(progress: bool | Callable[[dict], None], rep: dict) -> None:
+    if callable(progress):
+        progress(dict(rep))
+    elif progress:
+        print(
+            f"layer {rep['layer']}: N = {rep['total']}, height = {rep['height']:.4f} m, "
+            f"{rep['wall_seconds']:.1f} s",
+            file=sys.stderr,
+        )
 
 
 def _run_error(what: str, last_layer: int | None, stderr: list[str]) -> LammpsRunError:
