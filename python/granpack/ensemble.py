@@ -84,6 +84,9 @@ class PackTask:
     scene: PackScene
     path: Path
     label: str
+    #: `granpack.generate`'s engine settings (``engine``, ``ranks``, ``mpiexec``) as
+    #: (key, value) pairs; empty: granpack's engine.
+    engine: tuple[tuple[str, Any], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -137,15 +140,27 @@ def pack_path(out_dir: str | Path, k: int) -> Path:
 
 
 def ensemble_tasks(
-    scene: PackScene, n_packs: int, out_dir: str | Path, seed: int | None = None, label: str = ""
+    scene: PackScene,
+    n_packs: int,
+    out_dir: str | Path,
+    seed: int | None = None,
+    label: str = "",
+    engine: dict[str, Any] | None = None,
 ) -> list[PackTask]:
     """The tasks of an ensemble: pack k uses ``scene.replace(seed=seed, stream=k)`` and
-    goes to ``pack_path(out_dir, k)``. `seed` defaults to ``scene.seed``."""
+    goes to ``pack_path(out_dir, k)``. `seed` defaults to ``scene.seed``; `engine`, the
+    keywords of `granpack.generate`'s engine (``engine``, ``ranks``, ``mpiexec``),
+    defaults to granpack's engine."""
     n_packs = as_int("n_packs", n_packs, 1, MAX_PACKS)
     seed = scene.seed if seed is None else as_int("seed", seed, 0, 2**64 - 1)
     prefix = f"{label} " if label else ""
     return [
-        PackTask(scene.replace(seed=seed, stream=k), pack_path(out_dir, k), f"{prefix}#{k}")
+        PackTask(
+            scene.replace(seed=seed, stream=k),
+            pack_path(out_dir, k),
+            f"{prefix}#{k}",
+            tuple(sorted((engine or {}).items())),
+        )
         for k in range(n_packs)
     ]
 
@@ -374,33 +389,34 @@ def _init_worker(layer_queue, threads: int, parent: int | None = None) -> None:
         _die_with_parent(parent)
 
 
-def _build_in_worker(scene: PackScene, label: str) -> Pack:
+def _build_in_worker(scene: PackScene, label: str, engine: tuple = ()) -> Pack:
     q = _LAYER_QUEUE
 
     def report(rep: dict) -> None:
         if q is not None:
             q.put((label, rep))
 
-    return _generate_quietly(scene, report)
+    return _generate_quietly(scene, report, engine)
 
 
-def _generate_quietly(scene: PackScene, progress=False) -> Pack:
+def _generate_quietly(scene: PackScene, progress=False, engine: tuple = ()) -> Pack:
     """generate() without its UnsettledPackWarning: the process that saves the pack
-    checks it again (`_finish`) and warns there, where the caller sees it."""
+    checks it again (`_finish`) and warns there, where the caller sees it. `engine`:
+    a task's `PackTask.engine`."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnsettledPackWarning)
-        return generate(scene, progress=progress)
+        return generate(scene, progress=progress, **dict(engine))
 
 
-def _build_plain(scene: PackScene) -> Pack:
+def _build_plain(scene: PackScene, engine: tuple = ()) -> Pack:
     """The Dask task: a pack from its scene (no progress; the pack travels back)."""
-    return _generate_quietly(scene)
+    return _generate_quietly(scene, engine=engine)
 
 
-def _build_and_save(scene: PackScene, path: str) -> PackSummary:
+def _build_and_save(scene: PackScene, path: str, engine: tuple = ()) -> PackSummary:
     """The Dask task with ``write_on_workers``: the pack made and saved (atomically) at
     `path` on the worker; only its summary travels back."""
-    pack = _generate_quietly(scene)
+    pack = _generate_quietly(scene, engine=engine)
     if len(pack) == 0:  # never saved: every later step would fail on it
         raise GranpackError("the pack holds no particle; nothing was saved")
     try:
@@ -565,7 +581,7 @@ def _run_here(pending: list[PackTask], prog: Progress) -> None:
     for t in pending:
         try:
             pack = _generate_quietly(
-                t.scene, functools.partial(prog.layer, t.label, t.scene.height)
+                t.scene, functools.partial(prog.layer, t.label, t.scene.height), t.engine
             )
         except GranpackError as exc:
             raise exc.with_prefix(f"{t.label}: ") from None
@@ -581,7 +597,7 @@ def _run_pool(pending: list[PackTask], n_workers: int, threads: int, prog: Progr
         initializer=_init_worker,
         initargs=(layer_queue, threads, os.getpid()),
     )
-    futures = {pool.submit(_build_in_worker, t.scene, t.label): t for t in pending}
+    futures = {pool.submit(_build_in_worker, t.scene, t.label, t.engine): t for t in pending}
     by_label = {t.label: t for t in pending}
     ok = False
     try:
@@ -658,10 +674,10 @@ def _run_dask(
             if write_on_workers:
                 # absolute: a worker's working folder is not this process's
                 f: Any = client.submit(
-                    _build_and_save, t.scene, os.path.abspath(t.path), pure=False
+                    _build_and_save, t.scene, os.path.abspath(t.path), t.engine, pure=False
                 )
             else:
-                f = client.submit(_build_plain, t.scene, pure=False)
+                f = client.submit(_build_plain, t.scene, t.engine, pure=False)
             futures.append(f)
             by_key[f.key] = t
         written: list[tuple[PackTask, PackSummary]] = []

@@ -12,6 +12,7 @@ import numpy as np
 from ._console import Console
 from ._outputs import analyze_packs, locked, sweep_temporaries, unsettled_as_notes
 from ._validate import InvalidParameterError, as_int
+from .generation import check_engine
 from .scene import PackScene
 
 __all__ = ["generate_ensemble"]
@@ -30,6 +31,9 @@ def generate_ensemble(
     write_on_workers: bool = False,
     dev_note: dict | None = None,
     quiet: bool = False,
+    engine: str = "granpack",
+    ranks: int = 1,
+    mpiexec: str | None = None,
 ) -> Path:
     """Makes `packs` packs of `scene` (each by `granpack.generate`: the deposit, then the
     stages the scene lists) and writes under `out` each pack (``packs/``), its
@@ -71,6 +75,9 @@ def generate_ensemble(
     quiet : bool
         Default False. True prints nothing but errors; otherwise progress and notes go to
         stderr, the run's summary lines to stdout.
+    engine, ranks, mpiexec
+        The DEM of every pack's layer loop, as `granpack.generate` takes them: granpack's
+        engine (default), or ``engine="lammps"`` on `ranks` MPI ranks a pack.
 
     Returns
     -------
@@ -88,6 +95,8 @@ def generate_ensemble(
     seed = scene.seed if seed is None else as_int("seed", seed, 0, 2**64 - 1)
     name = out.name if name is None else name
     check_write_on_workers(write_on_workers, scheduler)
+    check_engine(scene, engine, ranks, mpiexec)
+    engine_kw = {} if engine == "granpack" else dict(engine=engine, ranks=ranks, mpiexec=mpiexec)
     console = Console(quiet)
     if scene.stream != 0:
         # An ensemble numbers its packs' streams itself: the scene's is replaced, said.
@@ -112,6 +121,7 @@ def generate_ensemble(
             scheduler,
             write_on_workers,
             dev_note,
+            engine_kw,
         )
 
 
@@ -127,6 +137,7 @@ def _generate_into(
     scheduler,
     write_on_workers: bool,
     dev_note: dict | None,
+    engine: dict,
 ) -> Path:
     from . import plot, report, tables
     from ._files import atomic_write
@@ -135,7 +146,7 @@ def _generate_into(
     scene_text = scene.to_toml().encode()
     scene_file = out / "scene.toml"
     t0 = time.perf_counter()
-    tasks = ensemble_tasks(scene, packs, out / "packs", seed)
+    tasks = ensemble_tasks(scene, packs, out / "packs", seed, engine=engine)
     console.say(f"granpack generate: {packs} pack(s) of {name} -> {out}")
     with unsettled_as_notes(console):
         paths = run_tasks(

