@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from .._validate import GranpackError, as_int
-from ..pack import Pack, load_pack
+from ..pack import Pack, check_memory, load_pack
 from ..scene import PackScene
 from .engine import EngineUnavailableError, LammpsRunError
 
@@ -114,6 +114,9 @@ def deposit(
 
     ranks = as_int("ranks", ranks, 1, MAX_RANKS)
     law.check_mappable(scene)
+    # the whole pack comes back to this process (and to rank 0): refused before the run
+    # where it would not fit, as granpack's engine refuses it
+    check_memory(scene)
     _check_modules()
     launcher = mpiexec_command(mpiexec)
     with tempfile.TemporaryDirectory(prefix="granpack-mpi-") as tmp:
