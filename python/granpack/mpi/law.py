@@ -91,32 +91,21 @@ HERTZ_MAX_DAMPING = math.sqrt(5.0 / 6.0)
 
 class LammpsMappingError(InvalidParameterError):
     """A scene the LAMMPS layer loop cannot run as granpack would. ``parameter`` names the
-    scene key (``"freeze_depth"``, ``"material.damping"``, ...); the message says why and
+    scene key (``"material.damping"``, ...); the message says why and
     what to do."""
 
 
 def check_mappable(scene: PackScene) -> None:
     """Raises `LammpsMappingError` for what the LAMMPS layer loop cannot map:
 
-    - ``freeze_depth``: granpack's frozen bed keeps the last force of its contacts and
-      thaws by force balance; LAMMPS has no such state.
     - ``material.damping`` at or above `HERTZ_MAX_DAMPING` (Hertz) or at 1 (linear): no
       restitution of LAMMPS' damping gives it (see the module notes).
 
     Everything else maps: both laws, rolling ``"epsd"``, rotations on or off, both 2D
     mass conventions, every container and radius law; the keys of the loop itself
-    (``settle_time``, ``settle_tol``, ``settle_dt``, ``trim``, the density targets,
-    the stages after the deposit) are the driver's, which runs ``timestep`` again for
-    ``settle_dt``."""
-    if scene.freeze_depth is not None:
-        raise LammpsMappingError(
-            f"invalid freeze_depth = {scene.freeze_depth!r} for the LAMMPS engine: a frozen "
-            "bed keeps its contacts' last force, which LAMMPS cannot; leave freeze_depth "
-            "unset (None) or use granpack's engine",
-            parameter="freeze_depth",
-            value=scene.freeze_depth,
-            expected="None",
-        )
+    (``settle_time``, ``settle_tol``, ``settle_dt``, ``freeze_depth``, ``trim``, the
+    stages after the deposit) are the driver's (`granpack.mpi.engine`), which runs
+    ``timestep`` again for ``settle_dt`` and freezes with groups."""
     m = scene.material
     limit = 1.0 if m.contact_law == "linear" else HERTZ_MAX_DAMPING
     if m.damping >= limit:
