@@ -272,6 +272,8 @@ def test_lammps_errors_name_the_layer():
         ({"ranks": 2}, gp.InvalidParameterError, "ranks"),
         ({"engine": "lammps", "ranks": 0}, gp.InvalidParameterError, "ranks"),
         ({"engine": "lammps", "ranks": 1.5}, gp.InvalidParameterError, "ranks"),
+        # a 0.3 m square base holds 7 x 7 columns of one diameter (0.04 m)
+        ({"engine": "lammps", "ranks": 50}, gp.InvalidParameterError, r"ranks.*\b49\b"),
         (
             {"engine": "lammps", "mpiexec": "no-such-mpiexec"},
             mpi_engine.EngineUnavailableError,

