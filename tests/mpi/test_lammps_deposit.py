@@ -121,6 +121,23 @@ def test_a_pack_on_two_ranks_is_whole_and_recorded(tmp_path):
     assert gp.load_pack(path).engine == pack.engine
 
 
+@pytest.mark.parametrize("container", ["box", "periodic"])
+def test_a_2d_pack_with_a_flat_top(container):
+    scene = _scene(2, height=0.12, trim=True, container=container)
+    pack = gp.generate(scene, engine="lammps", ranks=2)
+    assert pack.positions.shape == (len(pack), 2)
+    assert pack.spins.shape == (len(pack),)
+    top = pack.positions[:, 1] + pack.radii
+    assert top.max() <= 0.12 + 1e-12
+    trim = pack.record("trim")
+    assert trim is not None and trim.table()["removed"] > 0
+    assert len(pack) == sum(rep["added"] for rep in pack.layers) - trim.table()["removed"]
+    # the layers' indices survive the removal
+    assert np.all(np.diff(pack.layer) >= 0) and pack.layer.max() == len(pack.layers) - 1
+    if container == "periodic":
+        assert np.all((pack.positions[:, 0] >= 0.0) & (pack.positions[:, 0] < 0.3))
+
+
 def test_the_tangential_forces_hold_the_bed_up():
     """Each settled particle's forces balance its weight: the gathered normal and
     tangential forces (with the walls') sum to m g per particle within the bed's
