@@ -520,7 +520,10 @@ def run_tasks(
             _run_dask(pending, scheduler, prog, write_on_workers)
         else:
             cores = os.cpu_count() or 1
-            n_workers = min(workers or cores, len(pending))
+            # a LAMMPS pack holds `ranks` cores itself: by default as many packs at once
+            # as the cores hold
+            ranks = max(int(dict(t.engine).get("ranks", 1)) for t in pending)
+            n_workers = min(workers or max(1, cores // ranks), len(pending))
             if n_workers == 1:
                 _run_here(pending, prog)
             else:

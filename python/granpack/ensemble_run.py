@@ -61,7 +61,8 @@ def generate_ensemble(
     figures : bool
         Default True. False skips the pictures.
     workers : int or None
-        Local worker processes; default None: one per core.
+        Local worker processes; default None: one per core (with the LAMMPS engine, one
+        per `ranks` cores).
     scheduler : str, distributed.Client or None
         Address of a Dask distributed scheduler (``tcp://host:8786``), or a client of
         one (such as `granpack.cluster.batch_cluster`'s); default None.
