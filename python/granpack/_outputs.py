@@ -179,6 +179,13 @@ def micro_record(pack, m, k: int) -> dict:
         "height": pack.height,
         "wall_time": pack.wall_time,
     }
+    if pack.engine is not None:
+        # the engine that ran the layer loop's DEM, where it was not granpack's
+        rec.update(
+            engine=pack.engine["name"],
+            engine_version=pack.engine["version"],
+            engine_ranks=pack.engine["ranks"],
+        )
     trim = stage_table(pack, "trim")
     if trim is not None:
         rec.update(trim_removed=trim["removed"], trim_top=trim["top"], phi_hd=trim["phi_hd"])

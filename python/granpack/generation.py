@@ -9,7 +9,9 @@ import time
 from collections.abc import Callable
 
 from . import density, stages
+from ._validate import as_int
 from .errors import InvalidParameterError
+from .mpi.launch import MAX_RANKS
 from .pack import Pack
 from .scene import PackScene
 
@@ -36,6 +38,10 @@ def check_engine(scene: PackScene, engine: str, ranks: int, mpiexec: str | None)
             "threads); ranks and mpiexec are the LAMMPS engine's (engine = 'lammps')",
             parameter="ranks",
         )
+    if engine != "granpack":
+        # the range of ranks' count (the base's columns bound it further when the job
+        # starts: granpack.mpi.launch.max_ranks)
+        as_int("ranks", ranks, 1, MAX_RANKS)
     if engine != "granpack" and density.spec_of(scene) is not None:
         raise InvalidParameterError(
             f"invalid engine = {engine!r} for a scene with a density target: the target's "

@@ -62,6 +62,7 @@ def ensemble_report(
         "",
         model_text(scene.material),
         "",
+        *_engine_lines(records),
         f"phi = {mean_sd(column(records, 'phi'), 4)}, Z = {mean_sd(column(records, 'z'), 3)} "
         "(mean ± sample standard deviation).",
         "",
@@ -95,6 +96,23 @@ def ensemble_report(
         "",
     ]
     return atomic_write(out / "report.md", "\n".join(lines).encode())
+
+
+def _engine_lines(records: Sequence[Mapping]) -> list[str]:
+    """The engine that ran the layer loops' DEM, where it was not granpack's own."""
+    engines = sorted(
+        {(r["engine"], r["engine_version"], r["engine_ranks"]) for r in records if "engine" in r}
+    )
+    if not engines:
+        return []
+    runs = ", ".join(
+        f"{name.upper()} {version} on {ranks} MPI rank(s)" for name, version, ranks in engines
+    )
+    return [
+        f"Engine: the layers were jammed by {runs} (docs/mpi.md: the same statistics as "
+        "granpack's engine, not the same bits).",
+        "",
+    ]
 
 
 def _trim_lines(records: Sequence[Mapping], scene) -> list[str]:
