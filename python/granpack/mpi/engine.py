@@ -363,8 +363,7 @@ class _Run:
     def balance(self) -> None:
         """Re-splits the base among the ranks as the pack grows."""
         if self.size > 1:
-            # recursive bisection of the particles (comm_style tiled, law.setup_commands)
-            self.command("balance 1.1 rcb")
+            self.command(law.balance_command(self.scene))
 
     # -- the end ------------------------------------------------------------------------
     def gather(self) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]] | None:

@@ -77,6 +77,7 @@ __all__ = [
     "pair_law",
     "wall_law",
     "setup_commands",
+    "balance_command",
     "AtomProperties",
     "atom_properties",
 ]
@@ -264,9 +265,9 @@ def setup_commands(scene: PackScene, *, z_top: float, mobile_group: str = "mobil
     its axis at (R, R)), z vertical; 2D x in [0, base[0]], y vertical, z periodic and thin.
     Side boundaries are fixed (``f``) or periodic (``p``), the vertical one shrink-wraps.
     The processors are laid across the base only (``processors * * 1``, 2D ``* 1 1``),
-    with ``comm_style tiled``, which ``balance 1.1 rcb`` needs; ``newton off``, which
-    ``comm_style tiled`` needs with the contacts' history (``newton on`` stops the run:
-    "Reverse comm fix variable not yet supported by CommTiled"). The floor is a
+    in LAMMPS' brick decomposition, whose cuts `balance_command` moves along the base's
+    axes only (``newton off``: each rank computes the pairs it shares with another
+    itself, and needs no reverse communication of the contacts' history). The floor is a
     wall at 0, the box's side walls at 0 and base, the cylinder a region wall; gravity
     ``scene.gravity`` downwards and drag ``fix viscous scene.drag`` act on every atom;
     ``enforce2d`` in 2D. The neighbor skin is ``skin_ratio * r_min`` as granpack's.
@@ -313,10 +314,7 @@ def setup_commands(scene: PackScene, *, z_top: float, mobile_group: str = "mobil
         f"dimension {dim}",
         f"boundary {boundary}",
         "atom_modify map array",
-        # balance ... rcb needs the tiled communication, which needs newton off with the
-        # contacts' history (see the docstring)
         "newton off",
-        "comm_style tiled",
         f"processors {processors}",
         f"region domain block {region} units box",
         "create_box 1 domain",
@@ -353,6 +351,14 @@ def setup_commands(scene: PackScene, *, z_top: float, mobile_group: str = "mobil
         out.append("fix plane all enforce2d")
     out.append(f"timestep {_num(s.dt)}")
     return out
+
+
+def balance_command(scene: PackScene) -> str:
+    """The command that re-splits the base among the ranks as the pack grows: the brick's
+    cuts moved along the base's axes (x and y; x in 2D) until each slab holds the same
+    count of particles within 10 %, the vertical never cut."""
+    axes = "xy" if scene.dim == 3 else "x"
+    return f"balance 1.1 shift {axes} 10 1.1"
 
 
 class AtomProperties(NamedTuple):
