@@ -181,15 +181,24 @@ class _Run:
         return self.comm.bcast(layer, root=0)
 
     def add(self, x: np.ndarray, r: np.ndarray) -> None:
-        """Creates the layer's atoms, ids n+1 .. n+m in the placement's order; each rank
-        keeps those of its sub-domain, and sets their radius and mass."""
+        """Creates the layer's atoms, ids n+1 .. n+m in the placement's order: each rank
+        passes those of its own sub-domain and sets their radius and mass."""
         m = len(r)
         first = self.n + 1
-        ids = list(range(first, first + m))
         xyz = np.zeros((m, 3))
         xyz[:, : self.dim] = x
+        # this rank's share: the atoms inside its brick across the base (LAMMPS drops the
+        # others; the count below checks that every atom found its rank)
+        lo = self.lmp.extract_global("sublo")
+        hi = self.lmp.extract_global("subhi")
+        mine = np.ones(m, dtype=bool)
+        for k in range(self.dim - 1):
+            last = hi[k] >= self.lmp.extract_global("boxhi")[k]
+            upper = xyz[:, k] <= hi[k] if last else xyz[:, k] < hi[k]
+            mine &= (xyz[:, k] >= lo[k] if lo[k] > 0.0 else True) & upper
+        ids = (np.flatnonzero(mine) + first).tolist()
         try:
-            self.lmp.create_atoms(m, ids, [1] * m, xyz.ravel().tolist())
+            self.lmp.create_atoms(len(ids), ids, [1] * len(ids), xyz[mine].ravel().tolist())
         except Exception as exc:
             raise self._error(f"create_atoms failed: {str(exc).strip()}") from None
         nlocal = int(self.lmp.extract_global("nlocal"))
