@@ -26,6 +26,7 @@ reports), ``table.md`` and ``manifest.json``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import os
@@ -100,6 +101,20 @@ def uptime() -> str:
     return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
 
 
+def descendants(pid: int) -> list[int]:
+    """Every process below `pid` (Linux /proc), children first."""
+    out: list[int] = []
+    todo = [pid]
+    while todo:
+        p = todo.pop()
+        for task in Path(f"/proc/{p}/task").glob("*"):
+            with contextlib.suppress(OSError):
+                kids = [int(k) for k in (task / "children").read_text().split()]
+                out += kids
+                todo += kids
+    return out
+
+
 def run_one(case: str, config: str, args) -> dict:
     engine, cores, pinned = CONFIGS[config]
     cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", case, config]
@@ -118,7 +133,7 @@ def run_one(case: str, config: str, args) -> dict:
     # waits for its children), a cost a shared machine's load inflates far less than the
     # wall time of a pinned one-core run
     ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    # its own session, so that a run past --timeout is stopped with its MPI job
+    # its own session: a run past --timeout is stopped with every process below it
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
         start_new_session=True,
@@ -126,7 +141,10 @@ def run_one(case: str, config: str, args) -> dict:
     try:
         stdout, stderr = proc.communicate(timeout=args.timeout)
     except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
+        # MPICH's launcher puts each rank in a session of its own: stop them by id
+        for pid in [proc.pid, *descendants(proc.pid)]:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
         proc.communicate()
         return {"case": case, "config": config, "timed_out": True, "uptime_before": before}
     out = subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
