@@ -231,6 +231,34 @@ def test_a_rank_killed_mid_layer_stops_the_run_with_no_pack(tmp_path):
     assert not _job_ranks()
 
 
+def test_a_callback_that_raises_stops_every_rank():
+    """The caller's exception (Ctrl-C, a progress callback that raised) ends the job:
+    no rank keeps running."""
+    scene = _scene(height=0.3, settle_time=3.0)
+    ranks: list[int] = []
+
+    def stop(report):
+        ranks.extend(_job_ranks())
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        gp.generate(scene, engine="lammps", ranks=2, progress=stop)
+    assert len(ranks) == 2
+
+    def alive(pid: int) -> bool:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            return False
+        return state != "Z"
+
+    # the ranks end even once no longer this process's descendants
+    deadline = time.monotonic() + 10
+    while any(alive(p) for p in ranks) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(alive(p) for p in ranks)
+
+
 def _job_ranks() -> list[int]:
     """The pids of the ranks (``python -m granpack.mpi``) of the MPI job this process
     started: its descendants, so that another job on the machine is left alone."""

@@ -174,10 +174,16 @@ def deposit(
                 code = proc.wait()
                 reader.join(timeout=5)
             except BaseException:
-                # Ctrl-C or a progress callback that raised: the job stops with the caller
-                proc.kill()
-                with contextlib.suppress(Exception):
+                # Ctrl-C or a progress callback that raised: the job stops with the caller.
+                # SIGTERM first: MPICH's launcher then ends every rank (a SIGKILL would end
+                # the launcher alone, and leave the ranks running).
+                proc.terminate()
+                try:
                     proc.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    with contextlib.suppress(Exception):
+                        proc.wait(timeout=10)
                 raise
         if error is not None:
             raise error
