@@ -192,10 +192,10 @@ class _Run:
         lo = self.lmp.extract_global("sublo")
         hi = self.lmp.extract_global("subhi")
         mine = np.ones(m, dtype=bool)
-        for k in range(self.dim - 1):
-            last = hi[k] >= self.lmp.extract_global("boxhi")[k]
-            upper = xyz[:, k] <= hi[k] if last else xyz[:, k] < hi[k]
-            mine &= (xyz[:, k] >= lo[k] if lo[k] > 0.0 else True) & upper
+        for axis in range(self.dim - 1):
+            last = hi[axis] >= self.lmp.extract_global("boxhi")[axis]
+            upper = xyz[:, axis] <= hi[axis] if last else xyz[:, axis] < hi[axis]
+            mine &= (xyz[:, axis] >= lo[axis] if lo[axis] > 0.0 else True) & upper
         ids = (np.flatnonzero(mine) + first).tolist()
         try:
             self.lmp.create_atoms(len(ids), ids, [1] * len(ids), xyz[mine].ravel().tolist())
