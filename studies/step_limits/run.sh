@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The settled 3D step's limits on one core, from throwaway builds of this commit: each
-# patch in patches/ is applied to a clean worktree of HEAD, profile_step is built, and
+# The settled 3D step's limits on one core, from throwaway builds: each patch (kept in
+# commit f2dd79d, under studies/step_limits/patches/, and applying to c2776a5) is applied
+# to a clean worktree of HEAD (or of REV=c2776a5), profile_step is built, and
 # the builds are timed against the unpatched one in pairs (ab.py), on the peers' 4.3
 # pack (8 952 spheres). Needs ../shared beside the repository, valgrind for the
 # instruction and branch counts. Run from the repository root (about 25 minutes):
@@ -12,12 +13,18 @@ here=$(realpath studies/step_limits)
 mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'git worktree remove --force "$tmp/wt" >/dev/null 2>&1 || true; rm -rf "$tmp"' EXIT
-git worktree add --detach "$tmp/wt" HEAD >/dev/null
+git worktree add --detach "$tmp/wt" "${REV:-HEAD}" >/dev/null
+# the patches, from the commit that holds them
+mkdir -p "$tmp/patches"
+for p in law_without_divider sweep_always prefetch_second_particle slide_chunks \
+         timed_force_plan phase_timers; do
+  git show "f2dd79d:studies/step_limits/patches/$p.patch" > "$tmp/patches/$p.patch"
+done
 # the benches find the peers' packs at ../shared from the crate's root
 [ -d ../shared ] && ln -s "$(realpath ../shared)" "$tmp/shared"
 mkdir -p "$tmp/bin"
 build() {  # build NAME [PATCH]
-  if [ -n "${2:-}" ]; then git -C "$tmp/wt" apply "$here/patches/$2"; fi
+  if [ -n "${2:-}" ]; then git -C "$tmp/wt" apply "$tmp/patches/$2"; fi
   (cd "$tmp/wt" && CARGO_TARGET_DIR="$tmp/target" cargo build --release --quiet --example profile_step)
   cp "$tmp/target/release/examples/profile_step" "$tmp/bin/$1"
   git -C "$tmp/wt" checkout -q -- . && git -C "$tmp/wt" clean -fdq
