@@ -9,8 +9,10 @@ on a machine whose speed drifts by 20-30 % over an hour (see DEVELOPERS.md).
 Each round runs every command once, in the order given, so that drift hits all of them
 alike. `--pattern` is a regular expression with one group; every match in a command's
 output is a series of its own (`step_min` prints one line for 3D and one for 2D). The
-report gives each series' values by round, their minimum and median, and in how many
-rounds each command printed less than the first one (lower is better: times).
+report gives each series' values by round, their minimum and median, in how many
+rounds each command printed less than the first one (lower is better: times), and the
+ratio to the first one taken round by round (its median and range), which a drift of
+the machine between rounds does not move.
 """
 
 from __future__ import annotations
@@ -65,6 +67,11 @@ def main(argv: list[str] | None = None) -> None:
             if label != base and k < min(len(v) for v in values[base]):
                 below = sum(s < b[k] for s, b in zip(series, values[base], strict=True))
                 line += f"  below {base} in {below} of {len(series)} rounds"
+                ratios = [s / b[k] for s, b in zip(series, values[base], strict=True)]
+                line += (
+                    f"  ratio median {statistics.median(ratios):.3f}"
+                    f" ({min(ratios):.3f}-{max(ratios):.3f})"
+                )
             print(line + "  | " + " ".join(f"{x:g}" for x in series))
 
 

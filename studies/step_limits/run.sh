@@ -1,15 +1,14 @@
 #!/usr/bin/env bash
 # The settled 3D step's limits on one core, from throwaway builds: each patch (kept in
 # commit f2dd79d, under studies/step_limits/patches/, and applying to c2776a5) is applied
-# to a clean worktree of HEAD (or of REV=c2776a5), profile_step is built, and
-# the builds are timed against the unpatched one in pairs (ab.py), on the peers' 4.3
-# pack (8 952 spheres). Needs ../shared beside the repository, valgrind for the
+# to a clean worktree of HEAD (or of REV=c2776a5), profile_step is built, and the
+# builds are timed against the unpatched one in turn (studies/_common/alternate.py), on
+# the peers' 4.3 pack (8 952 spheres). Needs ../shared beside the repository, valgrind for the
 # instruction and branch counts. Run from the repository root (about 25 minutes):
 #   bash studies/step_limits/run.sh studies/step_limits
 set -euo pipefail
 arg=${1:?results folder}
 out=$(realpath -m "$arg")
-here=$(realpath studies/step_limits)
 mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'git worktree remove --force "$tmp/wt" >/dev/null 2>&1 || true; rm -rf "$tmp"' EXIT
@@ -37,7 +36,13 @@ done
 b=$tmp/bin
 # a failed measurement is reported in its place; the others still run
 set +e
-ab() { python3 "$here/ab.py" "$@"; }
+# ab BUILD ROUNDS STEPS [2d]: BUILD against the unpatched one, alternately, pinned to
+# the cores in CPUS (default 1), on T threads (default 1); the ratio is BUILD / base
+ab() {
+  local cmd="taskset -c ${CPUS:-1} env RAYON_NUM_THREADS=${T:-1}"
+  python3 studies/_common/alternate.py --rounds "$2" --pattern '([0-9.]+) ns a particle-step' \
+    --run base "$cmd $b/base $3 ${4:-}" --run "$(basename "$1")" "$cmd $1 $3 ${4:-}"
+}
 {
   echo "## checksums (200 steps; 3D on 1 and 2 threads, 2D)"
   # (the build without the divider changes the physics: its own checksums)
@@ -51,14 +56,14 @@ ab() { python3 "$here/ab.py" "$@"; }
   gcc -O2 -o "$tmp/freq" studies/step_roofline/freq.c && taskset -c 1 "$tmp/freq"
   echo "## phases (ns a particle-step, 1 000 steps, one thread, seven runs)"
   for r in 1 2 3 4 5 6 7; do RAYON_NUM_THREADS=1 taskset -c 1 "$b/phase_timers" 1000 2>&1 | grep phases; done
-  echo "## law without divider against base"; ab "$b/law_without_divider" "$b/base" 15 1000
-  echo "## sweep always against base, one thread"; ab "$b/sweep_always" "$b/base" 15 1000
-  echo "## sweep always against base, two threads"; T=2 CPUS=0,1 ab "$b/sweep_always" "$b/base" 15 1000
-  echo "## sweep always against base, 2D, one thread"; ab "$b/sweep_always" "$b/base" 15 2000 2d
-  echo "## prefetch (PFW=7, 16 pairs ahead) against base"; PFW=7 ab "$b/prefetch_second_particle" "$b/base" 15 1000
-  echo "## prefetch patch with no prefetch (PFW=0) against base"; PFW=0 ab "$b/prefetch_second_particle" "$b/base" 15 1000
-  echo "## slide chunks against base"; ab "$b/slide_chunks" "$b/base" 9 1000
-  echo "## timed force plan against base"; ab "$b/timed_force_plan" "$b/base" 15 1000
+  echo "## law without divider against base"; ab "$b/law_without_divider" 15 1000
+  echo "## sweep always against base, one thread"; ab "$b/sweep_always" 15 1000
+  echo "## sweep always against base, two threads"; T=2 CPUS=0,1 ab "$b/sweep_always" 15 1000
+  echo "## sweep always against base, 2D, one thread"; ab "$b/sweep_always" 15 2000 2d
+  echo "## prefetch (PFW=7, 16 pairs ahead) against base"; PFW=7 ab "$b/prefetch_second_particle" 15 1000
+  echo "## prefetch patch with no prefetch (PFW=0) against base"; PFW=0 ab "$b/prefetch_second_particle" 15 1000
+  echo "## slide chunks against base"; ab "$b/slide_chunks" 9 1000
+  echo "## timed force plan against base"; ab "$b/timed_force_plan" 15 1000
   if command -v valgrind >/dev/null; then
     echo "## callgrind, base, 40 steps, one thread (x86-64-v3: valgrind has no AVX-512)"
     RAYON_NUM_THREADS=1 valgrind --tool=callgrind --branch-sim=yes \

@@ -37,6 +37,10 @@ def test_reports_each_series_and_counts_rounds_below_the_baseline():
     assert "min        1.5" in summary[("new", "#0")]
     assert "below old in 3 of 3 rounds" in summary[("new", "#0")]
     assert "below old in 0 of 3 rounds" in summary[("new", "#1")]
+    # the ratio to the baseline, round by round: 1.5 / 2 and 50 / 40 each round
+    assert "ratio median 0.750 (0.750-0.750)" in summary[("new", "#0")]
+    assert "ratio median 1.250 (1.250-1.250)" in summary[("new", "#1")]
+    assert "ratio" not in summary[("old", "#0")]
     assert summary[("new", "#1")].endswith("| 50 50 50")
 
 
