@@ -99,7 +99,8 @@ impl PairFactors {
 /// lane `k & (BLOCK - 1)`.
 ///
 /// The blocks are the pair state's layout in memory: each column of a block is one run
-/// of `BLOCK` values (16 KiB), which the caches' prefetchers follow as a stream. The law
+/// of `BLOCK` values (16 KiB, in a row of [`BLOCK_ROW`]), which the caches' prefetchers
+/// follow as a stream. The law
 /// runs on [`LANES`] of them at a time, so that its scratch and the lanes it reads stay
 /// in the first-level cache, and the step's pair pass splits the blocks between threads
 /// in runs of 256 pairs. Measured on the settled pack of example 4.3 on one core
@@ -118,6 +119,20 @@ pub const BLOCK_SHIFT: u32 = BLOCK.trailing_zeros();
 /// the block it writes (12 KiB) within a 32 KiB first-level cache.
 pub const LANES: usize = 128;
 const _: () = assert!(BLOCK.is_power_of_two() && LANES.is_power_of_two() && LANES <= BLOCK);
+/// Length of a row (a column's run of lanes) of a [`PairBlock`] or [`RollBlock`]:
+/// [`BLOCK`] lanes and one spare cache line (8 f64), never read or written.
+///
+/// Why the spare line: a first-level data cache of 32 KiB and 8 ways maps addresses
+/// 4 KiB apart to the same set. Rows of exactly `BLOCK` f64 (16 KiB) put lane l of all
+/// twelve rows of a 3D block (nine in 2D) in one set, more lines than its ways, so the
+/// law and the gather evicted the lines they were about to use. One line more a row
+/// puts them in consecutive sets. Measured on the settled 4.3 pack (8 952 spheres, one
+/// core of an AMD EPYC of family 25 model 17): the step 0.82 of the unpadded one, the
+/// same bits (`studies/column_padding/`).
+pub const BLOCK_ROW: usize = BLOCK + 8;
+/// Length of a row of the [`Geometry`] scratch: [`LANES`] and one spare cache line, for
+/// the reason given at [`BLOCK_ROW`] (rows of 1 KiB put every fourth row in one set).
+pub const LANES_ROW: usize = LANES + 8;
 
 /// One pair's state, as [`PairBlock`] stores it lane by lane (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,32 +168,32 @@ impl<const D: usize> Default for PairRecord<D> {
 #[derive(Clone, Debug)]
 pub struct PairBlock<const D: usize> {
     /// Tangential spring stretch (m), by component.
-    pub h: [[Real; BLOCK]; D],
+    pub h: [[Real; BLOCK_ROW]; D],
     /// Total contact force on j (N), by component; the force on i is its opposite.
-    pub f: [[Real; BLOCK]; D],
+    pub f: [[Real; BLOCK_ROW]; D],
     /// n x f_t (N), by component: three in 3D; in 2D the first holds the
     /// out-of-plane one and the second stays zero. Zero unless the law runs with
     /// torques. The tangential force's torque on end q is -(r_q - d/2) n x f_t: the
     /// gather forms it from its own radius and `d`, which costs three products per
     /// pair end and saves storing both ends' torques (24 bytes per pair in 3D).
-    pub t: [[Real; BLOCK]; D],
+    pub t: [[Real; BLOCK_ROW]; D],
     /// Overlap d (m), 0 when apart.
-    pub d: [Real; BLOCK],
+    pub d: [Real; BLOCK_ROW],
     /// sqrt(R*) (see [`PairFactors`]).
-    pub sr: [Real; BLOCK],
+    pub sr: [Real; BLOCK_ROW],
     /// sqrt(m* sqrt(R*)).
-    pub sm: [Real; BLOCK],
+    pub sm: [Real; BLOCK_ROW],
 }
 
 impl<const D: usize> Default for PairBlock<D> {
     fn default() -> Self {
         PairBlock {
-            h: [[0.0; BLOCK]; D],
-            f: [[0.0; BLOCK]; D],
-            t: [[0.0; BLOCK]; D],
-            d: [0.0; BLOCK],
-            sr: [0.0; BLOCK],
-            sm: [0.0; BLOCK],
+            h: [[0.0; BLOCK_ROW]; D],
+            f: [[0.0; BLOCK_ROW]; D],
+            t: [[0.0; BLOCK_ROW]; D],
+            d: [0.0; BLOCK_ROW],
+            sr: [0.0; BLOCK_ROW],
+            sm: [0.0; BLOCK_ROW],
         }
     }
 }
@@ -221,32 +236,32 @@ impl<const D: usize> PairBlock<D> {
 #[derive(Clone, Debug)]
 pub struct Geometry<const D: usize> {
     /// Unit normal from i to j, by component.
-    pub n: [[Real; LANES]; D],
+    pub n: [[Real; LANES_ROW]; D],
     /// Relative velocity of j's surface w.r.t. i's at the contact, by component.
-    pub v: [[Real; LANES]; D],
+    pub v: [[Real; LANES_ROW]; D],
     /// Overlap r_i + r_j - |x_j - x_i|: > 0 in contact, <= 0 apart.
-    pub d: [Real; LANES],
+    pub d: [Real; LANES_ROW],
     /// Radii r_i, r_j (m).
-    pub r: [[Real; LANES]; 2],
+    pub r: [[Real; LANES_ROW]; 2],
     /// Scratch: the spins of i (columns 0-2) and j (3-5) for [`geometry_block`]
     /// (rad/s; one component each in 2D); then sqrt(d), d^{1/4}, the normal relative
     /// velocity and the normal force, from the law's normal pass to its tangential one
     /// (cheaper to keep than to recompute).
-    pub tmp: [[Real; LANES]; 6],
+    pub tmp: [[Real; LANES_ROW]; 6],
     /// With rolling resistance: w_j - w_i (rad/s; three components in 3D, the first
     /// in 2D), for [`roll_block`].
-    pub wr: [[Real; LANES]; 3],
+    pub wr: [[Real; LANES_ROW]; 3],
 }
 
 impl<const D: usize> Default for Geometry<D> {
     fn default() -> Self {
         Geometry {
-            n: [[0.0; LANES]; D],
-            v: [[0.0; LANES]; D],
-            d: [0.0; LANES],
-            r: [[0.0; LANES]; 2],
-            tmp: [[0.0; LANES]; 6],
-            wr: [[0.0; LANES]; 3],
+            n: [[0.0; LANES_ROW]; D],
+            v: [[0.0; LANES_ROW]; D],
+            d: [0.0; LANES_ROW],
+            r: [[0.0; LANES_ROW]; 2],
+            tmp: [[0.0; LANES_ROW]; 6],
+            wr: [[0.0; LANES_ROW]; 3],
         }
     }
 }
@@ -592,17 +607,17 @@ unsafe fn write_lane<const D: usize>(
 #[derive(Clone, Debug)]
 pub struct RollBlock<const D: usize> {
     /// Rolling displacement (m), by component.
-    pub h: [[Real; BLOCK]; D],
+    pub h: [[Real; BLOCK_ROW]; D],
     /// R* n x f_r (N m): the moment on j, whose opposite acts on i; three components
     /// in 3D, the out-of-plane one first in 2D. Zero for a pair apart.
-    pub m: [[Real; BLOCK]; D],
+    pub m: [[Real; BLOCK_ROW]; D],
 }
 
 impl<const D: usize> Default for RollBlock<D> {
     fn default() -> Self {
         RollBlock {
-            h: [[0.0; BLOCK]; D],
-            m: [[0.0; BLOCK]; D],
+            h: [[0.0; BLOCK_ROW]; D],
+            m: [[0.0; BLOCK_ROW]; D],
         }
     }
 }
@@ -786,6 +801,66 @@ mod tests {
     use crate::dynamics::{hertz_mindlin_coefs, LawCoefs, PairParams};
     use crate::math::Vector;
     use rand::{Rng, SeedableRng};
+
+    /// The first-level data cache set (of 64, lines of 64 B: 4 KiB apart map alike)
+    /// of the byte at `offset` in a struct. Rows differ by whole lines, so where the
+    /// struct lies moves every row's set alike and leaves them distinct or not.
+    fn l1_set(offset: usize) -> usize {
+        (offset / 64) % 64
+    }
+
+    /// Lane l of every row of a block, and of the law's scratch, falls in a set of its
+    /// own, for every l: rows of exactly BLOCK or LANES f64 would put them in a few
+    /// sets (one for a block) and the law would evict its own lines (see
+    /// [`BLOCK_ROW`]).
+    #[test]
+    fn the_rows_of_a_block_and_of_the_scratch_fall_in_different_cache_sets() {
+        fn distinct(rows: &[usize], lane: usize) -> bool {
+            let mut sets: Vec<usize> = rows.iter().map(|r| l1_set(r + 8 * lane)).collect();
+            sets.sort_unstable();
+            sets.dedup();
+            sets.len() == rows.len()
+        }
+        let b = PairBlock::<3>::default();
+        let base = std::ptr::addr_of!(b) as usize;
+        let at = |p: *const Real| p as usize - base;
+        let mut rows: Vec<usize> = (0..3)
+            .flat_map(|a| [at(&b.h[a][0]), at(&b.f[a][0]), at(&b.t[a][0])])
+            .collect();
+        rows.extend([at(&b.d[0]), at(&b.sr[0]), at(&b.sm[0])]);
+        assert_eq!(rows.len(), 12);
+        let g = Geometry::<3>::default();
+        let gbase = std::ptr::addr_of!(g) as usize;
+        let gat = |p: *const Real| p as usize - gbase;
+        let mut grows: Vec<usize> = (0..3)
+            .flat_map(|a| [gat(&g.n[a][0]), gat(&g.v[a][0])])
+            .collect();
+        grows.push(gat(&g.d[0]));
+        grows.extend((0..2).map(|a| gat(&g.r[a][0])));
+        grows.extend((0..6).map(|a| gat(&g.tmp[a][0])));
+        grows.extend((0..3).map(|a| gat(&g.wr[a][0])));
+        assert_eq!(grows.len(), 18);
+        let rb = RollBlock::<3>::default();
+        let rbase = std::ptr::addr_of!(rb) as usize;
+        let rat = |p: *const Real| p as usize - rbase;
+        let rrows: Vec<usize> = (0..3)
+            .flat_map(|a| [rat(&rb.h[a][0]), rat(&rb.m[a][0])])
+            .collect();
+        for lane in [0, 1, 7, 8, 63, LANES - 1] {
+            assert!(
+                distinct(&rows, lane),
+                "block rows share a set at lane {lane}"
+            );
+            assert!(
+                distinct(&grows, lane),
+                "scratch rows share a set at lane {lane}"
+            );
+            assert!(
+                distinct(&rrows, lane),
+                "rolling rows share a set at lane {lane}"
+            );
+        }
+    }
 
     /// The block law agrees with the scalar law pair by pair, sticking and sliding,
     /// with and without friction, in the block's first and last run of [`LANES`];

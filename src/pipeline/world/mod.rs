@@ -32,7 +32,8 @@
 
 use crate::dynamics::batched_law::{
     clear_lanes, clear_roll_lanes, geometry_block, law_block, roll_block, Geometry, LawConsts,
-    PairBlock, PairFactors, PairRecord, RollBlock, RollRecord, BLOCK, BLOCK_SHIFT, LANES,
+    PairBlock, PairFactors, PairRecord, RollBlock, RollRecord, BLOCK, BLOCK_ROW, BLOCK_SHIFT,
+    LANES,
 };
 use crate::dynamics::contact_law::{linear_coefs, rolling_epsd, RollCoefs};
 use crate::dynamics::material::ContactLaw;

@@ -495,11 +495,11 @@ unsafe fn set_lane<const D: usize>(base: *mut PairBlock<D>, k: usize, rec: &Pair
     }
 }
 
-/// Rows of [`BLOCK`] lanes in a block of pair state (a [`PairBlock`] or a
+/// Rows of [`BLOCK_ROW`] lanes in a block of pair state (a [`PairBlock`] or a
 /// [`RollBlock`]): every field is one or more rows of f64, so a lane range moves as
-/// the same range of each row.
+/// the same range of each row (the spare lanes past [`BLOCK`] never move).
 const fn block_rows<B>() -> usize {
-    std::mem::size_of::<B>() / std::mem::size_of::<[Real; BLOCK]>()
+    std::mem::size_of::<B>() / std::mem::size_of::<[Real; BLOCK_ROW]>()
 }
 
 /// `n` blocks of pair state, all zero.
@@ -521,7 +521,8 @@ unsafe fn move_run<B>(base: *mut B, from: usize, to: usize, len: usize) {
     // a block is rows of f64 and nothing else: no padding, no other field
     const {
         assert!(
-            block_rows::<B>() * std::mem::size_of::<[Real; BLOCK]>() == std::mem::size_of::<B>()
+            block_rows::<B>() * std::mem::size_of::<[Real; BLOCK_ROW]>()
+                == std::mem::size_of::<B>()
         )
     };
     let rows = block_rows::<B>();
@@ -535,7 +536,7 @@ unsafe fn move_run<B>(base: *mut B, from: usize, to: usize, len: usize) {
                 .add(from & MASK);
             let d = base.add(to >> BLOCK_SHIFT).cast::<Real>().add(to & MASK);
             for r in 0..rows {
-                std::ptr::copy(s.add(r * BLOCK), d.add(r * BLOCK), n);
+                std::ptr::copy(s.add(r * BLOCK_ROW), d.add(r * BLOCK_ROW), n);
             }
         }
     };
