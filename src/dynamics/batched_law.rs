@@ -133,6 +133,8 @@ pub const BLOCK_ROW: usize = BLOCK + 8;
 /// Length of a row of the [`Geometry`] scratch: [`LANES`] and one spare cache line, for
 /// the reason given at [`BLOCK_ROW`] (rows of 1 KiB put every fourth row in one set).
 pub const LANES_ROW: usize = LANES + 8;
+// whole cache lines a row, so that every row of an aligned block starts on a line
+const _: () = assert!(BLOCK_ROW % 8 == 0 && LANES_ROW % 8 == 0);
 
 /// One pair's state, as [`PairBlock`] stores it lane by lane (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,7 +167,11 @@ impl<const D: usize> Default for PairRecord<D> {
 /// The state of [`BLOCK`] consecutive pairs of the list, one array per component, so
 /// that [`law_block`] reads and writes whole vectors of lanes. Lanes past the end of
 /// the list stay zero. Everything but the factors is zero for a pair apart.
+///
+/// Each row starts on a cache line (the block is aligned to 64 bytes and a row is a
+/// whole number of lines), so that no vector of 8 lanes straddles two lines.
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 pub struct PairBlock<const D: usize> {
     /// Tangential spring stretch (m), by component.
     pub h: [[Real; BLOCK_ROW]; D],
@@ -233,7 +239,9 @@ impl<const D: usize> PairBlock<D> {
 /// fills `n` with x_j - x_i, `v` with v_j - v_i, `r` with
 /// the radii and (with rotations) `tmp` with the spins; [`geometry_block`] turns
 /// them into the unit normal, the relative velocity at the contact and the overlap.
+/// Its rows start on cache lines, as a [`PairBlock`]'s do.
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 pub struct Geometry<const D: usize> {
     /// Unit normal from i to j, by component.
     pub n: [[Real; LANES_ROW]; D],
@@ -604,7 +612,9 @@ unsafe fn write_lane<const D: usize>(
 /// The rolling state of [`BLOCK`] consecutive pairs, beside their [`PairBlock`], kept
 /// only when the material has rolling resistance: a scene without it stores nothing
 /// more per pair.
+/// Its rows start on cache lines, as a [`PairBlock`]'s do.
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 pub struct RollBlock<const D: usize> {
     /// Rolling displacement (m), by component.
     pub h: [[Real; BLOCK_ROW]; D],
@@ -812,9 +822,9 @@ mod tests {
     /// Lane l of every row of a block, and of the law's scratch, falls in a set of its
     /// own, for every l: rows of exactly BLOCK or LANES f64 would put them in a few
     /// sets (one for a block) and the law would evict its own lines (see
-    /// [`BLOCK_ROW`]).
+    /// [`BLOCK_ROW`]). Every row starts on a cache line.
     #[test]
-    fn the_rows_of_a_block_and_of_the_scratch_fall_in_different_cache_sets() {
+    fn the_rows_of_a_block_and_of_the_scratch_start_on_lines_in_different_cache_sets() {
         fn distinct(rows: &[usize], lane: usize) -> bool {
             let mut sets: Vec<usize> = rows.iter().map(|r| l1_set(r + 8 * lane)).collect();
             sets.sort_unstable();
@@ -846,6 +856,14 @@ mod tests {
         let rrows: Vec<usize> = (0..3)
             .flat_map(|a| [rat(&rb.h[a][0]), rat(&rb.m[a][0])])
             .collect();
+        // every row starts on a cache line, in a block wherever it lies
+        let heap = vec![PairBlock::<3>::default(), PairBlock::<3>::default()];
+        assert_eq!(&heap[1].f[2][0] as *const Real as usize % 64, 0);
+        assert_eq!(base % 64, 0);
+        assert_eq!(gbase % 64, 0);
+        for r in rows.iter().chain(&grows).chain(&rrows) {
+            assert_eq!(r % 64, 0, "a row at offset {r} starts within a cache line");
+        }
         for lane in [0, 1, 7, 8, 63, LANES - 1] {
             assert!(
                 distinct(&rows, lane),
