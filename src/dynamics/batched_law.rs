@@ -134,7 +134,7 @@ pub const BLOCK_ROW: usize = BLOCK + 8;
 /// the reason given at [`BLOCK_ROW`] (rows of 1 KiB put every fourth row in one set).
 pub const LANES_ROW: usize = LANES + 8;
 // whole cache lines a row, so that every row of an aligned block starts on a line
-const _: () = assert!(BLOCK_ROW % 8 == 0 && LANES_ROW % 8 == 0);
+const _: () = assert!(BLOCK_ROW.is_multiple_of(8) && LANES_ROW.is_multiple_of(8));
 
 /// One pair's state, as [`PairBlock`] stores it lane by lane (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -857,7 +857,7 @@ mod tests {
             .flat_map(|a| [rat(&rb.h[a][0]), rat(&rb.m[a][0])])
             .collect();
         // every row starts on a cache line, in a block wherever it lies
-        let heap = vec![PairBlock::<3>::default(), PairBlock::<3>::default()];
+        let heap: Vec<PairBlock<3>> = (0..2).map(|_| PairBlock::default()).collect();
         assert_eq!(&heap[1].f[2][0] as *const Real as usize % 64, 0);
         assert_eq!(base % 64, 0);
         assert_eq!(gbase % 64, 0);
