@@ -100,9 +100,8 @@ impl PairFactors {
 ///
 /// The blocks are the pair state's layout in memory: each column of a block is one run
 /// of `BLOCK` values (16 KiB, in a row of [`BLOCK_ROW`]), which the caches' prefetchers
-/// follow as a stream. The law
-/// runs on [`LANES`] of them at a time, so that its scratch and the lanes it reads stay
-/// in the first-level cache, and the step's pair pass splits the blocks between threads
+/// follow as a stream. The law runs on [`LANES`] of them at a time, so that its scratch
+/// and the lanes it reads stay in the first-level cache, and the step's pair pass splits the blocks between threads
 /// in runs of 256 pairs. Measured on the settled pack of example 4.3 on one core
 /// (`studies/step_roofline/pair_block_width/`): blocks of 2 048 pairs cost 7-11 % less
 /// a particle-step than blocks of 128 from 80 568 to 1 083 192 spheres, and the same at
@@ -127,8 +126,8 @@ const _: () = assert!(BLOCK.is_power_of_two() && LANES.is_power_of_two() && LANE
 /// twelve rows of a 3D block (nine in 2D) in one set, more lines than its ways, so the
 /// law and the gather evicted the lines they were about to use. One line more a row
 /// puts them in consecutive sets. Measured on the settled 4.3 pack (8 952 spheres, one
-/// core of an AMD EPYC of family 25 model 17): the step 0.82 of the unpadded one, the
-/// same bits (`studies/column_padding/`).
+/// core of an AMD EPYC of family 25 model 17): the law 0.65 of the unpadded one's time,
+/// the step 0.82-0.88, the same bits (`studies/column_padding/`).
 pub const BLOCK_ROW: usize = BLOCK + 8;
 /// Length of a row of the [`Geometry`] scratch: [`LANES`] and one spare cache line, for
 /// the reason given at [`BLOCK_ROW`] (rows of 1 KiB put every fourth row in one set).
@@ -239,7 +238,8 @@ impl<const D: usize> PairBlock<D> {
 /// fills `n` with x_j - x_i, `v` with v_j - v_i, `r` with
 /// the radii and (with rotations) `tmp` with the spins; [`geometry_block`] turns
 /// them into the unit normal, the relative velocity at the contact and the overlap.
-/// Its rows start on cache lines, as a [`PairBlock`]'s do.
+/// Its rows start on cache lines, as a [`PairBlock`]'s do, each one spare line longer
+/// than [`LANES`] ([`LANES_ROW`]).
 #[derive(Clone, Debug)]
 #[repr(C, align(64))]
 pub struct Geometry<const D: usize> {
@@ -611,8 +611,7 @@ unsafe fn write_lane<const D: usize>(
 
 /// The rolling state of [`BLOCK`] consecutive pairs, beside their [`PairBlock`], kept
 /// only when the material has rolling resistance: a scene without it stores nothing
-/// more per pair.
-/// Its rows start on cache lines, as a [`PairBlock`]'s do.
+/// more per pair. Its rows start on cache lines, as a [`PairBlock`]'s do.
 #[derive(Clone, Debug)]
 #[repr(C, align(64))]
 pub struct RollBlock<const D: usize> {
