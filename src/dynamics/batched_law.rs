@@ -101,8 +101,8 @@ impl PairFactors {
 /// The blocks are the pair state's layout in memory: each column of a block is one run
 /// of `BLOCK` values (16 KiB, in a row of [`BLOCK_ROW`]), which the caches' prefetchers
 /// follow as a stream. The law runs on [`LANES`] of them at a time, so that its scratch
-/// and the lanes it reads stay in the first-level cache, and the step's pair pass splits the blocks between threads
-/// in runs of 256 pairs. Measured on the settled pack of example 4.3 on one core
+/// and the lanes it reads stay in the first-level cache, and the step's pair pass
+/// splits the blocks between threads in runs of 256 pairs. Measured on the settled pack of example 4.3 on one core
 /// (`studies/step_roofline/pair_block_width/`): blocks of 2 048 pairs cost 7-11 % less
 /// a particle-step than blocks of 128 from 80 568 to 1 083 192 spheres, and the same at
 /// 8 952; whole packs take the same time. No result depends on the width: every width
@@ -818,6 +818,14 @@ mod tests {
         (offset / 64) % 64
     }
 
+    /// The byte offsets in `s` of the rows whose first lanes are `rows`.
+    fn offsets<'a, T>(s: &T, rows: impl IntoIterator<Item = &'a Real>) -> Vec<usize> {
+        let base = s as *const T as usize;
+        rows.into_iter()
+            .map(|p| p as *const Real as usize - base)
+            .collect()
+    }
+
     /// Lane l of every row of a block, and of the law's scratch, falls in a set of its
     /// own, for every l: rows of exactly BLOCK or LANES f64 would put them in a few
     /// sets (one for a block) and the law would evict its own lines (see
@@ -831,51 +839,45 @@ mod tests {
             sets.len() == rows.len()
         }
         let b = PairBlock::<3>::default();
-        let base = std::ptr::addr_of!(b) as usize;
-        let at = |p: *const Real| p as usize - base;
-        let mut rows: Vec<usize> = (0..3)
-            .flat_map(|a| [at(&b.h[a][0]), at(&b.f[a][0]), at(&b.t[a][0])])
-            .collect();
-        rows.extend([at(&b.d[0]), at(&b.sr[0]), at(&b.sm[0])]);
-        assert_eq!(rows.len(), 12);
+        let block = offsets(
+            &b,
+            (0..3)
+                .flat_map(|a| [&b.h[a][0], &b.f[a][0], &b.t[a][0]])
+                .chain([&b.d[0], &b.sr[0], &b.sm[0]]),
+        );
+        assert_eq!(block.len(), 12);
         let g = Geometry::<3>::default();
-        let gbase = std::ptr::addr_of!(g) as usize;
-        let gat = |p: *const Real| p as usize - gbase;
-        let mut grows: Vec<usize> = (0..3)
-            .flat_map(|a| [gat(&g.n[a][0]), gat(&g.v[a][0])])
-            .collect();
-        grows.push(gat(&g.d[0]));
-        grows.extend((0..2).map(|a| gat(&g.r[a][0])));
-        grows.extend((0..6).map(|a| gat(&g.tmp[a][0])));
-        grows.extend((0..3).map(|a| gat(&g.wr[a][0])));
-        assert_eq!(grows.len(), 18);
+        let scratch = offsets(
+            &g,
+            (0..3)
+                .flat_map(|a| [&g.n[a][0], &g.v[a][0]])
+                .chain([&g.d[0]])
+                .chain((0..2).map(|a| &g.r[a][0]))
+                .chain((0..6).map(|a| &g.tmp[a][0]))
+                .chain((0..3).map(|a| &g.wr[a][0])),
+        );
+        assert_eq!(scratch.len(), 18);
         let rb = RollBlock::<3>::default();
-        let rbase = std::ptr::addr_of!(rb) as usize;
-        let rat = |p: *const Real| p as usize - rbase;
-        let rrows: Vec<usize> = (0..3)
-            .flat_map(|a| [rat(&rb.h[a][0]), rat(&rb.m[a][0])])
-            .collect();
+        let rolling = offsets(&rb, (0..3).flat_map(|a| [&rb.h[a][0], &rb.m[a][0]]));
         // every row starts on a cache line, in a block wherever it lies
         let heap: Vec<PairBlock<3>> = (0..2).map(|_| PairBlock::default()).collect();
         assert_eq!(&heap[1].f[2][0] as *const Real as usize % 64, 0);
-        assert_eq!(base % 64, 0);
-        assert_eq!(gbase % 64, 0);
-        for r in rows.iter().chain(&grows).chain(&rrows) {
+        assert_eq!(&b as *const PairBlock<3> as usize % 64, 0);
+        assert_eq!(&g as *const Geometry<3> as usize % 64, 0);
+        for r in block.iter().chain(&scratch).chain(&rolling) {
             assert_eq!(r % 64, 0, "a row at offset {r} starts within a cache line");
         }
-        for lane in [0, 1, 7, 8, 63, LANES - 1] {
-            assert!(
-                distinct(&rows, lane),
-                "block rows share a set at lane {lane}"
-            );
-            assert!(
-                distinct(&grows, lane),
-                "scratch rows share a set at lane {lane}"
-            );
-            assert!(
-                distinct(&rrows, lane),
-                "rolling rows share a set at lane {lane}"
-            );
+        for (name, rows) in [
+            ("block", &block),
+            ("scratch", &scratch),
+            ("rolling", &rolling),
+        ] {
+            for lane in [0, 1, 7, 8, 63, LANES - 1] {
+                assert!(
+                    distinct(rows, lane),
+                    "{name} rows share a set at lane {lane}"
+                );
+            }
         }
     }
 
