@@ -24,7 +24,9 @@ build() {  # build NAME REV [SED-EXPRESSION|phases]
   case "${3:-}" in
     "") ;;
     phases) git -C "$tmp/wt_$1" apply "$tmp/phase_timers.patch" ;;
-    *) sed -i -E "$3" "$tmp/wt_$1/$lib" ;;
+    *) sed -i -E "$3" "$tmp/wt_$1/$lib"
+       # a constant renamed since would leave the build unchanged, and its timing a lie
+       if git -C "$tmp/wt_$1" diff --quiet; then echo "build $1: '$3' changed nothing" >&2; exit 1; fi ;;
   esac
   (cd "$tmp/wt_$1" && CARGO_TARGET_DIR="$tmp/target" cargo build --release --quiet --example profile_step)
   cp "$tmp/target/release/examples/profile_step" "$tmp/bin/$1"

@@ -5,7 +5,8 @@
 # absent), stored in rows of cells as the layer loop stores a large pack. Three rounds
 # (ROUNDS=n for more); in each, every size on one thread (pinned to core 1) and then on
 # two, so that a drift of the machine reaches every figure alike. Each size must print
-# one checksum on one and two threads. Run from the repository root (about a minute, the build aside):
+# one checksum on one and two threads. Run from the repository root (about a minute,
+# the build aside):
 #   bash studies/step_against_n/run.sh studies/step_against_n
 # With BEFORE=<commit>, that commit's profile_step (built in a worktree) runs before
 # HEAD's in every round, the table gives both and their ratio round by round, and the

@@ -3,8 +3,8 @@
 # commit f2dd79d, under studies/step_limits/patches/, and applying to c2776a5) is applied
 # to a clean worktree of HEAD (or of REV=c2776a5), profile_step is built, and the
 # builds are timed against the unpatched one in turn (studies/_common/alternate.py), on
-# the peers' 4.3 pack (8 952 spheres). Needs ../shared beside the repository, valgrind for the
-# instruction and branch counts. Run from the repository root (about 25 minutes):
+# the peers' 4.3 pack (8 952 spheres). Needs ../shared beside the repository, valgrind
+# for the instruction and branch counts. Run from the repository root (about 25 minutes):
 #   bash studies/step_limits/run.sh studies/step_limits
 set -euo pipefail
 arg=${1:?results folder}
